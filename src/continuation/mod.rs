@@ -1,0 +1,3 @@
+//! Generic numerical continuation machinery; it never names a rod.
+
+pub mod newton;

@@ -1,0 +1,366 @@
+//! Physical parameters in SI units, validated once at the boundary, and the scales that make
+//! them dimensionless.
+//!
+//! Inside the solver lengths are measured in units of the reference length `ell` (the axial
+//! length `l` of a helix, the contour length `L` of an arc or a straight rod), forces in units of
+//! `EI / ell^2` and time in units of `mu ell^4 / EI`. So `EI = 1` and `mu = 1` in the solver and
+//! `omegabar = omega mu ell^4 / EI`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::fluid::Quadrature;
+use crate::{Error, Result};
+
+/// The elastic rod: material and cross-section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RodParams {
+    /// Young's modulus `E` (Pa).
+    #[serde(rename = "E")]
+    pub youngs_modulus: f64,
+    /// Cross-section radius `r0` (m).
+    pub r0: f64,
+    /// Density of the rod material `rho_r` (kg/m^3).
+    pub rho: f64,
+    /// Poisson ratio `nu` (the model uses 0.5, an incompressible rubber).
+    #[serde(default = "default_poisson")]
+    pub nu: f64,
+}
+
+fn default_poisson() -> f64 {
+    0.5
+}
+
+/// The fluid bath and gravity.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidParams {
+    /// Dynamic viscosity `mu` (Pa s).
+    pub mu: f64,
+    /// Fluid density `rho_f` (kg/m^3), for buoyancy.
+    pub rho: f64,
+    /// Gravitational acceleration `g` (m/s^2).
+    #[serde(default = "default_gravity")]
+    pub g: f64,
+    /// Discretization of Lighthill's integral (`reference` or `original`, see README).
+    #[serde(default)]
+    pub quadrature: Quadrature,
+}
+
+fn default_gravity() -> f64 {
+    9.81
+}
+
+/// Handedness of a helix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Handedness {
+    Right,
+    Left,
+}
+
+impl Handedness {
+    /// `h = +1` (right) or `-1` (left), as in `X(phi) = (R cos phi, -h R sin phi, -lambda phi / 2 pi)`.
+    pub fn sign(self) -> f64 {
+        match self {
+            Handedness::Right => 1.0,
+            Handedness::Left => -1.0,
+        }
+    }
+}
+
+/// The stress-free (natural) shape of the rod.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeParams {
+    /// Helix about the rotation axis, clamped at its top end, tangent along the helix.
+    Helix {
+        /// Axial length `l` (m).
+        l: f64,
+        /// Pitch `lambda` (m).
+        lambda: f64,
+        /// Helix radius `R` (m).
+        #[serde(rename = "R")]
+        radius: f64,
+        handedness: Handedness,
+    },
+    /// Planar circular arc, tangent at the clamp along `-e_z`.
+    Arc {
+        /// Contour length `L` (m).
+        #[serde(rename = "L")]
+        length: f64,
+        /// Radius of curvature `R` (m).
+        #[serde(rename = "R")]
+        radius: f64,
+    },
+    /// Straight rod whose clamped tangent makes the angle `alpha` with `-e_z`.
+    Straight {
+        /// Contour length `L` (m).
+        #[serde(rename = "L")]
+        length: f64,
+        /// Clamp angle `alpha` (degrees) from the downward vertical, in `[0, 180]`.
+        alpha_deg: f64,
+    },
+}
+
+impl ShapeParams {
+    /// The reference length `ell`: `l` for a helix, `L` for an arc or a straight rod.
+    pub fn reference_length(&self) -> f64 {
+        match *self {
+            ShapeParams::Helix { l, .. } => l,
+            ShapeParams::Arc { length, .. } | ShapeParams::Straight { length, .. } => length,
+        }
+    }
+
+    /// Contour length of the continuous natural shape (m).
+    pub fn contour_length(&self) -> f64 {
+        match *self {
+            ShapeParams::Helix {
+                l, lambda, radius, ..
+            } => {
+                (l / lambda)
+                    * (lambda * lambda + (2.0 * std::f64::consts::PI * radius).powi(2)).sqrt()
+            }
+            ShapeParams::Arc { length, .. } | ShapeParams::Straight { length, .. } => length,
+        }
+    }
+}
+
+/// Spatial resolution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Discretization {
+    /// Number of nodes `N` (at least 5).
+    pub nodes: usize,
+}
+
+/// Everything that defines the physical problem, in SI units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Physical {
+    pub rod: RodParams,
+    pub fluid: FluidParams,
+    pub shape: ShapeParams,
+    pub discretization: Discretization,
+}
+
+fn positive(field: &str, value: f64) -> Result<()> {
+    if !value.is_finite() {
+        return Err(Error::input(
+            field,
+            format!("must be a finite number, got {value}"),
+        ));
+    }
+    if value <= 0.0 {
+        return Err(Error::input(field, format!("must be > 0, got {value}")));
+    }
+    Ok(())
+}
+
+fn non_negative(field: &str, value: f64) -> Result<()> {
+    if !value.is_finite() || value < 0.0 {
+        return Err(Error::input(
+            field,
+            format!("must be a finite number >= 0, got {value}"),
+        ));
+    }
+    Ok(())
+}
+
+impl Physical {
+    /// The representative helix of MODEL.md section 7 (a macroscopic flagellum in glycerin),
+    /// right-handed: with `omega > 0` (counter-clockwise seen from above) its propulsive force is
+    /// positive (the left-handed helix pushes the other way and buckles early).
+    pub fn representative() -> Self {
+        Physical {
+            rod: RodParams {
+                youngs_modulus: 1255e3,
+                r0: 1.58e-3,
+                rho: 1273.0,
+                nu: 0.5,
+            },
+            fluid: FluidParams {
+                mu: 1.6,
+                rho: 1240.0,
+                g: 9.81,
+                quadrature: Quadrature::Reference,
+            },
+            shape: ShapeParams::Helix {
+                l: 0.20,
+                lambda: 0.05,
+                radius: 0.0159,
+                handedness: Handedness::Right,
+            },
+            discretization: Discretization { nodes: 60 },
+        }
+    }
+
+    /// Checks every field against its allowed range; the error names the field.
+    pub fn validate(&self) -> Result<()> {
+        let rod = &self.rod;
+        positive("rod.E", rod.youngs_modulus)?;
+        positive("rod.r0", rod.r0)?;
+        non_negative("rod.rho", rod.rho)?;
+        if !rod.nu.is_finite() || rod.nu <= -1.0 || rod.nu > 0.5 {
+            return Err(Error::input(
+                "rod.nu",
+                format!("must lie in (-1, 0.5], got {}", rod.nu),
+            ));
+        }
+        positive("fluid.mu", self.fluid.mu)?;
+        non_negative("fluid.rho", self.fluid.rho)?;
+        non_negative("fluid.g", self.fluid.g)?;
+        match self.shape {
+            ShapeParams::Helix {
+                l, lambda, radius, ..
+            } => {
+                positive("shape.l", l)?;
+                positive("shape.lambda", lambda)?;
+                positive("shape.R", radius)?;
+                if rod.r0 >= radius {
+                    return Err(Error::input(
+                        "rod.r0",
+                        format!(
+                            "must be smaller than the helix radius shape.R = {radius}, got {}",
+                            rod.r0
+                        ),
+                    ));
+                }
+                if lambda <= 2.0 * rod.r0 {
+                    return Err(Error::input(
+                        "shape.lambda",
+                        format!(
+                            "must exceed 2 r0 = {} (otherwise neighbouring turns touch), got {lambda}",
+                            2.0 * rod.r0
+                        ),
+                    ));
+                }
+                if l < lambda / 4.0 {
+                    return Err(Error::input(
+                        "shape.l",
+                        format!(
+                            "must be at least a quarter pitch (lambda/4 = {}), got {l}",
+                            lambda / 4.0
+                        ),
+                    ));
+                }
+            }
+            ShapeParams::Arc { length, radius } => {
+                positive("shape.L", length)?;
+                positive("shape.R", radius)?;
+                if rod.r0 >= radius {
+                    return Err(Error::input(
+                        "rod.r0",
+                        format!(
+                            "must be smaller than the arc radius shape.R = {radius}, got {}",
+                            rod.r0
+                        ),
+                    ));
+                }
+                let max = 2.0 * std::f64::consts::PI * radius;
+                if length >= max {
+                    return Err(Error::input(
+                        "shape.L",
+                        format!(
+                            "must be below one full circle 2 pi R = {max} (the arc would close), got {length}"
+                        ),
+                    ));
+                }
+            }
+            ShapeParams::Straight { length, alpha_deg } => {
+                positive("shape.L", length)?;
+                if !alpha_deg.is_finite() || !(0.0..=180.0).contains(&alpha_deg) {
+                    return Err(Error::input(
+                        "shape.alpha_deg",
+                        format!("must lie in [0, 180] degrees, got {alpha_deg}"),
+                    ));
+                }
+            }
+        }
+        let ell = self.shape.contour_length();
+        if rod.r0 >= 0.5 * ell {
+            return Err(Error::input(
+                "rod.r0",
+                format!(
+                    "must be far below the contour length {ell} m (a slender rod), got {}",
+                    rod.r0
+                ),
+            ));
+        }
+        if self.discretization.nodes < 5 {
+            return Err(Error::input(
+                "discretization.nodes",
+                format!("must be at least 5, got {}", self.discretization.nodes),
+            ));
+        }
+        if self.discretization.nodes > 5000 {
+            return Err(Error::input(
+                "discretization.nodes",
+                format!(
+                    "must be at most 5000 (dense algebra), got {}",
+                    self.discretization.nodes
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Bending stiffness `EI = E pi r0^4 / 4` (N m^2).
+    pub fn bending_stiffness(&self) -> f64 {
+        self.rod.youngs_modulus * std::f64::consts::PI * self.rod.r0.powi(4) / 4.0
+    }
+
+    /// Twisting stiffness `GJ = G pi r0^4 / 2`, `G = E / (2 (1 + nu))` (N m^2).
+    pub fn twisting_stiffness(&self) -> f64 {
+        let shear = self.rod.youngs_modulus / (2.0 * (1.0 + self.rod.nu));
+        shear * std::f64::consts::PI * self.rod.r0.powi(4) / 2.0
+    }
+
+    /// Stretching stiffness `EA = E pi r0^2` (N).
+    pub fn stretching_stiffness(&self) -> f64 {
+        self.rod.youngs_modulus * std::f64::consts::PI * self.rod.r0.powi(2)
+    }
+
+    /// Net weight per unit length, buoyancy included: `q = (rho_r - rho_f) g pi r0^2` (N/m).
+    pub fn weight_per_length(&self) -> f64 {
+        (self.rod.rho - self.fluid.rho) * self.fluid.g * std::f64::consts::PI * self.rod.r0.powi(2)
+    }
+
+    /// The unit system of the solver.
+    pub fn scales(&self) -> Scales {
+        let ell = self.shape.reference_length();
+        let ei = self.bending_stiffness();
+        Scales {
+            length: ell,
+            force: ei / (ell * ell),
+            time: self.fluid.mu * ell.powi(4) / ei,
+        }
+    }
+}
+
+/// Units of the dimensionless solver: lengths by `ell`, forces by `EI/ell^2`, time by
+/// `mu ell^4 / EI`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Scales {
+    /// `ell` (m).
+    pub length: f64,
+    /// `EI / ell^2` (N).
+    pub force: f64,
+    /// `mu ell^4 / EI` (s).
+    pub time: f64,
+}
+
+impl Scales {
+    /// `omegabar = omega * time`.
+    pub fn omega_to_bar(&self, omega: f64) -> f64 {
+        omega * self.time
+    }
+    /// `omega = omegabar / time` (rad/s).
+    pub fn omega_from_bar(&self, omegabar: f64) -> f64 {
+        omegabar / self.time
+    }
+    /// Torque unit `EI / ell` (N m).
+    pub fn torque(&self) -> f64 {
+        self.force * self.length
+    }
+}

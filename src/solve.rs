@@ -1,0 +1,149 @@
+//! One steady state at a given rotation rate, with its observables: the `solve` command.
+
+use serde::Serialize;
+
+use crate::Result;
+use crate::continuation::newton::{NewtonReport, NewtonSettings};
+use crate::model::Model;
+use crate::steady::{self, Observables, Steady, SteadyState, height};
+
+/// A steady state with everything `helixbif solve` reports.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    pub state: SteadyState,
+    /// The shape at rest (`omega = 0`), for `h0`.
+    pub rest: SteadyState,
+    pub observables: Observables,
+    /// `F_p ell^2/EI` of the natural shape held rigid at the same rate.
+    pub fpbar_rigid: f64,
+}
+
+/// Summary printed by `solve --json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SolutionSummary {
+    #[serde(flatten)]
+    pub observables: Observables,
+    #[serde(rename = "Fp_rigid")]
+    pub fp_rigid: f64,
+    #[serde(rename = "Fpbar_rigid")]
+    pub fpbar_rigid: f64,
+    pub newton_iterations: usize,
+    pub residual_norm: f64,
+    pub residual_history: Vec<f64>,
+    pub nodes: usize,
+}
+
+/// Newton iterations allowed per ramp step before the step is halved (a step inside Newton's
+/// basin converges in at most about 7).
+const RAMP_ITERATIONS: usize = 8;
+/// Smallest ramp step, relative to the target rate, before giving up.
+const RAMP_MIN_FRACTION: f64 = 1e-4;
+
+/// Solves for the steady state at `omegabar`: first the shape hanging at rest (Newton from the
+/// natural shape, no flow), then the rotating state reached by ramping the rate from rest with
+/// adaptive steps (the motor spinning up). Each step starts from a secant extrapolation of the
+/// last two states, so that Newton starts inside its (narrow) basin of quadratic convergence;
+/// a step whose Newton solve fails is halved, an easy one doubled. The report counts every
+/// Newton iteration of the ramp.
+pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Result<Solution> {
+    let natural = model.natural_config();
+    let rest = steady::solve(model, 0.0, model.weight, &natural, &model.chart, settings)?;
+    if omegabar != 0.0 {
+        model.check_resolution()?;
+    }
+    let state = ramp(model, &rest, omegabar, settings)?;
+    let problem = Steady::new(model, omegabar);
+    let forces = match problem.drag(&state.config.x)? {
+        Some(d) => d.forces,
+        None => vec![nalgebra::Vector3::zeros(); model.nodes()],
+    };
+    let observables = model.observables(omegabar, &state.config.x, &forces, height(&rest.config.x));
+    Ok(Solution {
+        fpbar_rigid: model.rigid_thrust(omegabar)?,
+        state,
+        rest,
+        observables,
+    })
+}
+
+/// Continuation in `omega` from `rest` to `target` by natural-parameter steps with a secant
+/// predictor. The step is doubled after an easy solve (at most 4 iterations), shortened after a
+/// laborious one (7 or more) and halved after a failure.
+fn ramp(
+    model: &Model,
+    rest: &SteadyState,
+    target: f64,
+    settings: &NewtonSettings,
+) -> Result<SteadyState> {
+    let step_settings = NewtonSettings {
+        max_iter: settings.max_iter.min(RAMP_ITERATIONS),
+        ..settings.clone()
+    };
+    let mut current = rest.clone();
+    let mut previous: Option<SteadyState> = None;
+    let mut step = target;
+    let mut iterations = rest.report.iterations;
+    let mut history = rest.report.history.clone();
+    while current.omega != target {
+        let omega = if (target - current.omega).abs() <= step.abs() {
+            target
+        } else {
+            current.omega + step
+        };
+        let guess = match &previous {
+            Some(p) => Steady::new(model, omega).extrapolate(
+                &current.config,
+                &p.config,
+                current.omega,
+                p.omega,
+                omega,
+            ),
+            None => current.config.clone(),
+        };
+        match steady::solve(
+            model,
+            omega,
+            model.weight,
+            &guess,
+            &current.chart,
+            &step_settings,
+        ) {
+            Ok(next) => {
+                iterations += next.report.iterations;
+                history.extend_from_slice(&next.report.history);
+                match next.report.iterations {
+                    0..=4 => step *= 2.0,
+                    7.. => step *= 0.7,
+                    _ => {}
+                }
+                previous = Some(std::mem::replace(&mut current, next));
+            }
+            Err(e) => {
+                step *= 0.5;
+                if step.abs() < RAMP_MIN_FRACTION * target.abs() {
+                    return Err(e);
+                }
+            }
+        }
+    }
+    current.report = NewtonReport {
+        iterations,
+        residual_norm: current.report.residual_norm,
+        history,
+    };
+    Ok(current)
+}
+
+impl Solution {
+    pub fn summary(&self, model: &Model) -> SolutionSummary {
+        SolutionSummary {
+            observables: self.observables.clone(),
+            fp_rigid: self.fpbar_rigid * model.scales.force,
+            fpbar_rigid: self.fpbar_rigid,
+            newton_iterations: self.state.report.iterations,
+            residual_norm: self.state.report.residual_norm,
+            residual_history: self.state.report.history.clone(),
+            nodes: model.nodes(),
+        }
+    }
+}

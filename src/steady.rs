@@ -1,0 +1,389 @@
+//! The co-rotating steady problem (MODEL.md section 4): residual, analytic Jacobian, and the
+//! observables of a steady state (section 6).
+//!
+//! In the frame turning with the motor, a rigidly rotating state is an equilibrium of
+//!
+//! ```text
+//! R_x(u) = -dE/dx + F_gravity - [ Z(X) Omega X ]_free = 0,      (1)
+//! R_t(u) = -dE/dtheta = 0,                                       (2)
+//! ```
+//!
+//! with `(Omega X)_i = omega e_z x x_i` the lab velocity of node `i`, `Z = A^{-1}` the
+//! resistance matrix of all nodes and `u = (x_2..x_{N-1}, theta^1..theta^{N-2})` the free
+//! unknowns. Since `Z A = I`, `dZ = -Z dA Z`, so the viscous Jacobian is
+//!
+//! ```text
+//! d[Z Omega X]/dX = Z (Omega - B),    B = d(A(X) y)/dX at fixed y = Z Omega X.   (3)
+//! ```
+
+use faer::Mat;
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use crate::Result;
+use crate::continuation::newton::{self, NewtonReport, NewtonSettings, System};
+use crate::dofs::Layout;
+use crate::fluid::Resistance;
+use crate::model::Model;
+use crate::rod::Config;
+use crate::rod::frame::Chart;
+
+/// The steady problem at one rotation rate and weight, with the chart in which twist is measured.
+#[derive(Clone, Debug)]
+pub struct Steady<'a> {
+    pub model: &'a Model,
+    /// Dimensionless rotation rate `omegabar`.
+    pub omega: f64,
+    /// Dimensionless weight per length `q ell^3 / EI`.
+    pub weight: f64,
+    /// Source chart of the reference frames.
+    pub chart: Chart,
+}
+
+/// Lab-frame velocities `omega e_z x x_i` of rigid rotation.
+pub fn rotation_velocity(omega: f64, x: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    x.iter()
+        .map(|p| Vector3::new(-omega * p.y, omega * p.x, 0.0))
+        .collect()
+}
+
+/// The forces `F = Z(X) Omega X` the rod exerts on the fluid in rigid rotation, with the
+/// factorization of `A(X)` for further solves. `None` when `omega = 0` (no flow).
+pub struct Drag {
+    pub resistance: Resistance,
+    pub forces: Vec<Vector3<f64>>,
+}
+
+impl<'a> Steady<'a> {
+    /// The problem at `omega` with the model's own weight and its natural chart.
+    pub fn new(model: &'a Model, omega: f64) -> Self {
+        Steady {
+            model,
+            omega,
+            weight: model.weight,
+            chart: model.chart.clone(),
+        }
+    }
+
+    fn layout(&self) -> Layout {
+        self.model.rod.layout
+    }
+
+    /// The free unknowns of a configuration.
+    pub fn free_vector(&self, config: &Config) -> Vec<f64> {
+        config.x[Layout::CLAMPED_NODES..]
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .chain(config.theta[1..].iter().copied())
+            .collect()
+    }
+
+    /// The configuration with free unknowns `u`; the clamp (`x_0`, `x_1`, `theta^0`) stays at the
+    /// natural values.
+    pub fn config(&self, u: &[f64]) -> Config {
+        let layout = self.layout();
+        let n = layout.nodes();
+        let fp = layout.free_positions();
+        let mut x = self.model.natural[..Layout::CLAMPED_NODES].to_vec();
+        x.extend(
+            u[..fp]
+                .chunks_exact(3)
+                .map(|c| Vector3::new(c[0], c[1], c[2])),
+        );
+        let mut theta = vec![0.0];
+        theta.extend_from_slice(&u[fp..fp + n - 2]);
+        Config { x, theta }
+    }
+
+    /// `F = Z(X) Omega X` at positions `x`; `None` when `omega = 0`.
+    pub fn drag(&self, x: &[Vector3<f64>]) -> Result<Option<Drag>> {
+        if self.omega == 0.0 {
+            return Ok(None);
+        }
+        let context = format!("omegabar = {:.6e}, N = {}", self.omega, x.len());
+        let resistance = self.model.fluid.resistance(x, &context)?;
+        let forces = resistance.solve_vectors(&rotation_velocity(self.omega, x));
+        Ok(Some(Drag { resistance, forces }))
+    }
+
+    /// Full-length force balance `-dE/dq + F_gravity - F_fluid` (positions) and `-dE/dtheta`.
+    fn full_residual(&self, gradient: &[f64], drag: Option<&Drag>) -> Vec<f64> {
+        let layout = self.layout();
+        let gravity = self.model.gravity(self.weight);
+        let mut r: Vec<f64> = gradient.iter().map(|g| -g).collect();
+        for (i, f) in gravity.iter().enumerate() {
+            for k in 0..3 {
+                r[layout.x(i, k)] += f[k];
+                if let Some(d) = drag {
+                    r[layout.x(i, k)] -= d.forces[i][k];
+                }
+            }
+        }
+        r
+    }
+
+    /// Viscous Jacobian block `Z (Omega - B)` restricted to the free positions (eq. 3).
+    fn viscous_jacobian(&self, x: &[Vector3<f64>], drag: &Drag) -> Mat<f64> {
+        let layout = self.layout();
+        let n3 = 3 * layout.nodes();
+        let first = layout.x(Layout::CLAMPED_NODES, 0);
+        let b = self.model.fluid.mobility_derivative(x, &drag.forces);
+        // (Omega - B) restricted to the free position columns.
+        let mut rhs = Mat::from_fn(n3, n3 - first, |p, c| -b[(p, first + c)]);
+        for i in Layout::CLAMPED_NODES..layout.nodes() {
+            let c = layout.x(i, 0) - first;
+            rhs[(layout.x(i, 1), c)] += self.omega;
+            rhs[(layout.x(i, 0), c + 1)] -= self.omega;
+        }
+        let zm = drag.resistance.solve(rhs.as_ref());
+        Mat::from_fn(n3 - first, n3 - first, |r, c| zm[(first + r, c)])
+    }
+
+    /// Secant predictor: the state at parameter `p` extrapolated from `current` (at `p1`) and
+    /// `before` (at `p0`) edge by edge: the length of each edge linearly, its direction by
+    /// continuing the rotation that took it from `before` to `current` (Rodrigues), the nodes
+    /// by summing edges from the clamp, the angles linearly. A linear extrapolation of node
+    /// positions would shorten turning edges at second order and, with the stiff stretching,
+    /// start Newton far from the solution.
+    pub fn extrapolate(
+        &self,
+        current: &Config,
+        before: &Config,
+        p1: f64,
+        p0: f64,
+        p: f64,
+    ) -> Config {
+        let s = (p - p1) / (p1 - p0);
+        let mut x = current.x[..Layout::CLAMPED_NODES].to_vec();
+        for i in Layout::CLAMPED_NODES - 1..self.layout().edges() {
+            let e1 = current.x[i + 1] - current.x[i];
+            let e0 = before.x[i + 1] - before.x[i];
+            let (l1, l0) = (e1.norm(), e0.norm());
+            let (t1, t0) = (e1 / l1, e0 / l0);
+            let axis = t0.cross(&t1);
+            let angle = axis.norm().atan2(t0.dot(&t1));
+            let t = if axis.norm() > 0.0 {
+                let k = axis.normalize();
+                let phi = s * angle;
+                t1 * phi.cos() + k.cross(&t1) * phi.sin() + k * k.dot(&t1) * (1.0 - phi.cos())
+            } else {
+                t1
+            };
+            let next = x[i] + t * (l1 + s * (l1 - l0));
+            x.push(next);
+        }
+        let theta = current
+            .theta
+            .iter()
+            .zip(&before.theta)
+            .map(|(a, b)| a + s * (a - b))
+            .collect();
+        Config { x, theta }
+    }
+
+    fn restrict(&self, full: &[f64]) -> Vec<f64> {
+        self.layout()
+            .free_indices()
+            .iter()
+            .map(|&p| full[p])
+            .collect()
+    }
+}
+
+impl System for Steady<'_> {
+    fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
+        let config = self.config(u);
+        let gradient = self.model.rod.gradient(&config, &self.chart);
+        let drag = self.drag(&config.x)?;
+        Ok(self.restrict(&self.full_residual(&gradient, drag.as_ref())))
+    }
+
+    /// Newton update that rotates edges instead of moving nodes along straight lines.
+    ///
+    /// The increment of edge `e^i` (`i >= 1`; edge 0 is clamped), `de = dx_{i+1} - dx_i`, is split
+    /// into a change of length `dl = t.de` and a transverse part `de_perp`; the new edge is
+    /// `(|e| + dl) (cos(phi) t + sin(phi) n)` with `phi = |de_perp|/|e|`, `n = de_perp/|de_perp|`,
+    /// and the nodes follow by summing edges from the clamp. This agrees with `x + dx` to first
+    /// order, so Newton's method stays quadratic, but a rotation no longer stretches the edge at
+    /// second order: with the stretching stiffness `EA` some `1e4..1e6` times the bending one,
+    /// that spurious stretch would otherwise throw the iterate far off (the basin of plain Newton
+    /// shrinks to displacements of order `ds^2 EI/EA`). Angles are updated additively.
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        let layout = self.layout();
+        let fp = layout.free_positions();
+        let old = self.config(u);
+        let step = self.config(du);
+        let mut x = old.x[..Layout::CLAMPED_NODES].to_vec();
+        for i in Layout::CLAMPED_NODES - 1..layout.edges() {
+            let e = old.x[i + 1] - old.x[i];
+            let dx_i = if i < Layout::CLAMPED_NODES {
+                Vector3::zeros()
+            } else {
+                step.x[i]
+            };
+            let de = step.x[i + 1] - dx_i;
+            let len = e.norm();
+            let t = e / len;
+            let dl = t.dot(&de);
+            let perp = de - t * dl;
+            // Rotation vector w with w x t = perp/|e|, plus the spin about t that makes it
+            // perpendicular to the horizontal part t_h of t (regularized for vertical edges).
+            let w0 = t.cross(&perp) / len;
+            let th = Vector3::new(t.x, t.y, 0.0);
+            let w = w0 - t * (w0.dot(&th) / (th.norm_squared() + 1e-2));
+            let phi = w.norm();
+            let direction = if phi > 0.0 {
+                let k = w / phi;
+                t * phi.cos() + k.cross(&t) * phi.sin() + k * (k.dot(&t) * (1.0 - phi.cos()))
+            } else {
+                t
+            };
+            let next = x[i] + direction * (len + dl);
+            x.push(next);
+        }
+        x[Layout::CLAMPED_NODES..]
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .chain(u[fp..].iter().zip(&du[fp..]).map(|(a, b)| a + b))
+            .collect()
+    }
+
+    fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        let config = self.config(u);
+        let (gradient, hessian) = self.model.rod.hessian(&config, &self.chart);
+        let drag = self.drag(&config.x)?;
+        let residual = self.restrict(&self.full_residual(&gradient, drag.as_ref()));
+        let free = self.layout().free_indices();
+        let mut jac = Mat::from_fn(free.len(), free.len(), |r, c| -hessian[(free[r], free[c])]);
+        if let Some(d) = &drag {
+            let v = self.viscous_jacobian(&config.x, d);
+            let fp = self.layout().free_positions();
+            for c in 0..fp {
+                for r in 0..fp {
+                    jac[(r, c)] -= v[(r, c)];
+                }
+            }
+        }
+        Ok((residual, jac))
+    }
+}
+
+/// A converged steady state.
+#[derive(Clone, Debug)]
+pub struct SteadyState {
+    pub omega: f64,
+    pub weight: f64,
+    pub config: Config,
+    /// The chart carried to this configuration (the source for the next solve).
+    pub chart: Chart,
+    pub report: NewtonReport,
+}
+
+/// Solves the steady problem from the initial configuration `start` (measured in `chart`).
+pub fn solve(
+    model: &Model,
+    omega: f64,
+    weight: f64,
+    start: &Config,
+    chart: &Chart,
+    settings: &NewtonSettings,
+) -> Result<SteadyState> {
+    let problem = Steady {
+        model,
+        omega,
+        weight,
+        chart: chart.clone(),
+    };
+    let context = format!(
+        "at omegabar = {omega:.6e} (omega = {:.6e} rad/s), N = {}",
+        model.scales.omega_from_bar(omega),
+        model.nodes()
+    );
+    let (u, report) = newton::solve(&problem, problem.free_vector(start), settings, &context)?;
+    let config = problem.config(&u);
+    Ok(SteadyState {
+        omega,
+        weight,
+        chart: chart.transported(&config.x),
+        config,
+        report,
+    })
+}
+
+/// Observables of a steady state (MODEL.md section 6), SI and normalized.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Observables {
+    /// Rotation rate (rad/s) and `omegabar = omega mu ell^4 / EI`.
+    pub omega: f64,
+    pub omegabar: f64,
+    /// Propulsive force `F_p = -e_z . sum_j F_j` (N) and `F_p ell^2 / EI`.
+    #[serde(rename = "Fp")]
+    pub fp: f64,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: f64,
+    /// Motor torque `T_p = e_z . sum_j x_j x F_j` (N m).
+    #[serde(rename = "Tp")]
+    pub tp: f64,
+    /// Efficiency `F_p ell / T_p` (`None` at rest).
+    pub eta: Option<f64>,
+    /// Suspended height (m), its value at rest, and their ratio.
+    pub h: f64,
+    pub h0: f64,
+    pub hbar: f64,
+}
+
+/// Vertical distance from the clamp to the lowest node (solver units).
+pub fn height(x: &[Vector3<f64>]) -> f64 {
+    let lowest = x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+    x[0].z - lowest
+}
+
+/// Propulsive force and motor torque (solver units) of the nodal forces `forces` at `x`.
+pub fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> (f64, f64) {
+    let fp = -forces.iter().map(|f| f.z).sum::<f64>();
+    let tp = x.iter().zip(forces).map(|(p, f)| p.cross(f).z).sum();
+    (fp, tp)
+}
+
+impl Model {
+    /// Observables of the state `x` at `omegabar`, with `h0` the height at rest (solver units).
+    pub fn observables(
+        &self,
+        omegabar: f64,
+        x: &[Vector3<f64>],
+        forces: &[Vector3<f64>],
+        h0: f64,
+    ) -> Observables {
+        let s = &self.scales;
+        let (fp, tp) = thrust_and_torque(x, forces);
+        let h = height(x);
+        Observables {
+            omega: s.omega_from_bar(omegabar),
+            omegabar,
+            fp: fp * s.force,
+            fpbar: fp,
+            tp: tp * s.torque(),
+            eta: (tp != 0.0).then(|| fp / tp),
+            h: h * s.length,
+            h0: h0 * s.length,
+            hbar: h / h0,
+        }
+    }
+
+    /// `F_p ell^2 / EI` of the natural shape held rigid and turned at `omegabar` (linear in it).
+    pub fn rigid_thrust(&self, omegabar: f64) -> Result<f64> {
+        let problem = Steady::new(self, omegabar);
+        Ok(match problem.drag(&self.natural)? {
+            Some(d) => thrust_and_torque(&self.natural, &d.forces).0,
+            None => 0.0,
+        })
+    }
+
+    /// The natural configuration (`theta = 0`).
+    pub fn natural_config(&self) -> Config {
+        Config {
+            x: self.natural.clone(),
+            theta: vec![0.0; self.nodes() - 1],
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! Study files: TOML descriptions of a run, kept in version control.
+//!
+//! A study holds the physical parameters (SI) and the numerical settings. Any field can be
+//! overridden from the command line with `--set key=value` (dotted path, TOML value syntax, e.g.
+//! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
+
+use serde::{Deserialize, Serialize};
+
+use crate::continuation::newton::NewtonSettings;
+use crate::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
+use crate::{Error, Result};
+
+/// One study file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Study {
+    /// Name of the study (the output folder `output/<name>/`).
+    #[serde(default = "default_name")]
+    pub name: String,
+    pub rod: RodParams,
+    pub fluid: FluidParams,
+    pub shape: ShapeParams,
+    pub discretization: Discretization,
+    #[serde(default)]
+    pub newton: NewtonSettings,
+}
+
+fn default_name() -> String {
+    "study".into()
+}
+
+impl Study {
+    /// The built-in default: the representative helix of MODEL.md section 7.
+    pub fn representative() -> Self {
+        let p = Physical::representative();
+        Study {
+            name: "representative".into(),
+            rod: p.rod,
+            fluid: p.fluid,
+            shape: p.shape,
+            discretization: p.discretization,
+            newton: NewtonSettings::default(),
+        }
+    }
+
+    /// The physical part of the study.
+    pub fn physical(&self) -> Physical {
+        Physical {
+            rod: self.rod.clone(),
+            fluid: self.fluid.clone(),
+            shape: self.shape.clone(),
+            discretization: self.discretization.clone(),
+        }
+    }
+
+    /// Reads a study from TOML text (`None`: the built-in default), applies the `key=value`
+    /// overrides, and validates every field.
+    pub fn load(text: Option<&str>, overrides: &[String]) -> Result<Self> {
+        let mut table: toml::Table = match text {
+            Some(t) => t.parse().map_err(|e: toml::de::Error| {
+                Error::input("study file", e.message().replace('\n', " "))
+            })?,
+            None => toml::Table::try_from(Study::representative())
+                .map_err(|e| Error::input("study", e.to_string()))?,
+        };
+        for item in overrides {
+            apply_override(&mut table, item)?;
+        }
+        let study: Study =
+            serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+                let path = e.path().to_string();
+                Error::input(
+                    if path == "." {
+                        "study".to_string()
+                    } else {
+                        path
+                    },
+                    e.into_inner().message().to_string(),
+                )
+            })?;
+        study.physical().validate()?;
+        study.newton.validate()?;
+        Ok(study)
+    }
+
+    /// Reads a study file (or the default when `path` is `None`) with overrides.
+    pub fn from_path(path: Option<&std::path::Path>, overrides: &[String]) -> Result<Self> {
+        match path {
+            None => Study::load(None, overrides),
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|e| {
+                    Error::input("study file", format!("cannot read {}: {e}", p.display()))
+                })?;
+                Study::load(Some(&text), overrides)
+            }
+        }
+    }
+}
+
+/// Applies one `dotted.key=value` override to a TOML table. The value is read as a TOML value
+/// (number, boolean, string in quotes, array); a bare word that is not one is taken as a string.
+fn apply_override(table: &mut toml::Table, item: &str) -> Result<()> {
+    let (key, raw) = item
+        .split_once('=')
+        .ok_or_else(|| Error::input("--set", format!("expected key=value, got `{item}`")))?;
+    let key = key.trim();
+    let value = format!("v = {}", raw.trim())
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(raw.trim().to_string()));
+    let parts: Vec<&str> = key.split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(Error::input("--set", format!("malformed key `{key}`")));
+    }
+    let (last, parents) = parts.split_last().expect("split yields one part");
+    let mut current = table;
+    for part in parents {
+        current = current
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            .as_table_mut()
+            .ok_or_else(|| Error::input(key, format!("`{part}` is not a table")))?;
+    }
+    current.insert(last.to_string(), value);
+    Ok(())
+}

@@ -1,0 +1,155 @@
+//! The command line: JSON output, exit codes and one-line errors naming the field.
+
+use std::process::Command;
+
+fn helixbif(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+#[test]
+fn solve_json_has_the_documented_keys() {
+    let (code, stdout, _) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.05",
+        "--json",
+        "--set",
+        "discretization.nodes=30",
+    ]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    for key in [
+        "omega",
+        "omegabar",
+        "Fp",
+        "Fpbar",
+        "Tp",
+        "eta",
+        "h",
+        "hbar",
+        "h0",
+        "newton_iterations",
+        "residual_norm",
+        "nodes",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key}");
+    }
+    assert_eq!(v["nodes"], 30);
+    assert!(v["residual_norm"].as_f64().unwrap() < 1e-9);
+    assert!((v["omega"].as_f64().unwrap() - 0.05).abs() < 1e-15);
+}
+
+#[test]
+fn study_file_equals_the_built_in_default() {
+    let study = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/representative.toml");
+    let a = helixbif(&[
+        "solve",
+        study,
+        "--omega",
+        "0.05",
+        "--json",
+        "--set",
+        "discretization.nodes=20",
+    ]);
+    let b = helixbif(&[
+        "solve",
+        "--omega",
+        "0.05",
+        "--json",
+        "--set",
+        "discretization.nodes=20",
+    ]);
+    assert_eq!(a.0, 0);
+    assert_eq!(a.1, b.1);
+}
+
+#[test]
+fn shape_file_has_one_row_per_node_in_si() {
+    let path = std::env::temp_dir().join(format!("helixbif-shape-{}.csv", std::process::id()));
+    let p = path.to_str().unwrap();
+    let (code, _, _) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.0",
+        "--set",
+        "discretization.nodes=12",
+        "--shape",
+        p,
+    ]);
+    assert_eq!(code, 0);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "i,x,y,z,theta");
+    assert_eq!(lines.len(), 13);
+    // The clamp node of the representative helix sits at (R, 0, 0) m.
+    let first: Vec<f64> = lines[1]
+        .split(',')
+        .take(4)
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(first, vec![0.0, 0.0159, 0.0, 0.0]);
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line_naming_the_field() {
+    let cases: &[(&str, &str)] = &[
+        ("rod.E=0", "rod.E"),
+        ("rod.E=-1", "rod.E"),
+        ("rod.r0=0", "rod.r0"),
+        ("fluid.mu=0", "fluid.mu"),
+        ("shape.l=0", "shape.l"),
+        ("shape.lambda=-0.05", "shape.lambda"),
+        ("shape.R=0", "shape.R"),
+        ("discretization.nodes=4", "discretization.nodes"),
+        ("discretization.nodes=-3", "discretization.nodes"),
+        ("rod.r0=0.02", "rod.r0"),
+        ("shape.lambda=0.003", "shape.lambda"),
+        ("rod.E=nan", "rod.E"),
+        ("fluid.mu=inf", "fluid.mu"),
+        ("rod.Ee=1", "rod.Ee"),
+        ("shape.foo=1", "foo"),
+        ("discretization.nodes=120", "discretization.nodes"),
+        ("newton.tol=0", "newton.tol"),
+    ];
+    for (set, field) in cases {
+        let (code, stdout, stderr) = helixbif(&["solve", "--omega", "0.1", "--set", set]);
+        assert_eq!(code, 2, "--set {set}: {stderr}");
+        assert!(stdout.is_empty());
+        assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "--set {set}: {stderr}"
+        );
+        assert!(stderr.contains(field), "--set {set}: {stderr}");
+        assert!(!stderr.contains("panicked"));
+    }
+    let (code, _, stderr) = helixbif(&["solve", "--omega", "nan"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("--omega"));
+    let (code, _, stderr) = helixbif(&["solve", "/nonexistent/study.toml", "--omega", "0.1"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("study file"));
+}
+
+#[test]
+fn node_count_outside_the_admissible_range_is_refused_with_the_reason() {
+    let (code, _, stderr) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.1",
+        "--set",
+        "discretization.nodes=95",
+    ]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("admissible range 5..=87"), "{stderr}");
+    assert!(stderr.contains("positive definite"));
+}

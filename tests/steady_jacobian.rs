@@ -1,0 +1,75 @@
+//! The analytic Jacobian of the co-rotating steady residual (elastic Hessian, gravity and the
+//! viscous part `Z (Omega - B)`) against central finite differences of the residual.
+//!
+//! The elastic entries (stretching, `EA/EI ~ 6e4`) dwarf the viscous ones, so the viscous block
+//! is also checked on its own: `J(omega) - J(0)` against finite differences of
+//! `G(omega) - G(0)`, relative to its own largest entry.
+
+mod common;
+
+use common::{Rng, relative_max_error};
+use helixbif::continuation::newton::System;
+use helixbif::model::Model;
+use helixbif::params::Physical;
+use helixbif::steady::Steady;
+
+/// Relative errors of the whole Jacobian and of its viscous part at a random state.
+fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64) {
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = nodes;
+    let model = Model::new(&physical).unwrap();
+    let problem = Steady::new(&model, omegabar);
+    let still = Steady::new(&model, 0.0);
+    let mut rng = Rng::new(seed);
+    let ds = model.rod.rest_lengths[0];
+    let u: Vec<f64> = problem
+        .free_vector(&model.natural_config())
+        .iter()
+        .map(|v| v + amp * ds * rng.uniform())
+        .collect();
+    let (_, jac) = problem.residual_and_jacobian(&u).unwrap();
+    let (_, jac0) = still.residual_and_jacobian(&u).unwrap();
+    let h = 1e-7;
+    let (mut analytic, mut numeric) = (Vec::new(), Vec::new());
+    let (mut viscous, mut viscous_fd) = (Vec::new(), Vec::new());
+    for c in 0..u.len() {
+        let mut up = u.clone();
+        up[c] += h;
+        let mut um = u.clone();
+        um[c] -= h;
+        let (gp, gm) = (
+            problem.residual(&up).unwrap(),
+            problem.residual(&um).unwrap(),
+        );
+        let (gp0, gm0) = (still.residual(&up).unwrap(), still.residual(&um).unwrap());
+        for r in 0..u.len() {
+            analytic.push(jac[(r, c)]);
+            numeric.push((gp[r] - gm[r]) / (2.0 * h));
+            viscous.push(jac[(r, c)] - jac0[(r, c)]);
+            viscous_fd.push((gp[r] - gm[r] - gp0[r] + gm0[r]) / (2.0 * h));
+        }
+    }
+    let visc_err = if omegabar == 0.0 {
+        0.0
+    } else {
+        relative_max_error(&viscous, &viscous_fd)
+    };
+    (relative_max_error(&analytic, &numeric), visc_err)
+}
+
+#[test]
+fn jacobian_matches_finite_differences_with_rotation() {
+    for (nodes, omegabar, amp, seed) in
+        [(20, 125.0, 0.1, 1), (30, 300.0, 0.3, 2), (24, 0.0, 0.2, 3)]
+    {
+        let (err, visc) = check(nodes, omegabar, amp, seed);
+        assert!(
+            err < 1e-6,
+            "N = {nodes}, omegabar = {omegabar}: relative error {err:e}"
+        );
+        assert!(
+            visc < 1e-6,
+            "N = {nodes}, omegabar = {omegabar}: viscous block relative error {visc:e}"
+        );
+    }
+}
