@@ -7,11 +7,14 @@
 //! co-rotating steady problem), [`continuation`] (generic Newton and continuation), [`solve`]
 //! (one steady state with its observables), [`study`] (study files).
 
+pub mod branch;
 pub mod continuation;
 pub mod dofs;
 pub mod error;
+pub mod fit;
 pub mod fluid;
 pub mod model;
+pub mod output;
 pub mod params;
 pub mod rod;
 pub mod shape;

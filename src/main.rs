@@ -8,6 +8,7 @@ use helixbif::Error;
 use helixbif::model::Model;
 use helixbif::solve::{Solution, solve_at};
 use helixbif::study::Study;
+use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
 
 /// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
 /// (Discrete Elastic Rods + Lighthill slender-body theory).
@@ -43,6 +44,31 @@ enum Command {
         /// Write the node positions and twist angles (SI) to this CSV file.
         #[arg(long, value_name = "FILE.csv")]
         shape: Option<PathBuf>,
+    },
+    /// Follow the steady branch from rest in omega: branch.csv, events.csv, meta.json, figures.
+    Branch {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Largest rotation rate (rad/s); default the study's `branch.omega_max`.
+        #[arg(long)]
+        omega_max: Option<f64>,
+        /// Output folder; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// The critical buckling rate omega_b: first loss of stability of the branch from rest.
+    Locate {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Relative precision of omega_b (default 1e-8).
+        #[arg(long)]
+        tol: Option<f64>,
+        /// Run a ladder of node counts and extrapolate omega_b to infinite resolution.
+        #[arg(long)]
+        extrapolate: bool,
+        /// Node counts of the ladder (comma separated); default five inside the admissible range.
+        #[arg(long, value_delimiter = ',', requires = "extrapolate")]
+        nodes: Vec<usize>,
     },
 }
 
@@ -127,6 +153,117 @@ fn solve(study: &StudyArgs, omega: f64, shape: Option<&Path>) -> anyhow::Result<
     Ok(())
 }
 
+fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> anyhow::Result<()> {
+    let (study_file, model) = load(study)?;
+    let omega_max = omega_max.unwrap_or(study_file.branch.omega_max);
+    if !(omega_max.is_finite() && omega_max > 0.0) {
+        return Err(Error::input(
+            "--omega-max",
+            format!("must be a finite number > 0, got {omega_max}"),
+        )
+        .into());
+    }
+    let dir = out.map_or_else(
+        || Path::new("output").join(&study_file.name),
+        Path::to_path_buf,
+    );
+    let (report, tables) = run_branch(&study_file, &model, omega_max, &dir)?;
+    if study.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!(
+            "branch of `{}` at N = {}: {} points up to omega = {:.4} rad/s ({}), {} events, {:.2} s; written to {}",
+            study_file.name,
+            model.nodes(),
+            report.points,
+            tables.points.last().map_or(0.0, |r| r.omega),
+            report.stop,
+            report.events,
+            report.seconds,
+            report.out
+        );
+        for e in &tables.events {
+            println!(
+                "  {:<12} omega = {:.8} rad/s (omegabar = {:.6e}), eigenvalue {:+.3e} {:+.4e} i /s",
+                e.kind, e.omega, e.omegabar, e.re, e.im
+            );
+        }
+    }
+    Ok(())
+}
+
+fn locate_command(
+    study: &StudyArgs,
+    tol: Option<f64>,
+    extrapolate: bool,
+    nodes: &[usize],
+) -> anyhow::Result<()> {
+    let mut overrides = study.set.clone();
+    if let Some(t) = tol {
+        overrides.push(format!("continuation.event_tol={t:e}"));
+    }
+    let study_file = Study::from_path(study.study.as_deref(), &overrides)?;
+    if extrapolate {
+        let ladder = if nodes.is_empty() {
+            default_ladder(&study_file)
+        } else {
+            nodes.to_vec()
+        };
+        let result = run_ladder(&study_file, &ladder)?;
+        if study.json {
+            println!("{}", serde_json::to_string(&result)?);
+        } else {
+            println!(
+                "omega_b of `{}` over a ladder of node counts:",
+                study_file.name
+            );
+            for ((n, w), k) in result.nodes.iter().zip(&result.omega_b).zip(&result.kinds) {
+                println!("  N = {n:3}: omega_b = {w:.8} rad/s ({k})");
+            }
+            println!(
+                "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; admissible N <= {})",
+                result.omega_b_extrapolated, result.omega_b_error, result.order, result.nodes_max
+            );
+        }
+        return Ok(());
+    }
+    let model = Model::new(&study_file.physical())?;
+    let located = run_locate(&study_file, &model)?;
+    if study.json {
+        println!("{}", serde_json::to_string(&located)?);
+    } else if let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) {
+        println!(
+            "critical rate of `{}` at N = {}: {}",
+            study_file.name, located.nodes, located.kind
+        );
+        println!(
+            "  omega_b    = {w:.10} rad/s   (omegabar_b = {wb:.8e}, relative precision {:.1e})",
+            located.precision.unwrap_or(f64::NAN)
+        );
+        if let Some(im) = located.im {
+            println!(
+                "  frequency  = {im:.8} rad/s     (Im(s) of the critical mode, co-rotating frame)"
+            );
+        }
+        println!(
+            "  Fp         = {:.6e} N     (Fpbar = {:.6})",
+            located.fp.unwrap_or(f64::NAN),
+            located.fpbar.unwrap_or(f64::NAN)
+        );
+        println!("  hbar       = {:.6}", located.hbar.unwrap_or(f64::NAN));
+        println!(
+            "  ({} continuation points, {} corrector iterations)",
+            located.points, located.corrector_iterations
+        );
+    } else {
+        println!(
+            "the branch of `{}` stays stable up to omega_max = {} rad/s (kind: none)",
+            study_file.name, located.omega_max
+        );
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
@@ -138,6 +275,17 @@ fn main() -> ExitCode {
             omega,
             shape,
         } => solve(study, *omega, shape.as_deref()),
+        Command::Branch {
+            study,
+            omega_max,
+            out,
+        } => branch(study, *omega_max, out.as_deref()),
+        Command::Locate {
+            study,
+            tol,
+            extrapolate,
+            nodes,
+        } => locate_command(study, *tol, *extrapolate, nodes),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,6 +17,7 @@
 //! ```
 
 use faer::Mat;
+use faer::prelude::Solve;
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -249,22 +250,111 @@ impl System for Steady<'_> {
     }
 
     fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        let lin = self.linearize(u)?;
+        Ok((lin.residual, lin.jacobian))
+    }
+}
+
+/// The steady residual and its Jacobian at one point, with the drag computed on the way.
+pub struct Linearized {
+    pub config: Config,
+    pub residual: Vec<f64>,
+    pub jacobian: Mat<f64>,
+    pub drag: Option<Drag>,
+}
+
+impl Steady<'_> {
+    /// Residual and analytic Jacobian (elastic Hessian + viscous part `Z (Omega - B)`, eq. 3).
+    pub fn linearize(&self, u: &[f64]) -> Result<Linearized> {
         let config = self.config(u);
         let (gradient, hessian) = self.model.rod.hessian(&config, &self.chart);
         let drag = self.drag(&config.x)?;
         let residual = self.restrict(&self.full_residual(&gradient, drag.as_ref()));
         let free = self.layout().free_indices();
-        let mut jac = Mat::from_fn(free.len(), free.len(), |r, c| -hessian[(free[r], free[c])]);
+        let mut jacobian =
+            Mat::from_fn(free.len(), free.len(), |r, c| -hessian[(free[r], free[c])]);
         if let Some(d) = &drag {
             let v = self.viscous_jacobian(&config.x, d);
             let fp = self.layout().free_positions();
             for c in 0..fp {
                 for r in 0..fp {
-                    jac[(r, c)] -= v[(r, c)];
+                    jacobian[(r, c)] -= v[(r, c)];
                 }
             }
         }
-        Ok((residual, jac))
+        Ok(Linearized {
+            config,
+            residual,
+            jacobian,
+            drag,
+        })
+    }
+
+    /// `dG/d omegabar = -[Z Omega_1 X]_free` (`Omega_1` the rotation at unit rate), zero on the
+    /// angles; reuses the drag of the linearization when the rate is not zero.
+    pub fn rate_derivative(&self, lin: &Linearized) -> Result<Vec<f64>> {
+        let unit_forces = match &lin.drag {
+            Some(d) => d.forces.iter().map(|f| f / self.omega).collect(),
+            None => {
+                let x = &lin.config.x;
+                let context = format!("omegabar = 0, N = {}", x.len());
+                self.model
+                    .fluid
+                    .resistance(x, &context)?
+                    .solve_vectors(&rotation_velocity(1.0, x))
+            }
+        };
+        Ok(self.free_forces(&unit_forces, -1.0))
+    }
+
+    /// `dG/dq = -wbar_i e_z` on the free nodes (the weight per unit length), zero on the angles.
+    pub fn weight_derivative(&self) -> Vec<f64> {
+        let unit = self.model.gravity(1.0);
+        self.free_forces(&unit, 1.0)
+    }
+
+    /// `sign * f_i` on the free position unknowns, zero on the angles.
+    fn free_forces(&self, forces: &[Vector3<f64>], sign: f64) -> Vec<f64> {
+        let layout = self.layout();
+        forces[Layout::CLAMPED_NODES..]
+            .iter()
+            .flat_map(|f| [sign * f.x, sign * f.y, sign * f.z])
+            .chain(std::iter::repeat_n(0.0, layout.nodes() - 2))
+            .collect()
+    }
+
+    /// The stability pair of MODEL.md section 5 at the free unknowns `u`: `K`, the Jacobian of
+    /// the position residual with the quasi-static twist eliminated,
+    /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`.
+    pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
+        let lin = self.linearize(u)?;
+        let j = &lin.jacobian;
+        let nx = self.layout().free_positions();
+        let nt = j.nrows() - nx;
+        let j_tt = Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]);
+        let j_tx = Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]);
+        let eliminated = j_tt.partial_piv_lu().solve(&j_tx);
+        let j_xt = Mat::from_fn(nx, nt, |r, c| j[(r, nx + c)]);
+        let k = Mat::from_fn(nx, nx, |r, c| j[(r, c)]) - &j_xt * &eliminated;
+        if !k.is_all_finite() {
+            return Err(crate::Error::Numerical(
+                "singular twist block in the stability operator".into(),
+            ));
+        }
+        let x = &lin.config.x;
+        let resistance = match lin.drag {
+            Some(d) => d.resistance,
+            None => self
+                .model
+                .fluid
+                .resistance(x, &format!("stability at omegabar = 0, N = {}", x.len()))?,
+        };
+        let n3 = 3 * x.len();
+        let first = self.layout().x(Layout::CLAMPED_NODES, 0);
+        let columns = Mat::from_fn(n3, nx, |r, c| if r == first + c { 1.0 } else { 0.0 });
+        let z = resistance.solve(columns.as_ref());
+        let m = Mat::from_fn(nx, nx, |r, c| z[(first + r, c)]);
+        Ok((k, m))
     }
 }
 

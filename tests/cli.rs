@@ -153,3 +153,94 @@ fn node_count_outside_the_admissible_range_is_refused_with_the_reason() {
     assert!(stderr.contains("admissible range 5..=87"), "{stderr}");
     assert!(stderr.contains("positive definite"));
 }
+
+#[test]
+fn locate_json_has_the_documented_keys() {
+    let (code, stdout, stderr) =
+        helixbif(&["locate", "--json", "--set", "discretization.nodes=30"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    for key in [
+        "omega_b",
+        "omegabar_b",
+        "kind",
+        "im",
+        "Fp",
+        "Fpbar",
+        "hbar",
+        "nodes",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key}");
+    }
+    assert_eq!(v["kind"], "hopf");
+    assert_eq!(v["nodes"], 30);
+    // Below omega_b nothing happens: kind none, exit 0.
+    let (code, stdout, _) = helixbif(&[
+        "locate",
+        "--json",
+        "--set",
+        "discretization.nodes=20",
+        "--set",
+        "branch.omega_max=0.2",
+    ]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["kind"], "none");
+    assert!(v["omega_b"].is_null());
+}
+
+#[test]
+fn locate_extrapolate_reports_the_limit_and_its_error() {
+    let (code, stdout, stderr) =
+        helixbif(&["locate", "--json", "--extrapolate", "--nodes", "24,30,36"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let raw: Vec<f64> = v["omega_b"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(raw.len(), 3);
+    let limit = v["omega_b_extrapolated"].as_f64().unwrap();
+    let error = v["omega_b_error"].as_f64().unwrap();
+    // omega_b decreases with N here, and the limit lies beyond the finest value by about the error.
+    assert!(raw[0] > raw[1] && raw[1] > raw[2], "{raw:?}");
+    assert!(
+        limit < raw[2] && error > 0.0 && (raw[2] - limit - error).abs() < 1e-12,
+        "{limit} +- {error}"
+    );
+}
+
+#[test]
+fn branch_writes_csv_files_and_meta() {
+    let dir = std::env::temp_dir().join(format!("helixbif-branch-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (code, _, stderr) = helixbif(&[
+        "branch",
+        "--set",
+        "discretization.nodes=24",
+        "--omega-max",
+        "0.8",
+        "--out",
+        d,
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let branch = std::fs::read_to_string(dir.join("branch.csv")).unwrap();
+    let header = branch.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "s,omega,omegabar,Fp,Fpbar,Fpbar_rigid,Tp,eta,h,hbar,max_re,n_unstable,stable"
+    );
+    assert!(branch.lines().count() > 5);
+    let events = std::fs::read_to_string(dir.join("events.csv")).unwrap();
+    assert!(
+        events.lines().nth(1).unwrap().starts_with("hopf,"),
+        "{events}"
+    );
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap();
+    assert_eq!(meta["nodes"], 24);
+    assert!(meta["crate_version"].is_string() && meta["command_line"].is_array());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,3 +1,135 @@
-//! Generic numerical continuation machinery; it never names a rod.
+//! Numerical continuation and bifurcation detection, generic: this module never names a rod.
+//!
+//! A [`Problem`] is a smooth family `G(u, p) = 0` of `n` equations in `n` unknowns `u` and one
+//! parameter `p`, with the linearized dynamics `M du/dt = K du` whose eigenvalues decide the
+//! stability of a solution. [`arclength::follow`] traces a branch of solutions by
+//! pseudo-arclength continuation, [`stability`] computes the leading eigenvalues at each point,
+//! and [`events`] detects and pins down folds, branch points and Hopf points between points.
+//! [`reference`] holds canonical problems with exact answers (fold, pitchfork, Hopf normal form,
+//! Brusselator) shared by the tests and the benchmarks.
 
+pub mod arclength;
+pub mod events;
 pub mod newton;
+pub mod reference;
+pub mod stability;
+
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// `G`, `G_u = dG/du` and `G_p = dG/dp` at one point.
+pub struct Linearization {
+    pub g: Vec<f64>,
+    pub g_u: Mat<f64>,
+    pub g_p: Vec<f64>,
+}
+
+/// A one-parameter family of square nonlinear systems `G(u, p) = 0`.
+pub trait Problem {
+    /// Number of unknowns `n`.
+    fn dim(&self) -> usize;
+    /// `G(u, p)`.
+    fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>>;
+    /// `G`, `G_u` and `G_p` at `(u, p)`.
+    fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization>;
+    /// The point reached from `u` along `du`; any map equal to `u + du` to first order (see
+    /// [`newton::System::retract`]).
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        u.iter().zip(du).map(|(a, b)| a + b).collect()
+    }
+    /// The stability pair `(K, M)` at a solution: the linearized dynamics `M dv/dt = K v`,
+    /// eigenproblem `K v = s M v`, `M` symmetric positive definite.
+    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)>;
+    /// Typical sizes of a change of `u` (root mean square per unknown) and of `p`: the units of
+    /// the arclength.
+    fn scales(&self) -> (f64, f64) {
+        (1.0, 1.0)
+    }
+}
+
+/// Settings of the continuation, in the units of the problem's parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContinuationSettings {
+    /// Initial, smallest and largest arclength step (in the units of [`Problem::scales`]).
+    pub ds: f64,
+    pub ds_min: f64,
+    pub ds_max: f64,
+    /// Largest number of accepted points.
+    pub max_points: usize,
+    /// Newton iterations allowed to the corrector before the step is halved.
+    pub max_corrector: usize,
+    /// Residual norm at which the corrector has converged.
+    pub tol: f64,
+    /// Relative precision of a located event in the parameter, `|dp| <= event_tol * |p|`.
+    pub event_tol: f64,
+    /// Number of leading eigenvalues kept per point.
+    pub eigenvalues: usize,
+}
+
+impl Default for ContinuationSettings {
+    fn default() -> Self {
+        ContinuationSettings {
+            ds: 0.5,
+            ds_min: 1e-6,
+            ds_max: 4.0,
+            max_points: 400,
+            max_corrector: 8,
+            tol: 1e-9,
+            event_tol: 1e-8,
+            eigenvalues: 6,
+        }
+    }
+}
+
+impl ContinuationSettings {
+    /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
+    /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`.
+    pub fn validate(&self) -> Result<()> {
+        let ok = |c: bool, field: &str, msg: String| {
+            if c {
+                Ok(())
+            } else {
+                Err(Error::input(field, msg))
+            }
+        };
+        ok(
+            self.ds_min > 0.0
+                && self.ds_min <= self.ds
+                && self.ds <= self.ds_max
+                && self.ds_max.is_finite(),
+            "continuation.ds",
+            format!(
+                "need 0 < ds_min <= ds <= ds_max < inf, got ds_min = {}, ds = {}, ds_max = {}",
+                self.ds_min, self.ds, self.ds_max
+            ),
+        )?;
+        ok(
+            self.max_points >= 1,
+            "continuation.max_points",
+            format!("must be >= 1, got {}", self.max_points),
+        )?;
+        ok(
+            self.max_corrector >= 2,
+            "continuation.max_corrector",
+            format!("must be >= 2, got {}", self.max_corrector),
+        )?;
+        ok(
+            self.tol > 0.0 && self.tol < 1.0,
+            "continuation.tol",
+            format!("must lie in (0, 1), got {}", self.tol),
+        )?;
+        ok(
+            self.event_tol > 0.0 && self.event_tol < 1e-2,
+            "continuation.event_tol",
+            format!("must lie in (0, 0.01), got {}", self.event_tol),
+        )?;
+        ok(
+            self.eigenvalues >= 1,
+            "continuation.eigenvalues",
+            format!("must be >= 1, got {}", self.eigenvalues),
+        )
+    }
+}

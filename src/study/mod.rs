@@ -4,8 +4,11 @@
 //! overridden from the command line with `--set key=value` (dotted path, TOML value syntax, e.g.
 //! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
 
+pub mod runs;
+
 use serde::{Deserialize, Serialize};
 
+use crate::continuation::ContinuationSettings;
 use crate::continuation::newton::NewtonSettings;
 use crate::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use crate::{Error, Result};
@@ -23,10 +26,28 @@ pub struct Study {
     pub discretization: Discretization,
     #[serde(default)]
     pub newton: NewtonSettings,
+    #[serde(default)]
+    pub continuation: ContinuationSettings,
+    #[serde(default)]
+    pub branch: BranchRange,
 }
 
 fn default_name() -> String {
     "study".into()
+}
+
+/// How far a branch is followed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BranchRange {
+    /// Largest rotation rate followed (rad/s).
+    pub omega_max: f64,
+}
+
+impl Default for BranchRange {
+    fn default() -> Self {
+        BranchRange { omega_max: 2.0 }
+    }
 }
 
 impl Study {
@@ -40,6 +61,8 @@ impl Study {
             shape: p.shape,
             discretization: p.discretization,
             newton: NewtonSettings::default(),
+            continuation: ContinuationSettings::default(),
+            branch: BranchRange::default(),
         }
     }
 
@@ -80,6 +103,16 @@ impl Study {
             })?;
         study.physical().validate()?;
         study.newton.validate()?;
+        study.continuation.validate()?;
+        if !(study.branch.omega_max.is_finite() && study.branch.omega_max > 0.0) {
+            return Err(Error::input(
+                "branch.omega_max",
+                format!(
+                    "must be a finite number > 0 (rad/s), got {}",
+                    study.branch.omega_max
+                ),
+            ));
+        }
         Ok(study)
     }
 

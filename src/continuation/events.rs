@@ -1,0 +1,242 @@
+//! Events on a branch, pinned down between two consecutive points.
+//!
+//! * **fold**: the branch turns back in the parameter (the `p` part of the tangent changes
+//!   sign); a real eigenvalue crosses zero there;
+//! * **branch point**: a real eigenvalue crosses zero while the parameter goes on;
+//! * **Hopf point**: a complex pair crosses the imaginary axis.
+//!
+//! Between the points `a` and `b` the branch is sampled at arclength `sigma` from `a` (predictor
+//! along `a`'s tangent, corrector on the hyperplane) and the root of a scalar function is found by
+//! the Illinois variant of regula falsi: the `p` part of the tangent for a fold, the real part of
+//! the crossing eigenvalue (followed from sample to sample as the nearest one) otherwise. The
+//! search stops when the bracket in the parameter is narrower than `event_tol * max(|p|, P)` (`P`
+//! the parameter scale) and the bracket in arclength narrower than `sqrt(event_tol)` times the
+//! step (near a fold `p` is quadratic in the arclength, so a narrow bracket in `p` alone says
+//! nothing); the event is the point at the final regula falsi estimate of the root.
+
+use faer::c64;
+
+use super::arclength::{Metric, Point, correct, stability, tangent};
+use super::stability::{Spectrum, is_complex};
+use super::{ContinuationSettings, Problem};
+use crate::Result;
+
+/// The kind of an event.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EventKind {
+    Fold,
+    BranchPoint,
+    Hopf,
+}
+
+impl EventKind {
+    /// The name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Fold => "fold",
+            EventKind::BranchPoint => "branch_point",
+            EventKind::Hopf => "hopf",
+        }
+    }
+}
+
+/// A located event.
+#[derive(Clone, Debug)]
+pub struct Event {
+    pub kind: EventKind,
+    /// The solution and parameter at the event.
+    pub u: Vec<f64>,
+    pub p: f64,
+    /// Arclength of the event along the branch.
+    pub s: f64,
+    /// The critical eigenvalue there (real part near zero; imaginary part the Hopf frequency,
+    /// counted positive).
+    pub eigenvalue: c64,
+    /// The final bracket of the parameter, and its width relative to `max(|p|, P)`.
+    pub bracket: (f64, f64),
+    pub precision: f64,
+    /// Number of eigenvalues that crossed together (a Hopf pair counts once).
+    pub multiplicity: usize,
+    /// Unstable counts at the two points around the event.
+    pub unstable_before: usize,
+    pub unstable_after: usize,
+    /// The leading spectrum at the event.
+    pub spectrum: Spectrum,
+}
+
+/// What vanishes at the event.
+#[derive(Clone, Copy, Debug)]
+pub enum Target {
+    /// The `p` part of the tangent (a fold).
+    Turning,
+    /// The real part of the eigenvalue that crossed (given at `b`).
+    Crossing(c64),
+}
+
+/// The eigenvalue that crossed between spectra `a` and `b`: an unstable eigenvalue of the side
+/// with more of them whose nearest eigenvalue on the other side is stable (the one closest to
+/// the axis if several; the member with `Im >= 0` of a pair).
+pub fn crossing_eigenvalue(a: &Spectrum, b: &Spectrum) -> c64 {
+    let (more, less) = if b.unstable > a.unstable {
+        (b, a)
+    } else {
+        (a, b)
+    };
+    let unstable = &more.leading[..more.unstable];
+    let crossed = unstable
+        .iter()
+        .filter(|s| less.nearest(**s).re <= 0.0)
+        .min_by(|x, y| x.re.total_cmp(&y.re))
+        .or_else(|| unstable.last())
+        .expect("the side with more unstable eigenvalues has one");
+    c64::new(crossed.re, crossed.im.abs())
+}
+
+/// One evaluation inside the bracket.
+struct Sample {
+    sigma: f64,
+    u: Vec<f64>,
+    p: f64,
+    /// The tracked eigenvalue (imaginary part made non-negative).
+    value: c64,
+    tangent_p: f64,
+    spectrum: Spectrum,
+}
+
+/// Pins down the event of kind `target` between the consecutive points `a` and `b`.
+pub fn locate(
+    problem: &impl Problem,
+    a: &Point,
+    b: &Point,
+    target: Target,
+    multiplicity: usize,
+    metric: &Metric,
+    settings: &ContinuationSettings,
+) -> Result<Event> {
+    let p_scale = problem.scales().1;
+    let tracked_start = match target {
+        Target::Crossing(value) => value,
+        Target::Turning => c64::new(0.0, 0.0),
+    };
+    let sample_at = |sigma: f64, tracked: c64| -> Result<Sample> {
+        let step: Vec<f64> = a.tangent_u.iter().map(|t| sigma * t).collect();
+        let predicted = problem.retract(&a.u, &step);
+        let c = correct(
+            problem,
+            predicted,
+            a.p + sigma * a.tangent_p,
+            &a.tangent_u,
+            a.tangent_p,
+            metric,
+            settings,
+        )?;
+        // Only a fold needs the tangent (next to a branch point it is ill-defined).
+        let tangent_p = match target {
+            Target::Turning => tangent(&c.lin, metric, &a.tangent_u, a.tangent_p)?.1,
+            Target::Crossing(_) => a.tangent_p,
+        };
+        let spectrum = stability(problem, &c.u, c.p, settings.eigenvalues)?;
+        let value = spectrum.nearest(tracked);
+        Ok(Sample {
+            sigma,
+            u: c.u,
+            p: c.p,
+            value: c64::new(value.re, value.im.abs()),
+            tangent_p,
+            spectrum,
+        })
+    };
+    let from_point = |point: &Point, sigma: f64, tracked: c64| {
+        let value = point.spectrum.nearest(tracked);
+        Sample {
+            sigma,
+            u: point.u.clone(),
+            p: point.p,
+            value: c64::new(value.re, value.im.abs()),
+            tangent_p: point.tangent_p,
+            spectrum: point.spectrum.clone(),
+        }
+    };
+    let f = |s: &Sample| match target {
+        Target::Turning => s.tangent_p * a.tangent_p.signum(),
+        Target::Crossing(_) => s.value.re,
+    };
+    let mut lo = from_point(a, 0.0, tracked_start);
+    let mut hi = from_point(b, b.s - a.s, tracked_start);
+    // The function changes sign between lo and hi; make lo the negative side.
+    if f(&lo) > f(&hi) {
+        std::mem::swap(&mut lo, &mut hi);
+    }
+    let (mut f_lo, mut f_hi) = (f(&lo), f(&hi));
+    let step = (b.s - a.s).abs();
+    let converged = |lo: &Sample, hi: &Sample| {
+        (hi.p - lo.p).abs() <= settings.event_tol * lo.p.abs().max(p_scale)
+            && (hi.sigma - lo.sigma).abs() <= settings.event_tol.sqrt() * step
+    };
+    let estimate = |lo: &Sample, hi: &Sample, f_lo: f64, f_hi: f64| {
+        let sigma = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
+        if sigma.is_finite() && sigma != lo.sigma && sigma != hi.sigma {
+            sigma
+        } else {
+            0.5 * (lo.sigma + hi.sigma)
+        }
+    };
+    let tracked = |sigma: f64, lo: &Sample, hi: &Sample| {
+        if (sigma - lo.sigma).abs() < (sigma - hi.sigma).abs() {
+            lo.value
+        } else {
+            hi.value
+        }
+    };
+    let mut last_side = 0i8;
+    for _ in 0..100 {
+        if converged(&lo, &hi) || f_lo == 0.0 || f_hi == 0.0 {
+            break;
+        }
+        let sigma = estimate(&lo, &hi, f_lo, f_hi);
+        let s = sample_at(sigma, tracked(sigma, &lo, &hi))?;
+        if f(&s) < 0.0 {
+            lo = s;
+            f_lo = f(&lo);
+            if last_side == -1 {
+                f_hi *= 0.5;
+            }
+            last_side = -1;
+        } else {
+            hi = s;
+            f_hi = f(&hi);
+            if last_side == 1 {
+                f_lo *= 0.5;
+            }
+            last_side = 1;
+        }
+    }
+    let width = (hi.p - lo.p).abs() / lo.p.abs().max(p_scale);
+    let bracket = (lo.p.min(hi.p), lo.p.max(hi.p));
+    let best = if f(&lo) == 0.0 {
+        lo
+    } else if f(&hi) == 0.0 {
+        hi
+    } else {
+        let sigma = estimate(&lo, &hi, f(&lo), f(&hi));
+        sample_at(sigma, tracked(sigma, &lo, &hi))?
+    };
+    let (kind, eigenvalue) = match target {
+        Target::Turning => (EventKind::Fold, best.spectrum.nearest(c64::new(0.0, 0.0))),
+        Target::Crossing(_) if is_complex(best.value) => (EventKind::Hopf, best.value),
+        Target::Crossing(_) => (EventKind::BranchPoint, best.value),
+    };
+    Ok(Event {
+        kind,
+        u: best.u,
+        p: best.p,
+        s: a.s + best.sigma,
+        eigenvalue: c64::new(eigenvalue.re, eigenvalue.im.abs()),
+        bracket,
+        precision: width,
+        multiplicity,
+        unstable_before: a.spectrum.unstable,
+        unstable_after: b.spectrum.unstable,
+        spectrum: best.spectrum,
+    })
+}

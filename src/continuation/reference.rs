@@ -1,0 +1,116 @@
+//! Canonical problems with exact answers, for the tests and benchmarks of the engine.
+
+use faer::Mat;
+
+use super::{Linearization, Problem};
+use crate::Result;
+
+/// A small dense problem given by closures: `G(u, p)`, `G_u`, `G_p`; stability pair `(G_u, I)`.
+pub struct Analytic<G, J, P>
+where
+    G: Fn(&[f64], f64) -> Vec<f64>,
+    J: Fn(&[f64], f64) -> Vec<Vec<f64>>,
+    P: Fn(&[f64], f64) -> Vec<f64>,
+{
+    pub dim: usize,
+    pub g: G,
+    pub g_u: J,
+    pub g_p: P,
+}
+
+impl<G, J, P> Problem for Analytic<G, J, P>
+where
+    G: Fn(&[f64], f64) -> Vec<f64>,
+    J: Fn(&[f64], f64) -> Vec<Vec<f64>>,
+    P: Fn(&[f64], f64) -> Vec<f64>,
+{
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
+        Ok((self.g)(u, p))
+    }
+    fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
+        let j = (self.g_u)(u, p);
+        Ok(Linearization {
+            g: (self.g)(u, p),
+            g_u: Mat::from_fn(self.dim, self.dim, |r, c| j[r][c]),
+            g_p: (self.g_p)(u, p),
+        })
+    }
+    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)> {
+        let j = (self.g_u)(u, p);
+        Ok((
+            Mat::from_fn(self.dim, self.dim, |r, c| j[r][c]),
+            Mat::identity(self.dim, self.dim),
+        ))
+    }
+}
+
+/// Boxed closure types of the reference problems.
+pub type Residual = Box<dyn Fn(&[f64], f64) -> Vec<f64>>;
+pub type Jacobian = Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>;
+/// A reference problem.
+pub type Reference = Analytic<Residual, Jacobian, Residual>;
+
+/// Fold: `du/dt = u^2 - p`; the branch `p = u^2` turns back at `p = 0` (stable for `u < 0`).
+pub fn fold() -> Reference {
+    Analytic {
+        dim: 1,
+        g: Box::new(|u, p| vec![u[0] * u[0] - p]),
+        g_u: Box::new(|u, _| vec![vec![2.0 * u[0]]]),
+        g_p: Box::new(|_, _| vec![-1.0]),
+    }
+}
+
+/// Pitchfork with imperfection `eps`: `du/dt = p u - u^3 + eps`. For `eps = 0` the trivial branch
+/// loses stability at a branch point `p = 0`; for `eps > 0` the branch through `u > 0` is smooth
+/// and stable, and the other one has a fold at `p = 3 (eps/2)^(2/3)`, `u = -(eps/2)^(1/3)`.
+pub fn pitchfork(eps: f64) -> Reference {
+    Analytic {
+        dim: 1,
+        g: Box::new(move |u, p| vec![p * u[0] - u[0].powi(3) + eps]),
+        g_u: Box::new(|u, p| vec![vec![p - 3.0 * u[0] * u[0]]]),
+        g_p: Box::new(|u, _| vec![u[0]]),
+    }
+}
+
+/// Hopf normal form: `x' = p x - y - x r^2`, `y' = x + p y - y r^2`; the origin has eigenvalues
+/// `p +- i`: a Hopf point at `p = 0` with frequency 1.
+pub fn hopf_normal_form() -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(|u, p| {
+            let r2 = u[0] * u[0] + u[1] * u[1];
+            vec![p * u[0] - u[1] - u[0] * r2, u[0] + p * u[1] - u[1] * r2]
+        }),
+        g_u: Box::new(|u, p| {
+            let (x, y) = (u[0], u[1]);
+            vec![
+                vec![p - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
+                vec![1.0 - 2.0 * x * y, p - x * x - 3.0 * y * y],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![u[0], u[1]]),
+    }
+}
+
+/// Brusselator with parameter `p = b`: `x' = a - (b + 1) x + x^2 y`, `y' = b x - x^2 y`; the
+/// steady state `(a, b/a)` has a Hopf point at `b = 1 + a^2` with frequency `a`.
+pub fn brusselator(a: f64) -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, b| {
+            let (x, y) = (u[0], u[1]);
+            vec![a - (b + 1.0) * x + x * x * y, b * x - x * x * y]
+        }),
+        g_u: Box::new(|u, b| {
+            let (x, y) = (u[0], u[1]);
+            vec![
+                vec![-(b + 1.0) + 2.0 * x * y, x * x],
+                vec![b - 2.0 * x * y, -x * x],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![-u[0], u[0]]),
+    }
+}

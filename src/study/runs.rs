@@ -1,0 +1,329 @@
+//! The runs behind `helixbif branch` and `helixbif locate`: continuation with results streamed
+//! to disk and progress on stderr.
+
+use std::path::Path;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::branch::{Located, locate, observables_at, rest_state, trace};
+use crate::continuation::arclength::{Observer, Point, Stop};
+use crate::continuation::events::Event;
+use crate::fit::{Extrapolated, richardson};
+use crate::model::{Model, admissible_max_nodes};
+use crate::output::{CsvWriter, Meta, create_dir};
+use crate::steady::SteadyState;
+use crate::study::Study;
+use crate::{Error, Result};
+
+/// One row of `branch.csv`.
+#[derive(Serialize)]
+pub struct BranchRow {
+    pub s: f64,
+    pub omega: f64,
+    pub omegabar: f64,
+    #[serde(rename = "Fp")]
+    pub fp: f64,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: f64,
+    #[serde(rename = "Fpbar_rigid")]
+    pub fpbar_rigid: f64,
+    #[serde(rename = "Tp")]
+    pub tp: f64,
+    pub eta: Option<f64>,
+    pub h: f64,
+    pub hbar: f64,
+    pub max_re: f64,
+    pub n_unstable: usize,
+    pub stable: bool,
+}
+
+/// One row of `events.csv`: the eigenvalue in SI (1/s) and normalized.
+#[derive(Serialize)]
+pub struct EventRow {
+    pub kind: &'static str,
+    pub omega: f64,
+    pub omegabar: f64,
+    pub re: f64,
+    pub im: f64,
+    pub rebar: f64,
+    pub imbar: f64,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: f64,
+    pub hbar: f64,
+    pub precision: f64,
+    pub unstable_before: usize,
+    pub unstable_after: usize,
+}
+
+/// A progress bar over `[0, omegabar_max]`, drawn on stderr (hidden when it is not a terminal).
+fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(1000);
+    let style = ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} {msg}")
+        .expect("a valid template");
+    bar.set_style(style);
+    bar.set_prefix(what.to_string());
+    bar.set_message(format!("up to omegabar = {omegabar_max:.4e}"));
+    bar
+}
+
+/// Streams the points and events of a branch to CSV files and a progress bar.
+struct BranchWriter<'a> {
+    model: &'a Model,
+    rest: &'a SteadyState,
+    rigid_slope: f64,
+    points: CsvWriter,
+    events: CsvWriter,
+    rows: Vec<BranchRow>,
+    event_rows: Vec<EventRow>,
+    bar: ProgressBar,
+    omegabar_max: f64,
+    error: Option<Error>,
+}
+
+impl BranchWriter<'_> {
+    fn record(&mut self, result: Result<()>) {
+        if let (Err(e), None) = (result, &self.error) {
+            self.error = Some(e);
+        }
+    }
+}
+
+impl Observer for BranchWriter<'_> {
+    fn point(&mut self, point: &Point) {
+        let result = observables_at(self.model, self.rest, &point.u, point.p).and_then(|o| {
+            let row = BranchRow {
+                s: point.s,
+                omega: o.omega,
+                omegabar: o.omegabar,
+                fp: o.fp,
+                fpbar: o.fpbar,
+                fpbar_rigid: self.rigid_slope * o.omegabar,
+                tp: o.tp,
+                eta: o.eta,
+                h: o.h,
+                hbar: o.hbar,
+                max_re: point.spectrum.max_re() / self.model.scales.time,
+                n_unstable: point.spectrum.unstable,
+                stable: point.spectrum.unstable == 0,
+            };
+            self.points.row(&row)?;
+            self.rows.push(row);
+            Ok(())
+        });
+        self.record(result);
+        let fraction = (point.p / self.omegabar_max).clamp(0.0, 1.0);
+        self.bar.set_position((fraction * 1000.0) as u64);
+        self.bar.set_message(format!(
+            "omega = {:.4} rad/s, {} unstable",
+            self.model.scales.omega_from_bar(point.p),
+            point.spectrum.unstable
+        ));
+    }
+
+    fn event(&mut self, event: &Event) {
+        let time = self.model.scales.time;
+        let result = observables_at(self.model, self.rest, &event.u, event.p).and_then(|o| {
+            let row = EventRow {
+                kind: event.kind.name(),
+                omega: o.omega,
+                omegabar: event.p,
+                re: event.eigenvalue.re / time,
+                im: event.eigenvalue.im / time,
+                rebar: event.eigenvalue.re,
+                imbar: event.eigenvalue.im,
+                fpbar: o.fpbar,
+                hbar: o.hbar,
+                precision: event.precision,
+                unstable_before: event.unstable_before,
+                unstable_after: event.unstable_after,
+            };
+            self.events.row(&row)?;
+            self.event_rows.push(row);
+            Ok(())
+        });
+        self.record(result);
+    }
+}
+
+/// What `helixbif branch` reports.
+#[derive(Serialize)]
+pub struct BranchReport {
+    pub points: usize,
+    pub events: usize,
+    pub stop: String,
+    pub seconds: f64,
+    pub omega_max: f64,
+    pub out: String,
+}
+
+/// The rows of a traced branch, for figures.
+pub struct BranchTables {
+    pub points: Vec<BranchRow>,
+    pub events: Vec<EventRow>,
+}
+
+/// Follows the branch from rest to `omega_max` (rad/s), writing `branch.csv`, `events.csv` and
+/// `meta.json` into `dir` as it goes.
+pub fn run_branch(
+    study: &Study,
+    model: &Model,
+    omega_max: f64,
+    dir: &Path,
+) -> Result<(BranchReport, BranchTables)> {
+    let start = Instant::now();
+    model.check_resolution()?;
+    create_dir(dir)?;
+    let rest = rest_state(model, &study.newton)?;
+    let omegabar_max = model.scales.omega_to_bar(omega_max);
+    let mut writer = BranchWriter {
+        model,
+        rest: &rest,
+        rigid_slope: model.rigid_thrust(1.0)?,
+        points: CsvWriter::create(&dir.join("branch.csv"))?,
+        events: CsvWriter::create(&dir.join("events.csv"))?,
+        rows: Vec::new(),
+        event_rows: Vec::new(),
+        bar: progress(omegabar_max, "branch"),
+        omegabar_max,
+        error: None,
+    };
+    let traced = trace(
+        model,
+        &rest,
+        omegabar_max,
+        &study.continuation,
+        false,
+        &mut writer,
+    );
+    writer.bar.finish_and_clear();
+    if let Some(e) = writer.error {
+        return Err(e);
+    }
+    let branch = traced?;
+    let stop = match &branch.stop {
+        Stop::ParameterLimit => "omega_max reached".to_string(),
+        Stop::MaxPoints => "max_points reached".to_string(),
+        Stop::FirstInstability => "first instability".to_string(),
+        Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
+    };
+    let report = BranchReport {
+        points: branch.points.len(),
+        events: branch.events.len(),
+        stop,
+        seconds: start.elapsed().as_secs_f64(),
+        omega_max,
+        out: dir.display().to_string(),
+    };
+    Meta::new(study, model.scales, &report).write(&dir.join("meta.json"))?;
+    let tables = BranchTables {
+        points: writer.rows,
+        events: writer.event_rows,
+    };
+    if let Stop::StepTooSmall(reason) = &branch.stop {
+        return Err(Error::Numerical(format!(
+            "continuation stalled at omega = {:.6e} rad/s ({reason}); the {} points found are in {}",
+            tables.points.last().map_or(0.0, |r| r.omega),
+            tables.points.len(),
+            dir.display()
+        )));
+    }
+    Ok((report, tables))
+}
+
+/// A spinner observer for `locate`.
+struct LocateProgress<'a> {
+    model: &'a Model,
+    bar: ProgressBar,
+    omegabar_max: f64,
+}
+
+impl Observer for LocateProgress<'_> {
+    fn point(&mut self, point: &Point) {
+        self.bar
+            .set_position(((point.p / self.omegabar_max).clamp(0.0, 1.0) * 1000.0) as u64);
+        self.bar.set_message(format!(
+            "omega = {:.5} rad/s",
+            self.model.scales.omega_from_bar(point.p)
+        ));
+    }
+}
+
+/// `locate` on one model, with a progress bar.
+pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
+    let omegabar_max = model.scales.omega_to_bar(study.branch.omega_max);
+    let mut observer = LocateProgress {
+        model,
+        bar: progress(omegabar_max, &format!("locate N = {}", model.nodes())),
+        omegabar_max,
+    };
+    let result = locate(
+        model,
+        study.branch.omega_max,
+        &study.newton,
+        &study.continuation,
+        &mut observer,
+    );
+    observer.bar.finish_and_clear();
+    Ok(result?.0)
+}
+
+/// `locate --extrapolate`: `omega_b` over a ladder of node counts and its Richardson limit.
+#[derive(Serialize)]
+pub struct Ladder {
+    pub nodes: Vec<usize>,
+    pub omega_b: Vec<f64>,
+    pub omegabar_b: Vec<f64>,
+    pub kinds: Vec<String>,
+    pub omega_b_extrapolated: f64,
+    pub omega_b_error: f64,
+    pub omegabar_b_extrapolated: f64,
+    pub order: f64,
+    /// Largest admissible node count of the study (MODEL.md section 3).
+    pub nodes_max: usize,
+}
+
+/// The default ladder: five node counts evenly spaced from half the admissible maximum to two
+/// below it.
+pub fn default_ladder(study: &Study) -> Vec<usize> {
+    let max = admissible_max_nodes(&study.physical())
+        .saturating_sub(2)
+        .max(10);
+    let min = (max / 2).max(8);
+    (0..5).map(|k| min + (max - min) * k / 4).collect()
+}
+
+/// Runs `locate` at each node count of `ladder` and extrapolates.
+pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
+    let mut results = Vec::new();
+    for &n in ladder {
+        let mut s = study.clone();
+        s.discretization.nodes = n;
+        let model = Model::new(&s.physical())?;
+        let located = run_locate(&s, &model)?;
+        let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) else {
+            return Err(Error::Numerical(format!(
+                "no instability up to omega_max = {} rad/s at N = {n}: nothing to extrapolate",
+                s.branch.omega_max
+            )));
+        };
+        results.push((n, w, wb, located.kind));
+    }
+    let nodes: Vec<usize> = results.iter().map(|r| r.0).collect();
+    let omega_b: Vec<f64> = results.iter().map(|r| r.1).collect();
+    let omegabar_b: Vec<f64> = results.iter().map(|r| r.2).collect();
+    let e: Extrapolated = richardson(&nodes, &omega_b)?;
+    let ratio = omegabar_b[0] / omega_b[0];
+    Ok(Ladder {
+        nodes_max: admissible_max_nodes(&study.physical()),
+        kinds: results.into_iter().map(|r| r.3).collect(),
+        nodes,
+        omega_b,
+        omegabar_b,
+        omega_b_extrapolated: e.value,
+        omega_b_error: e.error,
+        omegabar_b_extrapolated: e.value * ratio,
+        order: e.order,
+    })
+}

@@ -1,0 +1,217 @@
+//! Continuation of the rod: Greenhill's column, agreement with `solve`, convergence of `omega_b`
+//! for the representative helix, and a branch followed around two folds.
+
+use helixbif::branch::{Parameter, RodProblem, locate, observables_at, rest_state, trace};
+use helixbif::continuation::ContinuationSettings;
+use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
+use helixbif::continuation::events::EventKind;
+use helixbif::continuation::newton::NewtonSettings;
+use helixbif::fit::richardson;
+use helixbif::model::Model;
+use helixbif::params::{Discretization, FluidParams, Handedness, Physical, RodParams, ShapeParams};
+use helixbif::solve::solve_at;
+
+/// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its
+/// own weight at `q L^3 / EI = 7.8373` (continuum).
+fn greenhill(nodes: usize) -> f64 {
+    let physical = Physical {
+        rod: RodParams {
+            youngs_modulus: 1e6,
+            r0: 1e-3,
+            rho: 1000.0,
+            nu: 0.5,
+        },
+        fluid: FluidParams {
+            mu: 1.0,
+            rho: 0.0,
+            g: 9.81,
+            quadrature: Default::default(),
+        },
+        shape: ShapeParams::Straight {
+            length: 1.0,
+            alpha_deg: 180.0,
+        },
+        discretization: Discretization { nodes },
+    };
+    let model = Model::new(&physical).unwrap();
+    let problem = RodProblem {
+        model: &model,
+        parameter: Parameter::Weight,
+    };
+    let u0 = problem.steady(0.0).free_vector(&model.natural_config());
+    let settings = ContinuationSettings {
+        ds: 1.0,
+        ..ContinuationSettings::default()
+    };
+    let limits = Limits {
+        p_min: -1.0,
+        p_max: 20.0,
+        stop_at_first_instability: true,
+    };
+    let branch = follow(&problem, u0, 0.0, 1.0, &settings, &limits, &mut Silent).unwrap();
+    assert_eq!(branch.stop, Stop::FirstInstability);
+    let event = branch.events.last().unwrap();
+    assert_eq!(event.kind, EventKind::BranchPoint);
+    // The two bending planes of the round rod buckle together.
+    assert_eq!(event.multiplicity, 2);
+    event.p
+}
+
+#[test]
+fn greenhill_column_buckles_under_its_own_weight() {
+    let exact = 7.8373;
+    let nodes = [20, 40, 80];
+    let q: Vec<f64> = nodes.iter().map(|&n| greenhill(n)).collect();
+    println!("Greenhill q L^3/EI at N = {nodes:?}: {q:?}");
+    let errors: Vec<f64> = q.iter().map(|v| (v - exact).abs()).collect();
+    // First order in 1/N: the error halves as N doubles (the clamped first edge).
+    for w in errors.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            ratio > 1.6 && ratio < 2.6,
+            "error ratio {ratio}: {errors:?}"
+        );
+    }
+    let extrapolated = richardson(&nodes, &q).unwrap();
+    println!("Richardson: {extrapolated:?}");
+    assert!(
+        (extrapolated.value - exact).abs() < 2e-3 * exact,
+        "{extrapolated:?}"
+    );
+}
+
+#[test]
+fn branch_points_agree_with_solve() {
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = 30;
+    let model = Model::new(&physical).unwrap();
+    let newton = NewtonSettings::default();
+    let rest = rest_state(&model, &newton).unwrap();
+    let branch = trace(
+        &model,
+        &rest,
+        150.0,
+        &ContinuationSettings::default(),
+        false,
+        &mut Silent,
+    )
+    .unwrap();
+    let mut checked = 0;
+    for point in branch.points.iter().skip(3).step_by(4) {
+        let from_branch = observables_at(&model, &rest, &point.u, point.p).unwrap();
+        let solved = solve_at(&model, point.p, &newton).unwrap().observables;
+        for (a, b) in [
+            (from_branch.fp, solved.fp),
+            (from_branch.tp, solved.tp),
+            (from_branch.hbar, solved.hbar),
+            (from_branch.h, solved.h),
+        ] {
+            assert!(
+                (a - b).abs() <= 1e-8 * b.abs(),
+                "omegabar {}: {a} vs {b}",
+                point.p
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked >= 3);
+}
+
+#[test]
+fn omega_b_of_the_representative_helix_converges_in_n() {
+    let newton = NewtonSettings::default();
+    let settings = ContinuationSettings::default();
+    let mut results = Vec::new();
+    for nodes in [30, 40, 60, 80] {
+        let mut physical = Physical::representative();
+        physical.discretization.nodes = nodes;
+        let model = Model::new(&physical).unwrap();
+        let (located, event) = locate(&model, 2.0, &newton, &settings, &mut Silent).unwrap();
+        let event = event.expect("an instability below 2 rad/s");
+        assert_eq!(located.kind, "hopf");
+        assert!(located.precision.unwrap() <= 1e-8);
+        // The critical mode oscillates in the co-rotating frame near the rotation rate.
+        let im = located.im.unwrap();
+        let omega_b = located.omega_b.unwrap();
+        assert!(
+            im > 0.5 * omega_b && im < 1.5 * omega_b,
+            "Im(s) {im} vs omega_b {omega_b}"
+        );
+        assert_eq!(event.unstable_before, 0);
+        results.push(omega_b);
+    }
+    println!("omega_b at N = 30, 40, 60, 80: {results:?}");
+    let d: Vec<f64> = results.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
+    assert!(d[0] > d[1] && d[1] > d[2], "differences {d:?}");
+}
+
+#[test]
+fn a_branch_with_two_folds_is_followed_around_both() {
+    // The representative helix turned the other way (left-handed at omega > 0): the branch
+    // folds back at omega ~ 0.26 rad/s and forward again at ~ 0.12 rad/s (an S-shaped curve).
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = 40;
+    if let ShapeParams::Helix { handedness, .. } = &mut physical.shape {
+        *handedness = Handedness::Left;
+    }
+    let model = Model::new(&physical).unwrap();
+    let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
+    let omegabar_max = model.scales.omega_to_bar(0.6);
+    let branch = trace(
+        &model,
+        &rest,
+        omegabar_max,
+        &ContinuationSettings::default(),
+        false,
+        &mut Silent,
+    )
+    .unwrap();
+    let folds: Vec<_> = branch
+        .events
+        .iter()
+        .filter(|e| e.kind == EventKind::Fold)
+        .collect();
+    assert_eq!(
+        folds.len(),
+        2,
+        "{:?}",
+        branch
+            .events
+            .iter()
+            .map(|e| (e.kind, e.p))
+            .collect::<Vec<_>>()
+    );
+    let (upper, lower) = (folds[0].p, folds[1].p);
+    assert!(upper > lower);
+    // Each fold is a turning point: the branch before the first fold stays below it, and the
+    // part between the folds stays above the second.
+    let max_before_lower = branch
+        .points
+        .iter()
+        .take_while(|q| q.tangent_p > 0.0)
+        .map(|q| q.p)
+        .fold(f64::MIN, f64::max);
+    assert!(
+        max_before_lower <= upper * (1.0 + 1e-9),
+        "{max_before_lower} vs fold {upper}"
+    );
+    let min_between = branch
+        .points
+        .iter()
+        .skip_while(|q| q.tangent_p > 0.0)
+        .take_while(|q| q.tangent_p < 0.0)
+        .map(|q| q.p)
+        .fold(f64::MAX, f64::min);
+    assert!(
+        min_between >= lower * (1.0 - 1e-9),
+        "{min_between} vs fold {lower}"
+    );
+    // After the second fold the branch goes up in omega again.
+    let last = branch.points.last().unwrap();
+    assert!(last.tangent_p > 0.0 && last.p > lower);
+    println!(
+        "folds at omega = {:.8} and {:.8} rad/s",
+        model.scales.omega_from_bar(upper),
+        model.scales.omega_from_bar(lower)
+    );
+}
