@@ -10,7 +10,7 @@ use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
 use crate::model::Model;
-use crate::steady::{self, Observables, Steady, SteadyState, height};
+use crate::steady::{Observables, Steady, SteadyState, height};
 
 /// The continuation parameter of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,17 +84,7 @@ impl Problem for RodProblem<'_> {
     }
 }
 
-/// The state hanging at rest (`omega = 0`), by Newton's method from the natural shape.
-pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyState> {
-    steady::solve(
-        model,
-        0.0,
-        model.weight,
-        &model.natural_config(),
-        &model.chart,
-        settings,
-    )
-}
+pub use crate::solve::rest_state;
 
 /// Continuation in `omegabar` from rest up to `omegabar_max`.
 pub fn trace(

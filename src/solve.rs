@@ -39,19 +39,54 @@ const RAMP_ITERATIONS: usize = 8;
 /// Smallest ramp step, relative to the target rate, before giving up.
 const RAMP_MIN_FRACTION: f64 = 1e-4;
 
-/// Solves for the steady state at `omegabar`: first the shape hanging at rest (Newton from the
-/// natural shape, no flow), then the rotating state reached by ramping the rate from rest with
-/// adaptive steps (the motor spinning up). Each step starts from a secant extrapolation of the
-/// last two states, so that Newton starts inside its (narrow) basin of quadratic convergence;
-/// a step whose Newton solve fails is halved, an easy one doubled. The report counts every
-/// Newton iteration of the ramp.
-pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Result<Solution> {
+/// The load a ramp increases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Load {
+    /// The rotation rate `omegabar` (weight at the model's value).
+    Omega,
+    /// The weight per length (no rotation).
+    Weight,
+}
+
+impl Load {
+    /// `(omegabar, weight)` at load value `v`.
+    fn at(self, model: &Model, v: f64) -> (f64, f64) {
+        match self {
+            Load::Omega => (v, model.weight),
+            Load::Weight => (0.0, v),
+        }
+    }
+
+    fn of(self, state: &SteadyState) -> f64 {
+        match self {
+            Load::Omega => state.omega,
+            Load::Weight => state.weight,
+        }
+    }
+}
+
+/// The shape hanging at rest (`omega = 0`): Newton's method from the natural shape, the weight
+/// ramped up from zero (where the natural shape is exact) when a heavy rod defeats a direct
+/// solve.
+pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyState> {
     let natural = model.natural_config();
-    let rest = steady::solve(model, 0.0, model.weight, &natural, &model.chart, settings)?;
+    steady::solve(model, 0.0, model.weight, &natural, &model.chart, settings).or_else(|_| {
+        let weightless = steady::solve(model, 0.0, 0.0, &natural, &model.chart, settings)?;
+        ramp(model, &weightless, Load::Weight, model.weight, settings)
+    })
+}
+
+/// Solves for the steady state at `omegabar`: first the shape hanging at rest, then the rotating
+/// state reached by ramping the rate from rest with adaptive steps (the motor spinning up). Each
+/// step starts from a secant extrapolation of the last two states, so that Newton starts inside
+/// its (narrow) basin of quadratic convergence; a step whose Newton solve fails is halved, an
+/// easy one doubled. The report counts every Newton iteration of the ramp.
+pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Result<Solution> {
+    let rest = rest_state(model, settings)?;
     if omegabar != 0.0 {
         model.check_resolution()?;
     }
-    let state = ramp(model, &rest, omegabar, settings)?;
+    let state = ramp(model, &rest, Load::Omega, omegabar, settings)?;
     let problem = Steady::new(model, omegabar);
     let forces = match problem.drag(&state.config.x)? {
         Some(d) => d.forces,
@@ -66,12 +101,13 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
     })
 }
 
-/// Continuation in `omega` from `rest` to `target` by natural-parameter steps with a secant
+/// Natural-parameter continuation of `load` from the state `start` to `target`, with a secant
 /// predictor. The step is doubled after an easy solve (at most 4 iterations), shortened after a
 /// laborious one (7 or more) and halved after a failure.
 fn ramp(
     model: &Model,
-    rest: &SteadyState,
+    start: &SteadyState,
+    load: Load,
     target: f64,
     settings: &NewtonSettings,
 ) -> Result<SteadyState> {
@@ -79,35 +115,30 @@ fn ramp(
         max_iter: settings.max_iter.min(RAMP_ITERATIONS),
         ..settings.clone()
     };
-    let mut current = rest.clone();
+    let mut current = start.clone();
     let mut previous: Option<SteadyState> = None;
-    let mut step = target;
-    let mut iterations = rest.report.iterations;
-    let mut history = rest.report.history.clone();
-    while current.omega != target {
-        let omega = if (target - current.omega).abs() <= step.abs() {
+    let mut step = target - load.of(start);
+    let mut iterations = start.report.iterations;
+    let mut history = start.report.history.clone();
+    while load.of(&current) != target {
+        let here = load.of(&current);
+        let value = if (target - here).abs() <= step.abs() {
             target
         } else {
-            current.omega + step
+            here + step
         };
+        let (omega, weight) = load.at(model, value);
         let guess = match &previous {
             Some(p) => Steady::new(model, omega).extrapolate(
                 &current.config,
                 &p.config,
-                current.omega,
-                p.omega,
-                omega,
+                here,
+                load.of(p),
+                value,
             ),
             None => current.config.clone(),
         };
-        match steady::solve(
-            model,
-            omega,
-            model.weight,
-            &guess,
-            &current.chart,
-            &step_settings,
-        ) {
+        match steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
             Ok(next) => {
                 iterations += next.report.iterations;
                 history.extend_from_slice(&next.report.history);

@@ -1,0 +1,131 @@
+//! Cost of `locate` (continuation from rest to the first loss of stability, pinned down to
+//! 1e-8): on the representative helix at N = 30, 50, 70, and on a longer rod (l = 0.4 m, whose
+//! admissible range reaches N = 150) at N = 100 and 150; with the share of the time spent in
+//! residual/Jacobian evaluations, in the stability pair (twist elimination and Z_ff), and in the
+//! engine (bordered solves, eigenvalues), and the number of points and corrector iterations.
+//!
+//! Run: `cargo bench --bench locate`.
+
+mod common;
+
+use std::cell::RefCell;
+use std::time::Instant;
+
+use faer::Mat;
+use helixbif::Result;
+use helixbif::branch::{Parameter, RodProblem, rest_state};
+use helixbif::continuation::arclength::{Limits, Silent, follow};
+use helixbif::continuation::newton::NewtonSettings;
+use helixbif::continuation::{ContinuationSettings, Linearization, Problem};
+use helixbif::model::Model;
+use helixbif::params::{Physical, ShapeParams};
+
+/// The rod problem with a stopwatch on each call.
+struct Timed<'a> {
+    inner: RodProblem<'a>,
+    linearize: RefCell<(usize, f64)>,
+    residual: RefCell<(usize, f64)>,
+    stability: RefCell<(usize, f64)>,
+}
+
+fn timed<T>(cell: &RefCell<(usize, f64)>, f: impl FnOnce() -> T) -> T {
+    let t = Instant::now();
+    let out = f();
+    let mut c = cell.borrow_mut();
+    c.0 += 1;
+    c.1 += t.elapsed().as_secs_f64();
+    out
+}
+
+impl Problem for Timed<'_> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
+        timed(&self.residual, || self.inner.residual(u, p))
+    }
+    fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
+        timed(&self.linearize, || self.inner.linearize(u, p))
+    }
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        self.inner.retract(u, du)
+    }
+    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)> {
+        timed(&self.stability, || self.inner.stability_pair(u, p))
+    }
+    fn scales(&self) -> (f64, f64) {
+        self.inner.scales()
+    }
+}
+
+fn run(label: &str, physical: &Physical) {
+    let model = Model::new(physical).expect("valid benchmark model");
+    let start = Instant::now();
+    let rest = rest_state(&model, &NewtonSettings::default()).expect("rest state");
+    let problem = Timed {
+        inner: RodProblem {
+            model: &model,
+            parameter: Parameter::Omega,
+        },
+        linearize: RefCell::new((0, 0.0)),
+        residual: RefCell::new((0, 0.0)),
+        stability: RefCell::new((0, 0.0)),
+    };
+    let u0 = problem.inner.steady(0.0).free_vector(&rest.config);
+    let limits = Limits {
+        p_min: -1.0,
+        p_max: model.scales.omega_to_bar(2.0),
+        stop_at_first_instability: true,
+    };
+    let branch = follow(
+        &problem,
+        u0,
+        0.0,
+        1.0,
+        &ContinuationSettings::default(),
+        &limits,
+        &mut Silent,
+    )
+    .expect("locate");
+    let total = start.elapsed().as_secs_f64();
+    let (nl, tl) = *problem.linearize.borrow();
+    let (ns, ts) = *problem.stability.borrow();
+    let (nr, tr) = *problem.residual.borrow();
+    let omega_b = branch
+        .events
+        .last()
+        .map_or(f64::NAN, |e| model.scales.omega_from_bar(e.p));
+    let iterations: usize = branch.points.iter().map(|p| p.iterations).sum();
+    let engine = total - tl - ts - tr;
+    println!(
+        "{label:>14} {:>4} {:>8.3}s  omega_b {omega_b:.6}  points {:>3} corrector its {:>4}  linearize {nl:>4} x {:>6.2}ms = {:>4.1}%  stability {ns:>3} x {:>6.2}ms = {:>4.1}%  residual {nr:>3} = {:>4.1}%  engine (LU, eigen) {:>4.1}%",
+        model.nodes(),
+        total,
+        branch.points.len(),
+        iterations,
+        tl / nl.max(1) as f64 * 1e3,
+        100.0 * tl / total,
+        ts / ns.max(1) as f64 * 1e3,
+        100.0 * ts / total,
+        100.0 * tr / total,
+        100.0 * engine / total
+    );
+}
+
+fn main() {
+    faer::set_global_parallelism(faer::Par::Seq);
+    println!("locate, {}", common::machine());
+    for n in [30, 50, 70] {
+        let mut p = Physical::representative();
+        p.discretization.nodes = n;
+        run("default", &p);
+    }
+    for n in [100, 150] {
+        let mut p = Physical::representative();
+        if let ShapeParams::Helix { l, .. } = &mut p.shape {
+            *l = 0.4;
+        }
+        p.discretization.nodes = n;
+        run("l = 0.4 m", &p);
+    }
+}

@@ -1,0 +1,77 @@
+//! Cost of the steady solver: one residual, one Jacobian, one Newton solve at omega = 0.3 rad/s
+//! (from the natural shape, through the ramp in omega), for the representative helix at
+//! N = 30, 50, 70 and a thinner rod (r0 = 0.4 mm) at N = 100, 200, 300.
+//!
+//! Run: `cargo bench --bench steady`.
+
+mod common;
+
+use helixbif::continuation::newton::{NewtonSettings, System};
+use helixbif::model::Model;
+use helixbif::params::Physical;
+use helixbif::solve::solve_at;
+use helixbif::steady::Steady;
+
+fn model(r0: f64, nodes: usize) -> Model {
+    let mut p = Physical::representative();
+    p.rod.r0 = r0;
+    p.discretization.nodes = nodes;
+    Model::new(&p).expect("valid benchmark model")
+}
+
+fn main() {
+    faer::set_global_parallelism(faer::Par::Seq);
+    println!("steady solver, {}", common::machine());
+    println!(
+        "{:>10} {:>5} {:>12} {:>12} {:>12} {:>10}",
+        "rod", "N", "residual", "jacobian", "newton", "iterations"
+    );
+    for (label, r0, ladder) in [
+        ("default", 1.58e-3, [30, 50, 70]),
+        ("r0=0.4mm", 0.4e-3, [100, 200, 300]),
+    ] {
+        let mut rows = Vec::new();
+        for n in ladder {
+            let m = model(r0, n);
+            let omegabar = m.scales.omega_to_bar(0.3);
+            let problem = Steady::new(&m, omegabar);
+            let u = problem.free_vector(&m.natural_config());
+            let repeats = if n > 150 { 3 } else { 11 };
+            let residual = common::median_seconds(repeats, || {
+                problem.residual(&u).expect("residual");
+            });
+            let jacobian = common::median_seconds(repeats, || {
+                problem.residual_and_jacobian(&u).expect("jacobian");
+            });
+            let mut iterations = 0;
+            let newton = common::median_seconds(if n > 150 { 1 } else { 5 }, || {
+                iterations = solve_at(&m, omegabar, &NewtonSettings::default())
+                    .expect("solve")
+                    .state
+                    .report
+                    .iterations;
+            });
+            println!(
+                "{label:>10} {n:>5} {:>10.3}ms {:>10.3}ms {:>10.3}ms {iterations:>10}",
+                residual * 1e3,
+                jacobian * 1e3,
+                newton * 1e3
+            );
+            rows.push((n, residual, jacobian, newton));
+        }
+        let g = |k: usize| {
+            common::growth(
+                &rows
+                    .iter()
+                    .map(|r| (r.0, [r.1, r.2, r.3][k]))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        println!(
+            "{label:>10} growth exponents in N: residual {:.2?}, jacobian {:.2?}, newton {:.2?}",
+            g(0),
+            g(1),
+            g(2)
+        );
+    }
+}
