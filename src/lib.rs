@@ -16,6 +16,7 @@ pub mod fluid;
 pub mod model;
 pub mod output;
 pub mod params;
+pub mod plot;
 pub mod rod;
 pub mod shape;
 pub mod solve;

@@ -6,9 +6,10 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
 use helixbif::model::Model;
+use helixbif::params::ShapeParams;
 use helixbif::solve::{Solution, solve_at};
-use helixbif::study::Study;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
+use helixbif::study::{Study, figures};
 
 /// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
 /// (Discrete Elastic Rods + Lighthill slender-body theory).
@@ -168,6 +169,12 @@ fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> anyh
         Path::to_path_buf,
     );
     let (report, tables) = run_branch(&study_file, &model, omega_max, &dir)?;
+    let case = figures::Case {
+        label: &study_file.name,
+        tables: &tables,
+        rigid: matches!(study_file.shape, ShapeParams::Helix { .. }),
+    };
+    figures::branch_figures(&dir, &study_file.name, &[case])?;
     if study.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

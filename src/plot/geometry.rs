@@ -1,0 +1,232 @@
+//! Turning a [`Series`] into drawable pieces: which points can be shown, where a line breaks
+//! or changes between solid and dashed, and the outlines of error bands and bars.
+//!
+//! These are pure functions of the data and the axes, kept apart from the drawing code so the
+//! rules (documented on [`Series`]) are easy to check.
+
+use super::axis::Axis;
+use super::{Series, Style};
+
+/// A point in data coordinates.
+pub type Point = (f64, f64);
+
+/// A connected piece of a line series, drawn with one stroke.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    pub points: Vec<Point>,
+    pub dashed: bool,
+}
+
+/// A vertical error bar.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorBar {
+    pub x: f64,
+    pub lo: f64,
+    pub hi: f64,
+    /// The lower end was cut at the bottom of a log axis, so it must not get a cap (a cap would
+    /// claim the error ends there).
+    pub cut: bool,
+}
+
+/// Whether point `i` of `s` can be drawn on these axes.
+fn shown(s: &Series, i: usize, xa: &Axis, ya: &Axis) -> bool {
+    xa.shows(s.x[i]) && ya.shows(s.y[i])
+}
+
+/// The error of point `i`, if the series has one that can be drawn.
+fn error(s: &Series, i: usize) -> Option<f64> {
+    s.err
+        .as_ref()
+        .map(|err| err[i].abs())
+        .filter(|e| e.is_finite())
+}
+
+/// Maximal stretches of consecutive indices for which `keep` holds.
+fn stretches(n: usize, keep: impl Fn(usize) -> bool) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut current = Vec::new();
+    for i in 0..n {
+        if keep(i) {
+            current.push(i);
+        } else if !current.is_empty() {
+            out.push(std::mem::take(&mut current));
+        }
+    }
+    if !current.is_empty() {
+        out.push(current);
+    }
+    out
+}
+
+/// The points of `s` that can be drawn on these axes, in order.
+pub fn points(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Point> {
+    (0..s.x.len())
+        .filter(|&i| shown(s, i, xa, ya))
+        .map(|i| (s.x[i], s.y[i]))
+        .collect()
+}
+
+/// The runs of a line series (Line or Dashed style).
+///
+/// A point that cannot be drawn breaks the line. A Dashed series is dashed throughout; a Line
+/// series is dashed where `stable` is false, and where stability changes between two points the
+/// runs meet at the midpoint between them (as seen on the axes), so the curve stays connected.
+/// A run of a single point is returned as such; the caller draws it (like any run that stays on
+/// one point) as a dot, so it is not lost.
+pub fn line_runs(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Run> {
+    let dashed = |i: usize| match s.style {
+        Style::Dashed => true,
+        _ => s.stable.as_ref().is_some_and(|stable| !stable[i]),
+    };
+    let at = |i: usize| (s.x[i], s.y[i]);
+    let mut runs = Vec::new();
+    for stretch in stretches(s.x.len(), |i| shown(s, i, xa, ya)) {
+        let mut run = Run {
+            points: vec![at(stretch[0])],
+            dashed: dashed(stretch[0]),
+        };
+        for pair in stretch.windows(2) {
+            let (i, j) = (pair[0], pair[1]);
+            if dashed(j) == run.dashed {
+                run.points.push(at(j));
+            } else {
+                let mid = (xa.midpoint(s.x[i], s.x[j]), ya.midpoint(s.y[i], s.y[j]));
+                run.points.push(mid);
+                let next = Run {
+                    points: vec![mid, at(j)],
+                    dashed: dashed(j),
+                };
+                runs.push(std::mem::replace(&mut run, next));
+            }
+        }
+        runs.push(run);
+    }
+    runs
+}
+
+/// Outlines of the ±err band around a Line series: one polygon per stretch of at least two
+/// points with a drawable error (upper edge forwards, lower edge backwards). On a log axis the
+/// lower edge is cut at the bottom of the axis where y − err ≤ 0.
+pub fn bands(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Vec<Point>> {
+    let keep = |i: usize| shown(s, i, xa, ya) && error(s, i).is_some_and(|e| ya.shows(s.y[i] + e));
+    stretches(s.x.len(), keep)
+        .into_iter()
+        .filter(|stretch| stretch.len() >= 2)
+        .map(|stretch| {
+            let upper = stretch
+                .iter()
+                .map(|&i| (s.x[i], s.y[i] + error(s, i).unwrap_or(0.0)));
+            let lower = stretch
+                .iter()
+                .rev()
+                .map(|&i| (s.x[i], ya.or_bottom(s.y[i] - error(s, i).unwrap_or(0.0))));
+            upper.chain(lower).collect()
+        })
+        .collect()
+}
+
+/// Vertical error bars of a Markers series, for the drawable points with a drawable error.
+/// On a log axis the lower end is cut at the bottom of the axis where y − err ≤ 0.
+pub fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
+    (0..s.x.len())
+        .filter(|&i| shown(s, i, xa, ya))
+        .filter_map(|i| {
+            let e = error(s, i)?;
+            let (hi, lo) = (s.y[i] + e, s.y[i] - e);
+            ya.shows(hi).then(|| ErrorBar {
+                x: s.x[i],
+                lo: ya.or_bottom(lo),
+                hi,
+                cut: !ya.shows(lo),
+            })
+        })
+        .collect()
+}
+
+/// Every x and y value of `s` that the axes must cover: the points, and where there are errors,
+/// y ± err. Values the axis cannot show are filtered out by [`Axis::fit`].
+pub fn extent(s: &Series) -> (Vec<f64>, Vec<f64>) {
+    let mut ys = s.y.clone();
+    if let Some(err) = &s.err {
+        for (y, e) in s.y.iter().zip(err) {
+            ys.push(y + e.abs());
+            ys.push(y - e.abs());
+        }
+    }
+    (s.x.clone(), ys)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{MarkerShape, Scale};
+    use super::*;
+
+    fn axis(scale: Scale) -> Axis {
+        Axis::fit(scale, [1.0, 100.0], 0.0, 5)
+    }
+
+    fn line(y: Vec<f64>, stable: Option<Vec<bool>>) -> Series {
+        Series {
+            label: "s".into(),
+            x: (1..=y.len()).map(|i| i as f64).collect(),
+            y,
+            style: Style::Line,
+            stable,
+            err: None,
+        }
+    }
+
+    #[test]
+    fn stability_change_splits_at_the_midpoint() {
+        let s = line(
+            vec![1.0, 2.0, 3.0, 4.0],
+            Some(vec![true, true, false, false]),
+        );
+        let lin = axis(Scale::Linear);
+        let runs = line_runs(&s, &lin, &lin);
+        assert_eq!(
+            runs,
+            [
+                Run {
+                    points: vec![(1.0, 1.0), (2.0, 2.0), (2.5, 2.5)],
+                    dashed: false
+                },
+                Run {
+                    points: vec![(2.5, 2.5), (3.0, 3.0), (4.0, 4.0)],
+                    dashed: true
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn non_finite_and_non_positive_points_break_the_line() {
+        let s = line(vec![1.0, f64::NAN, 3.0, 4.0, -1.0, 5.0], None);
+        let runs = line_runs(&s, &axis(Scale::Linear), &axis(Scale::Log));
+        let lengths: Vec<usize> = runs.iter().map(|r| r.points.len()).collect();
+        assert_eq!(lengths, [1, 2, 1]);
+        assert!(runs.iter().all(|r| !r.dashed));
+    }
+
+    #[test]
+    fn bands_and_bars_are_cut_at_the_bottom_of_a_log_axis() {
+        let mut s = line(vec![10.0, 20.0], None);
+        s.err = Some(vec![15.0, 5.0]);
+        let (lin, log) = (axis(Scale::Linear), axis(Scale::Log));
+        assert_eq!(
+            bands(&s, &lin, &log),
+            [vec![(1.0, 25.0), (2.0, 25.0), (2.0, 15.0), (1.0, 1.0)]]
+        );
+        s.style = Style::Markers(MarkerShape::Circle);
+        let bar = |x, lo, cut| ErrorBar {
+            x,
+            lo,
+            hi: 25.0,
+            cut,
+        };
+        assert_eq!(
+            error_bars(&s, &lin, &log),
+            [bar(1.0, 1.0, true), bar(2.0, 15.0, false)]
+        );
+    }
+}

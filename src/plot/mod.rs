@@ -1,0 +1,297 @@
+//! Publication-ready SVG figures: branch diagrams, scatter plots with error bars, phase-diagram
+//! heat maps, and side-by-side panels.
+//!
+//! Everything is drawn with `plotters`' SVG backend, so text stays real `<text>` elements that
+//! journals' and editors' tools can restyle (no font files are needed to write a figure). The
+//! defaults aim at a figure that can go into a paper unchanged: white background, 16–20 px
+//! sans-serif text, axis labels with their units as given, the colour-blind-safe Okabe–Ito
+//! palette, a legend whenever there is more than one thing to tell apart, and margins sized from
+//! the actual tick labels so nothing is cut off.
+//!
+//! Data are never trusted to be clean: non-finite values are skipped (a line is broken at them),
+//! on logarithmic axes non-positive values are skipped too, and a range of all-equal values is
+//! widened so the axis still has a span. Malformed input (series whose vectors differ in length,
+//! a heat-map grid that does not match its values) is reported as [`Error::Input`], never a
+//! panic.
+//!
+//! # What the SVG contains
+//! Callers and tests may rely on how `plotters` 0.3.7 writes the figure:
+//! - every text (title, axis labels, tick labels, legend, annotation lines) is one `<text>`
+//!   element holding the string verbatim, XML-escaped and surrounded by a newline on each side
+//!   (trim it), with `font-family="sans-serif"` and `font-size` in pixels (20 title, 18 axis
+//!   labels, 16 ticks, legend and annotation); the y label carries `transform="rotate(270, …)"`;
+//!   negative tick labels use the minus sign U+2212 and exponents superscript digits ("10⁻³");
+//! - a solid curve is one `<polyline fill="none" stroke="#RRGGBB" stroke-width="2" points="x,y
+//!   x,y …">` in the series colour (upper-case hex), its vertices rounded to whole pixels;
+//! - a dashed curve has no `stroke-dasharray`: `plotters` cuts it into one short `<polyline>`
+//!   per dash ([`DASH_PX`] long, [`GAP_PX`] apart, measured along the curve in pixels), so a
+//!   dash that turns a corner has three vertices;
+//! - series markers are `<circle>`, `<rect>` or `<polygon>` elements (a cross is two `<line>`s),
+//!   special points black `<polygon>`s, `<rect>`s or `<circle>`s, error bars and their caps
+//!   two-point `<polyline>`s, error bands `<polygon opacity="0.2">`s, heat-map cells and colour
+//!   bar bands opaque filled `<rect>`s;
+//! - axes and tick marks are black `<polyline>`s, grid lines `<line opacity="0.12">`s, the
+//!   background one white `<rect>` covering the whole image.
+
+mod axis;
+mod figure;
+mod geometry;
+mod heatmap;
+mod style;
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use crate::{Error, Result};
+
+pub use style::{DASH_PX, GAP_PX};
+
+/// How a curve is drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Style {
+    /// A solid line (dashed where [`Series::stable`] says the state is unstable).
+    Line,
+    /// A dashed line throughout, e.g. for a reference curve or an asymptote.
+    Dashed,
+    /// Unconnected markers, e.g. for measurements; may carry error bars.
+    Markers(MarkerShape),
+}
+
+/// The symbol of a [`Style::Markers`] series.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MarkerShape {
+    Circle,
+    Square,
+    Triangle,
+    Cross,
+}
+
+/// One data series.
+///
+/// `stable`, when given (same length as `x`), splits a [`Style::Line`] series into runs: stable
+/// runs solid, unstable runs dashed, in the same colour. A run ends half-way between the last
+/// point of one stability and the first of the other, which is the best guess for where the
+/// stability changes without further information. The legend then shows the label once, plus one
+/// extra entry "unstable (dashed)" for the whole figure if any unstable run exists.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend text; an empty label gives the series no legend entry.
+    pub label: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub style: Style,
+    pub stable: Option<Vec<bool>>,
+    /// Optional symmetric error bars (same length as y) for Markers series, or a shaded band +- err
+    /// around a Line series.
+    pub err: Option<Vec<f64>>,
+}
+
+/// A labelled special point (e.g. a fold or Hopf point), drawn as a distinct marker with its
+/// label in the legend (one legend entry per distinct label).
+#[derive(Clone, Debug)]
+pub struct Marker {
+    pub label: String,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// The scale of an axis. On a [`Scale::Log`] axis non-positive values cannot be shown and are
+/// skipped (the lower end of an error bar or band that would reach them is cut at the axis).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Scale {
+    #[default]
+    Linear,
+    Log,
+}
+
+/// A 2-D line/scatter figure.
+///
+/// Axis ranges cover all drawable data (including error bars, bands and special points) with 5 %
+/// padding on each side (multiplicative on a log axis).
+#[derive(Clone, Debug, Default)]
+pub struct Figure {
+    pub title: String,
+    /// x-axis label with its unit, e.g. "omega (rad/s)".
+    pub x_label: String,
+    pub y_label: String,
+    pub x_scale: Scale,
+    pub y_scale: Scale,
+    pub series: Vec<Series>,
+    pub markers: Vec<Marker>,
+    /// Free text drawn in the upper-left corner of the plot area (e.g. "m = 0.62 +- 0.03");
+    /// each `\n` starts a new line.
+    pub annotation: Option<String>,
+}
+
+/// A colour map over a regular grid (phase diagrams): `z[i][j]` at `(x[j], y[i])`; NaN cells left blank.
+///
+/// Cells extend half-way to their neighbours, so the map covers exactly the area the grid
+/// samples; `x` and `y` must be strictly monotonic. Colours follow the perceptually uniform,
+/// colour-blind-safe viridis map, explained by a colour bar on the right.
+#[derive(Clone, Debug, Default)]
+pub struct Heatmap {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub colorbar_label: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub z: Vec<Vec<f64>>,
+    /// Curves drawn over the map (e.g. a stability boundary) and labelled points/ranges (Markers
+    /// series with err bars allowed).
+    pub overlays: Vec<Series>,
+}
+
+/// Size of the SVG written by [`write_figure`] and [`write_heatmap`], in pixels.
+pub const DEFAULT_SIZE: (u32, u32) = (800, 600);
+
+/// Smallest panel [`write_panels`] accepts: below this the tick labels, axis labels and title no
+/// longer fit beside a usable plot area.
+pub const MIN_PANEL_SIZE: (u32, u32) = (300, 240);
+
+/// Several figures side by side in one SVG (e.g. two orthogonal camera views of a rod shape),
+/// each panel with its own axes. `size` is the size of the whole SVG, shared evenly.
+pub fn write_panels(panels: &[Figure], path: &Path, size: (u32, u32)) -> Result<()> {
+    if panels.is_empty() {
+        return Err(Error::input("panels", "no figure to draw"));
+    }
+    let columns = u32::try_from(panels.len()).unwrap_or(u32::MAX);
+    if size.0 / columns < MIN_PANEL_SIZE.0 || size.1 < MIN_PANEL_SIZE.1 {
+        return Err(Error::input(
+            "size",
+            format!(
+                "{}x{} px is too small for {} panel(s): each needs at least {}x{} px",
+                size.0,
+                size.1,
+                panels.len(),
+                MIN_PANEL_SIZE.0,
+                MIN_PANEL_SIZE.1
+            ),
+        ));
+    }
+    for (i, fig) in panels.iter().enumerate() {
+        fig.validate(&format!("panels[{i}]"))?;
+    }
+    render(path, size, |root| {
+        for (area, fig) in root.split_evenly((1, panels.len())).iter().zip(panels) {
+            figure::draw(area, fig)?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes `fig` as an SVG of [`DEFAULT_SIZE`].
+pub fn write_figure(fig: &Figure, path: &Path) -> Result<()> {
+    fig.validate("figure")?;
+    render(path, DEFAULT_SIZE, |root| figure::draw(root, fig))
+}
+
+/// Writes `map` with its colour bar as an SVG of [`DEFAULT_SIZE`].
+pub fn write_heatmap(map: &Heatmap, path: &Path) -> Result<()> {
+    map.validate()?;
+    render(path, DEFAULT_SIZE, |root| heatmap::draw(root, map))
+}
+
+/// The drawing area every figure is drawn on: a whole SVG document or one panel of it.
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+/// Draws into an in-memory SVG on a white background, then writes it to `path`.
+///
+/// Rendering to a string first keeps file errors apart from drawing errors, so a bad path is
+/// reported as [`Error::Io`] naming the file.
+fn render(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(drawing_error)?;
+        draw(&root)?;
+        root.present().map_err(drawing_error)?;
+    }
+    std::fs::write(path, svg).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// `plotters` reports drawing failures with its own error type; they are not the caller's input
+/// errors, so they become [`Error::Numerical`].
+fn drawing_error<E: std::error::Error + Send + Sync>(
+    e: plotters::drawing::DrawingAreaErrorKind<E>,
+) -> Error {
+    Error::Numerical(format!("drawing the SVG figure failed: {e}"))
+}
+
+impl Series {
+    /// Checks that the optional vectors match the data in length.
+    fn validate(&self, field: &str) -> Result<()> {
+        let n = self.x.len();
+        let check = |name: &str, len: usize| {
+            if len == n {
+                Ok(())
+            } else {
+                Err(Error::input(
+                    format!("{field}.{name}"),
+                    format!("has {len} values but x has {n}"),
+                ))
+            }
+        };
+        check("y", self.y.len())?;
+        if let Some(stable) = &self.stable {
+            check("stable", stable.len())?;
+        }
+        if let Some(err) = &self.err {
+            check("err", err.len())?;
+        }
+        Ok(())
+    }
+}
+
+impl Figure {
+    fn validate(&self, field: &str) -> Result<()> {
+        for (i, s) in self.series.iter().enumerate() {
+            s.validate(&format!("{field}.series[{i}]"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Heatmap {
+    /// Checks that `z` has one row per `y` and one column per `x`, and that the grid is
+    /// finite and strictly monotonic (cells are built from the midpoints between grid values).
+    fn validate(&self) -> Result<()> {
+        if self.z.len() != self.y.len() {
+            return Err(Error::input(
+                "heatmap.z",
+                format!(
+                    "has {} rows but y has {} values",
+                    self.z.len(),
+                    self.y.len()
+                ),
+            ));
+        }
+        if let Some((i, row)) = self
+            .z
+            .iter()
+            .enumerate()
+            .find(|(_, row)| row.len() != self.x.len())
+        {
+            return Err(Error::input(
+                format!("heatmap.z[{i}]"),
+                format!("has {} values but x has {}", row.len(), self.x.len()),
+            ));
+        }
+        for (name, grid) in [("x", &self.x), ("y", &self.y)] {
+            if !heatmap::is_strictly_monotonic(grid) {
+                return Err(Error::input(
+                    format!("heatmap.{name}"),
+                    "grid values must be finite and strictly increasing or decreasing",
+                ));
+            }
+        }
+        for (i, s) in self.overlays.iter().enumerate() {
+            s.validate(&format!("heatmap.overlays[{i}]"))?;
+        }
+        Ok(())
+    }
+}
