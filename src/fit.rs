@@ -1,8 +1,12 @@
-//! Fits: Richardson extrapolation in the node count.
+//! Fits: power laws with confidence intervals, lines through the origin, and Richardson
+//! extrapolation in the node count.
 
-use argmin::core::{CostFunction, Executor};
+use argmin::core::{CostFunction, Executor, Jacobian, Operator};
 use argmin::solver::brent::BrentOpt;
+use argmin::solver::gaussnewton::GaussNewton;
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use crate::{Error, Result};
 
@@ -107,9 +111,322 @@ pub fn richardson(nodes: &[usize], values: &[f64]) -> Result<Extrapolated> {
     })
 }
 
+/// Two-sided 95% quantile of Student's t distribution with `dof` degrees of freedom.
+fn t95(dof: usize) -> Result<f64> {
+    let t = StudentsT::new(0.0, 1.0, dof as f64)
+        .map_err(|e| Error::Numerical(format!("Student t: {e}")))?;
+    Ok(t.inverse_cdf(0.975))
+}
+
+/// A least-squares power law `y = C x^p` with 95% confidence intervals.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PowerLaw {
+    #[serde(rename = "C")]
+    pub c: f64,
+    pub p: f64,
+    #[serde(rename = "C_ci")]
+    pub c_ci: [f64; 2],
+    pub p_ci: [f64; 2],
+    pub n: usize,
+    pub r2: f64,
+    /// Residuals `y_i - C x_i^p`.
+    pub residuals: Vec<f64>,
+}
+
+/// The residual operator `r(C, p) = C x^p - y` and its Jacobian, for Gauss-Newton.
+struct PowerResidual<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+}
+
+impl Operator for PowerResidual<'_> {
+    type Param = DVector<f64>;
+    type Output = DVector<f64>;
+    fn apply(&self, q: &DVector<f64>) -> std::result::Result<DVector<f64>, argmin::core::Error> {
+        Ok(DVector::from_iterator(
+            self.x.len(),
+            self.x
+                .iter()
+                .zip(self.y)
+                .map(|(x, y)| q[0] * x.powf(q[1]) - y),
+        ))
+    }
+}
+
+impl Jacobian for PowerResidual<'_> {
+    type Param = DVector<f64>;
+    type Jacobian = DMatrix<f64>;
+    fn jacobian(&self, q: &DVector<f64>) -> std::result::Result<DMatrix<f64>, argmin::core::Error> {
+        Ok(DMatrix::from_fn(self.x.len(), 2, |i, j| {
+            let xp = self.x[i].powf(q[1]);
+            if j == 0 {
+                xp
+            } else {
+                q[0] * xp * self.x[i].ln()
+            }
+        }))
+    }
+}
+
+/// Fits `y = C x^p` by nonlinear least squares (Gauss-Newton, argmin, started from the log-log
+/// regression). The intervals are `estimate +- t(0.975, n-2) sigma`, with the covariance
+/// `s^2 (J^T J)^{-1}` of the linearized problem, `s^2 = SSE/(n-2)`.
+pub fn power_law(x: &[f64], y: &[f64]) -> Result<PowerLaw> {
+    if x.len() != y.len() {
+        return Err(Error::input("fit", "x and y have different lengths"));
+    }
+    let n = x.len();
+    if n < 3 {
+        return Err(Error::input(
+            "fit",
+            format!("needs at least 3 points, got {n}"),
+        ));
+    }
+    if x.iter().chain(y).any(|v| !v.is_finite() || *v <= 0.0) {
+        return Err(Error::input(
+            "fit",
+            "a power law needs finite, positive x and y",
+        ));
+    }
+    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
+    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
+    let (a, p0, _) = linear_fit_xy(&lx, &ly);
+    let start = DVector::from_vec(vec![a.exp(), p0]);
+    let result = Executor::new(PowerResidual { x, y }, GaussNewton::new())
+        .configure(|s| s.param(start).max_iters(100).target_cost(0.0))
+        .run()
+        .map_err(|e| Error::Numerical(format!("power-law fit failed: {e}")))?;
+    let q = result
+        .state()
+        .best_param
+        .clone()
+        .ok_or_else(|| Error::Numerical("power-law fit found nothing".into()))?;
+    let problem = PowerResidual { x, y };
+    let r = problem
+        .apply(&q)
+        .map_err(|e| Error::Numerical(e.to_string()))?;
+    let j = problem
+        .jacobian(&q)
+        .map_err(|e| Error::Numerical(e.to_string()))?;
+    let sse = r.norm_squared();
+    let mean = y.iter().sum::<f64>() / n as f64;
+    let sst: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
+    let cov = (j.transpose() * &j)
+        .try_inverse()
+        .ok_or_else(|| Error::Numerical("singular normal matrix in the power-law fit".into()))?
+        * (sse / (n - 2) as f64);
+    let t = t95(n - 2)?;
+    let half = |k: usize| t * cov[(k, k)].max(0.0).sqrt();
+    Ok(PowerLaw {
+        c: q[0],
+        p: q[1],
+        c_ci: [q[0] - half(0), q[0] + half(0)],
+        p_ci: [q[1] - half(1), q[1] + half(1)],
+        n,
+        r2: 1.0 - sse / sst,
+        residuals: r.iter().map(|v| -v).collect(),
+    })
+}
+
+/// Ordinary least squares `y = a + b x`: `(a, b, SSE)`.
+fn linear_fit_xy(x: &[f64], y: &[f64]) -> (f64, f64, f64) {
+    let m = x.len() as f64;
+    let (sx, sy) = (x.iter().sum::<f64>(), y.iter().sum::<f64>());
+    let sxx: f64 = x.iter().map(|v| v * v).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| a * b).sum();
+    let b = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+    let a = (sy - b * sx) / m;
+    let sse = x.iter().zip(y).map(|(u, v)| (v - a - b * u).powi(2)).sum();
+    (a, b, sse)
+}
+
+/// A line through the origin `y = k x` with the 95% interval of `k`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Slope {
+    pub slope: f64,
+    pub slope_ci: [f64; 2],
+    pub n: usize,
+    pub r2: f64,
+}
+
+/// Least squares `y = k x`: `k = sum(x y)/sum(x^2)`, `sigma_k = s/sqrt(sum x^2)`,
+/// `s^2 = SSE/(n-1)`.
+pub fn through_origin(x: &[f64], y: &[f64]) -> Result<Slope> {
+    let n = x.len();
+    if n < 2 || y.len() != n {
+        return Err(Error::input(
+            "fit",
+            "a line through the origin needs at least 2 points",
+        ));
+    }
+    let sxx: f64 = x.iter().map(|v| v * v).sum();
+    let k = x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>() / sxx;
+    let sse: f64 = x.iter().zip(y).map(|(a, b)| (b - k * a).powi(2)).sum();
+    let syy: f64 = y.iter().map(|v| v * v).sum();
+    let half = t95(n - 1)? * (sse / (n - 1) as f64 / sxx).sqrt();
+    Ok(Slope {
+        slope: k,
+        slope_ci: [k - half, k + half],
+        n,
+        r2: 1.0 - sse / syy,
+    })
+}
+
+/// One exponent shared by several groups, each with its own prefactor:
+/// `y = N_k x^p` for group `k` (the separable form `y = M(x) N(group)` with `M = x^p`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CommonPowerLaw {
+    pub p: f64,
+    pub p_ci: [f64; 2],
+    /// `(group, N_k)`.
+    pub prefactors: Vec<(String, f64)>,
+    /// Each group fitted alone (groups of at least three points), for the check of the
+    /// separable form: their exponents should agree with the common one.
+    pub per_group: Vec<(String, PowerLaw)>,
+    pub n: usize,
+    /// Coefficient of determination in `ln y`.
+    pub r2: f64,
+}
+
+/// Fits [`CommonPowerLaw`] by least squares in logarithms (multiplicative errors):
+/// `ln y = ln N_k + p ln x`; `p` is the pooled within-group slope, its 95% interval uses
+/// `t(0.975, n - K - 1)`.
+pub fn common_power_law(groups: &[(String, Vec<f64>, Vec<f64>)]) -> Result<CommonPowerLaw> {
+    let logs: Vec<(&String, Vec<f64>, Vec<f64>)> = groups
+        .iter()
+        .map(|(g, x, y)| {
+            (
+                g,
+                x.iter().map(|v| v.ln()).collect(),
+                y.iter().map(|v| v.ln()).collect(),
+            )
+        })
+        .collect();
+    let n: usize = logs.iter().map(|g| g.1.len()).sum();
+    let k = logs.len();
+    if n < k + 2
+        || logs
+            .iter()
+            .flat_map(|g| g.1.iter().chain(&g.2))
+            .any(|v| !v.is_finite())
+    {
+        return Err(Error::input(
+            "fit",
+            "a common power law needs positive data and n >= groups + 2",
+        ));
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (_, lx, ly) in &logs {
+        let (mx, my) = (mean(lx), mean(ly));
+        sxy += lx
+            .iter()
+            .zip(ly)
+            .map(|(a, b)| (a - mx) * (b - my))
+            .sum::<f64>();
+        sxx += lx.iter().map(|a| (a - mx).powi(2)).sum::<f64>();
+    }
+    let p = sxy / sxx;
+    let mut sse = 0.0;
+    let mut prefactors = Vec::new();
+    for (g, lx, ly) in &logs {
+        let a = mean(ly) - p * mean(lx);
+        sse += lx
+            .iter()
+            .zip(ly)
+            .map(|(u, v)| (v - a - p * u).powi(2))
+            .sum::<f64>();
+        prefactors.push(((*g).clone(), a.exp()));
+    }
+    let all: Vec<f64> = logs.iter().flat_map(|g| g.2.iter().copied()).collect();
+    let m = mean(&all);
+    let sst: f64 = all.iter().map(|v| (v - m).powi(2)).sum();
+    let dof = n - k - 1;
+    let half = if dof > 0 {
+        t95(dof)? * (sse / dof as f64 / sxx).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let per_group = groups
+        .iter()
+        .filter(|g| g.1.len() >= 3)
+        .map(|(g, x, y)| power_law(x, y).map(|f| (g.clone(), f)))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(CommonPowerLaw {
+        p,
+        p_ci: [p - half, p + half],
+        prefactors,
+        per_group,
+        n,
+        r2: 1.0 - sse / sst,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn power_law_recovers_a_known_exponent_with_a_covering_interval() {
+        // y = 2.5 x^-0.75 with 2% multiplicative noise from a fixed pseudo-random sequence.
+        let x: Vec<f64> = (0..40).map(|i| 0.1 * 1.1f64.powi(i)).collect();
+        let mut state = 12345u64;
+        let y: Vec<f64> = x
+            .iter()
+            .map(|xi| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                2.5 * xi.powf(-0.75) * (1.0 + 0.04 * u)
+            })
+            .collect();
+        let fit = power_law(&x, &y).unwrap();
+        assert!(fit.p_ci[0] < -0.75 && -0.75 < fit.p_ci[1], "{fit:?}");
+        assert!(fit.c_ci[0] < 2.5 && 2.5 < fit.c_ci[1], "{fit:?}");
+        assert!((fit.p_ci[1] - fit.p_ci[0]) < 0.05 && fit.r2 > 0.99);
+        // Exact data: the interval collapses onto the value.
+        let exact: Vec<f64> = x.iter().map(|v| 3.0 * v.powf(1.5)).collect();
+        let fit = power_law(&x, &exact).unwrap();
+        assert!((fit.p - 1.5).abs() < 1e-10 && (fit.c - 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn common_power_law_recovers_a_separable_form() {
+        // y = N_k x^-1.3 with N = 1, 2, 5 and 1% pseudo-random multiplicative noise.
+        let mut state = 987654321u64;
+        let mut noise = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let groups: Vec<(String, Vec<f64>, Vec<f64>)> = [1.0, 2.0, 5.0]
+            .iter()
+            .enumerate()
+            .map(|(k, nk)| {
+                let x: Vec<f64> = (0..6).map(|i| 0.2 + 0.15 * i as f64).collect();
+                let y = x
+                    .iter()
+                    .map(|v| nk * v.powf(-1.3) * (1.0 + 0.02 * noise()))
+                    .collect();
+                (format!("g{k}"), x, y)
+            })
+            .collect();
+        let fit = common_power_law(&groups).unwrap();
+        assert!(fit.p_ci[0] < -1.3 && -1.3 < fit.p_ci[1], "{fit:?}");
+        assert!((fit.prefactors[2].1 / fit.prefactors[0].1 - 5.0).abs() < 0.1);
+        assert_eq!(fit.per_group.len(), 3);
+    }
+
+    #[test]
+    fn slope_through_origin() {
+        let x = [1.0, 2.0, 3.0, 4.0];
+        let y = [2.1, 3.9, 6.0, 8.1];
+        let s = through_origin(&x, &y).unwrap();
+        assert!((s.slope - 60.3 / 30.0).abs() < 1e-12);
+        assert!(s.slope_ci[0] < 2.0 && s.slope_ci[1] > 2.0);
+    }
 
     #[test]
     fn richardson_recovers_a_known_limit_and_order() {

@@ -5,11 +5,15 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
+use helixbif::fit::power_law;
 use helixbif::model::Model;
+use helixbif::output::Table;
 use helixbif::params::ShapeParams;
 use helixbif::solve::{Solution, solve_at};
+use helixbif::study::run::run;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
-use helixbif::study::{Study, figures};
+use helixbif::study::sweep::{merge, run_sweep};
+use helixbif::study::{Study, figures, sweep_figures};
 
 /// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
 /// (Discrete Elastic Rods + Lighthill slender-body theory).
@@ -70,6 +74,49 @@ enum Command {
         /// Node counts of the ladder (comma separated); default five inside the admissible range.
         #[arg(long, value_delimiter = ',', requires = "extrapolate")]
         nodes: Vec<usize>,
+    },
+    /// Do what the study's [study] table declares (branch, locate, sweep, phase, shapes) and
+    /// write `output/<study name>/`.
+    Run {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Output folder; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// omega_b over the study's parameter grid, in parallel, resumable; `--shard K/N` runs every
+    /// N-th point (from the K-th) for array jobs.
+    Sweep {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Run only the points with index = K-1 modulo N.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// Output folder; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Join the shard files of a sweep into sweep.csv.
+    Merge {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Folder holding the shards; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Least-squares power law y = C x^p with 95% confidence intervals.
+    Fit {
+        /// CSV file with a header row.
+        csv: PathBuf,
+        /// Column of x.
+        #[arg(long)]
+        x: String,
+        /// Column of y.
+        #[arg(long)]
+        y: String,
+        /// Print one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -175,6 +222,16 @@ fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> anyh
         rigid: matches!(study_file.shape, ShapeParams::Helix { .. }),
     };
     figures::branch_figures(&dir, &study_file.name, &[case])?;
+    if report.stalled {
+        return Err(Error::Numerical(format!(
+            "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
+            tables.points.last().map_or(0.0, |r| r.omega),
+            report.stop,
+            report.points,
+            report.out
+        ))
+        .into());
+    }
     if study.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
@@ -271,6 +328,116 @@ fn locate_command(
     Ok(())
 }
 
+fn output_dir(study: &Study, out: Option<&Path>) -> PathBuf {
+    out.map_or_else(|| Path::new("output").join(&study.name), Path::to_path_buf)
+}
+
+fn run_command(args: &StudyArgs, out: Option<&Path>) -> anyhow::Result<()> {
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(&study, out);
+    let started = std::time::Instant::now();
+    let report = run(&study, &dir)?;
+    if args.json {
+        println!("{report}");
+    } else {
+        println!(
+            "study `{}` ({}) done in {:.1} s; results in {}",
+            study.name,
+            study.study.as_ref().map_or("locate", |p| p.kind()),
+            started.elapsed().as_secs_f64(),
+            dir.display()
+        );
+        println!("{report:#}");
+    }
+    Ok(())
+}
+
+fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
+    let bad = || {
+        Error::input(
+            "--shard",
+            format!("expected K/N with 1 <= K <= N, got `{text}`"),
+        )
+    };
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> anyhow::Result<()> {
+    let shard = shard.map(parse_shard).transpose()?;
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(&study, out);
+    let summary = run_sweep(&study, &dir, shard)?;
+    if shard.is_none() {
+        sweep_figures(&study, &dir)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        println!(
+            "sweep `{}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
+            study.name,
+            summary.points,
+            summary.already_done,
+            summary.computed,
+            summary.failed,
+            summary.seconds,
+            summary.file
+        );
+    }
+    if summary.failed > 0 {
+        return Err(Error::Numerical(format!(
+            "{} sweep points failed; see the status column of {}",
+            summary.failed, summary.file
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+fn merge_command(args: &StudyArgs, out: Option<&Path>) -> anyhow::Result<()> {
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(&study, out);
+    let rows = merge(&study, &dir)?;
+    sweep_figures(&study, &dir)?;
+    println!(
+        "merged {rows} points into {}",
+        dir.join("sweep.csv").display()
+    );
+    Ok(())
+}
+
+fn fit_command(csv: &Path, x: &str, y: &str, json: bool) -> anyhow::Result<()> {
+    let table = Table::read(csv)?;
+    let (xc, yc) = (table.index(x)?, table.index(y)?);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = (0..table.rows.len())
+        .filter_map(|r| Some((table.number(r, xc)?, table.number(r, yc)?)))
+        .unzip();
+    let fit = power_law(&xs, &ys)?;
+    if json {
+        println!("{}", serde_json::to_string(&fit)?);
+    } else {
+        println!("{y} = C {x}^p over {} rows of {}:", fit.n, csv.display());
+        println!(
+            "  p = {:.6}   95% CI [{:.6}, {:.6}]",
+            fit.p, fit.p_ci[0], fit.p_ci[1]
+        );
+        println!(
+            "  C = {:.6e}   95% CI [{:.6e}, {:.6e}]",
+            fit.c, fit.c_ci[0], fit.c_ci[1]
+        );
+        println!("  r2 = {:.6}", fit.r2);
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
@@ -293,6 +460,12 @@ fn main() -> ExitCode {
             extrapolate,
             nodes,
         } => locate_command(study, *tol, *extrapolate, nodes),
+        Command::Run { study, out } => run_command(study, out.as_deref()),
+        Command::Sweep { study, shard, out } => {
+            sweep_command(study, shard.as_deref(), out.as_deref())
+        }
+        Command::Merge { study, out } => merge_command(study, out.as_deref()),
+        Command::Fit { csv, x, y, json } => fit_command(csv, x, y, *json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -77,3 +77,48 @@ impl<'a, T: Serialize> Meta<'a, T> {
         std::fs::write(path, text + "\n").map_err(io_error(path))
     }
 }
+
+/// A CSV file read back: header and rows of strings.
+pub struct Table {
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    pub fn read(path: &Path) -> Result<Self> {
+        let mut reader = csv::Reader::from_path(path)
+            .map_err(|e| Error::input("csv", format!("{}: {e}", path.display())))?;
+        let header = reader
+            .headers()
+            .map_err(|e| Error::input("csv", format!("{}: {e}", path.display())))?
+            .iter()
+            .map(String::from)
+            .collect();
+        let rows = reader
+            .records()
+            .map(|r| r.map(|r| r.iter().map(String::from).collect()))
+            .collect::<std::result::Result<Vec<Vec<String>>, _>>()
+            .map_err(|e| Error::input("csv", format!("{}: {e}", path.display())))?;
+        Ok(Table { header, rows })
+    }
+
+    /// Index of a column; the error names the column and lists the available ones.
+    pub fn index(&self, name: &str) -> Result<usize> {
+        self.header.iter().position(|h| h == name).ok_or_else(|| {
+            Error::input(
+                name,
+                format!("no such column; the columns are {}", self.header.join(", ")),
+            )
+        })
+    }
+
+    /// The text of column `c` in row `r`.
+    pub fn text(&self, r: usize, c: usize) -> &str {
+        self.rows[r].get(c).map_or("", String::as_str)
+    }
+
+    /// The number in column `c` of row `r`, if it parses.
+    pub fn number(&self, r: usize, c: usize) -> Option<f64> {
+        self.text(r, c).trim().parse().ok()
+    }
+}

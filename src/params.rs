@@ -132,6 +132,11 @@ impl ShapeParams {
 pub struct Discretization {
     /// Number of nodes `N` (at least 5).
     pub nodes: usize,
+    /// For a helix: nodes per turn instead of a fixed count, `N = round(per_turn * turns) + 1`,
+    /// capped two below the admissible maximum (the resolution then follows the geometry in a
+    /// sweep). Resolved into `nodes` when the study is loaded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub per_turn: Option<f64>,
 }
 
 /// Everything that defines the physical problem, in SI units.
@@ -191,7 +196,10 @@ impl Physical {
                 radius: 0.0159,
                 handedness: Handedness::Right,
             },
-            discretization: Discretization { nodes: 60 },
+            discretization: Discretization {
+                nodes: 60,
+                per_turn: None,
+            },
         }
     }
 

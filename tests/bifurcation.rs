@@ -31,7 +31,10 @@ fn greenhill(nodes: usize) -> f64 {
             length: 1.0,
             alpha_deg: 180.0,
         },
-        discretization: Discretization { nodes },
+        discretization: Discretization {
+            nodes,
+            per_turn: None,
+        },
     };
     let model = Model::new(&physical).unwrap();
     let problem = RodProblem {

@@ -65,7 +65,10 @@ fn discrete_errors(w: f64, nodes: usize, reference: (f64, f64)) -> (f64, f64) {
             length: 0.1,
             alpha_deg: 90.0,
         },
-        discretization: Discretization { nodes },
+        discretization: Discretization {
+            nodes,
+            per_turn: None,
+        },
     };
     let model = Model::new(&physical).unwrap();
     // Load ramp in the weight (large deflection from a straight start).

@@ -4,7 +4,9 @@
 //! `C w = s w`, `C = L^{-1} K L^{-T}`, `w = L^T v` (same eigenvalues, a quarter of the cost of
 //! the QZ algorithm), solved by faer's dense non-symmetric eigensolver.
 
-use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
 use faer::{Mat, Par, Side, c64};
 
 use crate::{Error, Result};
@@ -44,6 +46,11 @@ pub fn is_complex(s: c64) -> bool {
 
 /// `C = L^{-1} K L^{-T}` with `M = L L^T`.
 fn reduce(k: &Mat<f64>, m: &Mat<f64>) -> Result<Mat<f64>> {
+    Ok(reduce_with_factor(k, m)?.0)
+}
+
+/// `C` and the Cholesky factor `L` of `M`.
+fn reduce_with_factor(k: &Mat<f64>, m: &Mat<f64>) -> Result<(Mat<f64>, Mat<f64>)> {
     let llt = m.llt(Side::Lower).map_err(|_| {
         Error::Numerical("the stability mass matrix is not positive definite".into())
     })?;
@@ -53,7 +60,33 @@ fn reduce(k: &Mat<f64>, m: &Mat<f64>) -> Result<Mat<f64>> {
     // L^{-1} (L^{-1} K)^T = L^{-1} K^T L^{-T}, whose transpose is C.
     let mut both = left.transpose().to_owned();
     solve_lower_triangular_in_place(l, both.as_mut(), Par::Seq);
-    Ok(both.transpose().to_owned())
+    Ok((both.transpose().to_owned(), l.to_owned()))
+}
+
+/// The eigenvalue of `K v = s M v` nearest to `target` and its eigenvector `v` (from the
+/// eigenvector `w` of `C`, `v = L^{-T} w`), normalized to unit largest modulus.
+pub fn mode(k: &Mat<f64>, m: &Mat<f64>, target: c64) -> Result<(c64, Vec<c64>)> {
+    let (c, l) = reduce_with_factor(k, m)?;
+    let eigen = c
+        .eigen()
+        .map_err(|e| Error::Numerical(format!("eigen decomposition failed: {e:?}")))?;
+    let values: Vec<c64> = eigen.S().column_vector().iter().copied().collect();
+    let index = (0..values.len())
+        .min_by(|&a, &b| {
+            (values[a] - target)
+                .norm()
+                .total_cmp(&(values[b] - target).norm())
+        })
+        .ok_or_else(|| Error::Numerical("empty spectrum".into()))?;
+    let n = values.len();
+    let w = eigen.U().col(index);
+    let mut parts = Mat::from_fn(n, 2, |i, j| if j == 0 { w[i].re } else { w[i].im });
+    solve_upper_triangular_in_place(l.transpose(), parts.as_mut(), Par::Seq);
+    let v: Vec<c64> = (0..n)
+        .map(|i| c64::new(parts[(i, 0)], parts[(i, 1)]))
+        .collect();
+    let scale = v.iter().map(|z| z.norm()).fold(0.0, f64::max);
+    Ok((values[index], v.iter().map(|z| z / scale).collect()))
 }
 
 /// The `keep` eigenvalues of largest real part of `K v = s M v`, and the unstable count.
@@ -98,5 +131,12 @@ mod tests {
         let s = spectrum(&k, &m, 2).unwrap();
         assert_eq!(s.unstable, 1);
         assert!((s.leading[0].re - 1.0).abs() < 1e-12 && (s.leading[1].re + 3.0).abs() < 1e-12);
+        // The eigenvector of s = 1 is e_0 (K e_0 = M d e_0 = M e_0).
+        let (value, v) = mode(&k, &m, c64::new(1.0, 0.0)).unwrap();
+        assert!((value.re - 1.0).abs() < 1e-12);
+        assert!(
+            (v[0].norm() - 1.0).abs() < 1e-12 && v[1].norm() < 1e-12,
+            "{v:?}"
+        );
     }
 }

@@ -4,8 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
+use serde_json::json;
+
 use crate::Result;
-use crate::plot::{Figure, Marker, Series, Style, write_figure};
+use crate::fit::{common_power_law, power_law, through_origin};
+use crate::output::{Table, io_error};
+use crate::plot::{Figure, Marker, MarkerShape, Scale, Series, Style, write_figure};
+use crate::study::Study;
+use crate::study::plan::{FitKind, Plan};
 use crate::study::runs::BranchTables;
 
 /// One branch and its legend label.
@@ -122,4 +128,220 @@ pub fn branch_figures(dir: &Path, title: &str, cases: &[Case]) -> Result<Vec<Pat
         written.push(path);
     }
     Ok(written)
+}
+
+/// Draws the figures of a finished sweep (`sweep.csv` in `dir`) as its plan declares, with the
+/// fits; a `common_power_law` fit also writes `fit.json` (the exponent `m = -p` of
+/// `y ~ x^(-m)` with its interval) and a collapse figure. Returns the fits as JSON.
+pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
+    let Some(Plan::Sweep { figures, .. }) = &study.study else {
+        return Ok(serde_json::Value::Null);
+    };
+    let table = Table::read(&dir.join("sweep.csv"))?;
+    let status = table.index("status")?;
+    let mut fits = Vec::new();
+    for (k, spec) in figures.iter().enumerate() {
+        let (xc, yc) = (table.index(&spec.x)?, table.index(&spec.y)?);
+        let sc = table.index(spec.series.as_deref().unwrap_or("case"))?;
+        // Groups in order of first appearance.
+        let mut groups: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
+        for r in 0..table.rows.len() {
+            let (Some(x), Some(y)) = (table.number(r, xc), table.number(r, yc)) else {
+                continue;
+            };
+            if table.text(r, status) != "ok" {
+                continue;
+            }
+            let g = table.text(r, sc).to_string();
+            match groups.iter_mut().find(|e| e.0 == g) {
+                Some(e) => {
+                    e.1.push(x);
+                    e.2.push(y);
+                }
+                None => groups.push((g, vec![x], vec![y])),
+            }
+        }
+        let shapes = [
+            MarkerShape::Circle,
+            MarkerShape::Square,
+            MarkerShape::Triangle,
+            MarkerShape::Cross,
+        ];
+        let label = |g: &str| match &spec.series {
+            Some(col) => format!(
+                "{col} = {}",
+                g.parse::<f64>()
+                    .map_or(g.to_string(), |v| format!("{v:.4}"))
+            ),
+            None => g.to_string(),
+        };
+        let mut series: Vec<Series> = groups
+            .iter()
+            .enumerate()
+            .map(|(i, (g, x, y))| Series {
+                label: label(g),
+                x: x.clone(),
+                y: y.clone(),
+                style: Style::Markers(shapes[i % shapes.len()]),
+                stable: None,
+                err: None,
+            })
+            .collect();
+        let all_x: Vec<f64> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
+        let all_y: Vec<f64> = groups.iter().flat_map(|g| g.2.iter().copied()).collect();
+        let (lo, hi) = all_x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let curve = |f: &dyn Fn(f64) -> f64, from: f64| -> (Vec<f64>, Vec<f64>) {
+            let xs: Vec<f64> = (0..=60)
+                .map(|i| {
+                    let t = i as f64 / 60.0;
+                    if spec.log_x {
+                        from * (hi / from).powf(t)
+                    } else {
+                        from + (hi - from) * t
+                    }
+                })
+                .collect();
+            let ys = xs.iter().map(|x| f(*x)).collect();
+            (xs, ys)
+        };
+        let mut annotation = None;
+        match spec.fit {
+            Some(FitKind::ThroughOrigin) => {
+                let s = through_origin(&all_x, &all_y)?;
+                let (x, y) = curve(&|x| s.slope * x, 0.0);
+                series.push(dashed("fit through the origin", x, y));
+                annotation = Some(format!(
+                    "slope = {:.4e}\n95% CI [{:.4e}, {:.4e}]",
+                    s.slope, s.slope_ci[0], s.slope_ci[1]
+                ));
+                fits.push(json!({ "figure": k, "through_origin": s }));
+            }
+            Some(FitKind::PowerLaw) => {
+                let f = power_law(&all_x, &all_y)?;
+                let (x, y) = curve(&|x| f.c * x.powf(f.p), lo);
+                series.push(dashed("power-law fit", x, y));
+                annotation = Some(format!(
+                    "p = {:.4} [{:.4}, {:.4}] (95%)",
+                    f.p, f.p_ci[0], f.p_ci[1]
+                ));
+                fits.push(json!({ "figure": k, "power_law": f }));
+            }
+            Some(FitKind::CommonPowerLaw) => {
+                let f = common_power_law(&groups)?;
+                for (g, n) in &f.prefactors {
+                    let (x, y) = curve(&|x| n * x.powf(f.p), lo);
+                    series.push(dashed(&format!("fit, {}", label(g)), x, y));
+                }
+                let m = -f.p;
+                let m_ci = [-f.p_ci[1], -f.p_ci[0]];
+                annotation = Some(format!(
+                    "m = {m:.4}, 95% CI [{:.4}, {:.4}]",
+                    m_ci[0], m_ci[1]
+                ));
+                let record = json!({
+                    "m": m,
+                    "m_ci": m_ci,
+                    "x": spec.x,
+                    "y": spec.y,
+                    "series": spec.series,
+                    "n": f.n,
+                    "r2": f.r2,
+                    "prefactors": f.prefactors,
+                    "per_series_m": f.per_group.iter().map(|(g, p)| json!({"series": g, "m": -p.p, "m_ci": [-p.p_ci[1], -p.p_ci[0]]})).collect::<Vec<_>>(),
+                });
+                let path = dir.join("fit.json");
+                std::fs::write(&path, format!("{record:#}\n")).map_err(io_error(&path))?;
+                // The collapse: y / N_k against x falls on one curve if the form is separable.
+                let collapsed: Vec<Series> = groups
+                    .iter()
+                    .zip(&f.prefactors)
+                    .enumerate()
+                    .map(|(i, ((g, x, y), (_, n)))| Series {
+                        label: label(g),
+                        x: x.clone(),
+                        y: y.iter().map(|v| v / n).collect(),
+                        style: Style::Markers(shapes[i % shapes.len()]),
+                        stable: None,
+                        err: None,
+                    })
+                    .chain(std::iter::once({
+                        let (x, y) = curve(&|x| x.powf(f.p), lo);
+                        dashed(&format!("x^(-m), m = {m:.3}"), x, y)
+                    }))
+                    .collect();
+                write_figure(
+                    &Figure {
+                        title: format!("{}: collapse {} / N", study.name, spec.y),
+                        x_label: spec.x.clone(),
+                        y_label: format!(
+                            "{} / N({}) (-)",
+                            spec.y,
+                            spec.series.as_deref().unwrap_or("case")
+                        ),
+                        x_scale: scale(spec.log_x),
+                        y_scale: scale(spec.log_y),
+                        series: collapsed,
+                        annotation: annotation.clone(),
+                        ..Figure::default()
+                    },
+                    &dir.join(format!("collapse_{k}.svg")),
+                )?;
+                fits.push(json!({ "figure": k, "common_power_law": record }));
+            }
+            None => {}
+        }
+        write_figure(
+            &Figure {
+                title: format!("{}: {} against {}", study.name, spec.y, spec.x),
+                x_label: axis_label(&spec.x),
+                y_label: axis_label(&spec.y),
+                x_scale: scale(spec.log_x),
+                y_scale: scale(spec.log_y),
+                series,
+                markers: Vec::new(),
+                annotation,
+            },
+            &dir.join(format!("sweep_{k}.svg")),
+        )?;
+    }
+    Ok(json!(fits))
+}
+
+fn dashed(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
+    Series {
+        label: label.to_string(),
+        x,
+        y,
+        style: Style::Dashed,
+        stable: None,
+        err: None,
+    }
+}
+
+fn scale(log: bool) -> Scale {
+    if log { Scale::Log } else { Scale::Linear }
+}
+
+/// An axis label with its unit, for the columns of `sweep.csv`.
+pub fn axis_label(column: &str) -> String {
+    let unit = match column {
+        "omega_b" | "im" => "rad/s",
+        "EI" => "N m^2",
+        "E_r0_4_over_mu_l_4" => "1/s",
+        "rod.E" => "Pa",
+        "rod.r0" | "shape.l" | "shape.lambda" | "shape.R" | "shape.L" => "m",
+        "fluid.mu" => "Pa s",
+        _ => "-",
+    };
+    let name = match column {
+        "E_r0_4_over_mu_l_4" => "E r0^4/(mu l^4)",
+        "lambda_over_l" | "shape.lambda_over_l" => "lambda/l",
+        "R_over_lambda" | "shape.R_over_lambda" => "R/lambda",
+        other => other,
+    };
+    format!("{name} ({unit})")
 }

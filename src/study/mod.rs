@@ -5,7 +5,15 @@
 //! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
 
 pub mod figures;
+pub mod phase;
+pub mod plan;
+pub mod run;
 pub mod runs;
+pub mod shapes;
+pub mod sweep;
+
+pub use figures::sweep_figures;
+pub use plan::Plan;
 
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +39,9 @@ pub struct Study {
     pub continuation: ContinuationSettings,
     #[serde(default)]
     pub branch: BranchRange,
+    /// What `helixbif run` does with this study (absent: `locate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub study: Option<Plan>,
 }
 
 fn default_name() -> String {
@@ -64,6 +75,7 @@ impl Study {
             newton: NewtonSettings::default(),
             continuation: ContinuationSettings::default(),
             branch: BranchRange::default(),
+            study: None,
         }
     }
 
@@ -80,16 +92,25 @@ impl Study {
     /// Reads a study from TOML text (`None`: the built-in default), applies the `key=value`
     /// overrides, and validates every field.
     pub fn load(text: Option<&str>, overrides: &[String]) -> Result<Self> {
-        let mut table: toml::Table = match text {
+        let mut table = match text {
             Some(t) => t.parse().map_err(|e: toml::de::Error| {
                 Error::input("study file", e.message().replace('\n', " "))
             })?,
-            None => toml::Table::try_from(Study::representative())
-                .map_err(|e| Error::input("study", e.to_string()))?,
+            None => Study::representative().to_table()?,
         };
         for item in overrides {
             apply_override(&mut table, item)?;
         }
+        Study::from_table(table)
+    }
+
+    /// The study as a TOML table, from which variants are derived.
+    pub fn to_table(&self) -> Result<toml::Table> {
+        toml::Table::try_from(self).map_err(|e| Error::input("study", e.to_string()))
+    }
+
+    /// Deserializes and validates a study from a TOML table; errors name the offending field.
+    pub fn from_table(table: toml::Table) -> Result<Self> {
         let study: Study =
             serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
                 let path = e.path().to_string();
@@ -102,7 +123,9 @@ impl Study {
                     e.into_inner().message().to_string(),
                 )
             })?;
+        let mut study = study;
         study.physical().validate()?;
+        study.resolve_per_turn()?;
         study.newton.validate()?;
         study.continuation.validate()?;
         if !(study.branch.omega_max.is_finite() && study.branch.omega_max > 0.0) {
@@ -114,7 +137,33 @@ impl Study {
                 ),
             ));
         }
+        if let Some(plan) = &study.study {
+            plan.validate()?;
+        }
         Ok(study)
+    }
+
+    /// Replaces `discretization.nodes` by the count that `discretization.per_turn` asks for.
+    fn resolve_per_turn(&mut self) -> Result<()> {
+        let Some(per_turn) = self.discretization.per_turn else {
+            return Ok(());
+        };
+        let ShapeParams::Helix { l, lambda, .. } = self.shape else {
+            return Err(Error::input(
+                "discretization.per_turn",
+                "applies to helices only",
+            ));
+        };
+        if !(per_turn.is_finite() && per_turn >= 2.0) {
+            return Err(Error::input(
+                "discretization.per_turn",
+                format!("must be >= 2, got {per_turn}"),
+            ));
+        }
+        let wanted = (per_turn * l / lambda).round() as usize + 1;
+        let max = crate::model::admissible_max_nodes(&self.physical()).saturating_sub(2);
+        self.discretization.nodes = wanted.min(max).max(5);
+        Ok(())
     }
 
     /// Reads a study file (or the default when `path` is `None`) with overrides.
@@ -137,12 +186,16 @@ fn apply_override(table: &mut toml::Table, item: &str) -> Result<()> {
     let (key, raw) = item
         .split_once('=')
         .ok_or_else(|| Error::input("--set", format!("expected key=value, got `{item}`")))?;
-    let key = key.trim();
     let value = format!("v = {}", raw.trim())
         .parse::<toml::Table>()
         .ok()
         .and_then(|mut t| t.remove("v"))
         .unwrap_or_else(|| toml::Value::String(raw.trim().to_string()));
+    set_path(table, key.trim(), value)
+}
+
+/// Sets the value at a dotted path of a TOML table, creating intermediate tables.
+pub fn set_path(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(Error::input("--set", format!("malformed key `{key}`")));
@@ -158,4 +211,20 @@ fn apply_override(table: &mut toml::Table, item: &str) -> Result<()> {
     }
     current.insert(last.to_string(), value);
     Ok(())
+}
+
+/// The number at a dotted path of a TOML table (integers read as floats).
+pub fn get_number(table: &toml::Table, key: &str) -> Option<f64> {
+    let mut parts = key.split('.').peekable();
+    let mut current = table;
+    while let Some(part) = parts.next() {
+        let value = current.get(part)?;
+        if parts.peek().is_none() {
+            return value
+                .as_float()
+                .or_else(|| value.as_integer().map(|i| i as f64));
+        }
+        current = value.as_table()?;
+    }
+    None
 }

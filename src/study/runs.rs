@@ -150,6 +150,8 @@ impl Observer for BranchWriter<'_> {
 /// What `helixbif branch` reports.
 #[derive(Serialize)]
 pub struct BranchReport {
+    /// True when the continuation stalled before `omega_max`.
+    pub stalled: bool,
     pub points: usize,
     pub events: usize,
     pub stop: String,
@@ -165,7 +167,8 @@ pub struct BranchTables {
 }
 
 /// Follows the branch from rest to `omega_max` (rad/s), writing `branch.csv`, `events.csv` and
-/// `meta.json` into `dir` as it goes.
+/// `meta.json` into `dir` as it goes. A continuation that stalls (the step fell below its
+/// minimum) returns what it found, with the reason in `stop`.
 pub fn run_branch(
     study: &Study,
     model: &Model,
@@ -209,6 +212,7 @@ pub fn run_branch(
         Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
     };
     let report = BranchReport {
+        stalled: matches!(branch.stop, Stop::StepTooSmall(_)),
         points: branch.points.len(),
         events: branch.events.len(),
         stop,
@@ -221,14 +225,6 @@ pub fn run_branch(
         points: writer.rows,
         events: writer.event_rows,
     };
-    if let Stop::StepTooSmall(reason) = &branch.stop {
-        return Err(Error::Numerical(format!(
-            "continuation stalled at omega = {:.6e} rad/s ({reason}); the {} points found are in {}",
-            tables.points.last().map_or(0.0, |r| r.omega),
-            tables.points.len(),
-            dir.display()
-        )));
-    }
     Ok((report, tables))
 }
 

@@ -1,0 +1,299 @@
+//! `kind = "phase"`: the propulsive force over the plane (`lambda/l`, `omegabar (R/lambda)^m`),
+//! with the stability boundary and natural bacterial flagella placed on it.
+//!
+//! One branch per value of `lambda/l` (the pitch varied at fixed `l` and `R`, so `R/lambda`
+//! changes with it); the vertical coordinate `omegabar (R/lambda)^m` removes the dependence on
+//! `R/lambda` found by the exponent study, and is drawn in `log10` so that the flagella's wide
+//! ranges (two decades of `EI`, 300 to 700 rev/s) fit beside the computed branches.
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde_json::{Value, json};
+
+use super::Study;
+use super::plan::{Case, Plan, Vary};
+use super::sweep::variant;
+use crate::branch::{observables_at, rest_state, trace};
+use crate::continuation::arclength::Silent;
+use crate::model::Model;
+use crate::output::{CsvWriter, Table};
+use crate::params::ShapeParams;
+use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
+use crate::{Error, Result};
+
+/// A row of `phase.csv`: a point of a branch, with `y = omegabar (R/lambda)^m`.
+#[derive(serde::Serialize)]
+struct PhaseRow {
+    lambda_over_l: f64,
+    #[serde(rename = "R_over_lambda")]
+    r_over_lambda: f64,
+    omegabar: f64,
+    y: f64,
+    #[serde(rename = "Fpbar")]
+    fpbar: f64,
+    stable: bool,
+}
+
+/// A row of `boundary.csv`: the first loss of stability of a column.
+#[derive(serde::Serialize)]
+struct BoundaryRow {
+    lambda_over_l: f64,
+    #[serde(rename = "R_over_lambda")]
+    r_over_lambda: f64,
+    omegabar_b: f64,
+    y_b: f64,
+    kind: String,
+}
+
+/// The branch of one column of the map.
+struct Column {
+    lambda_over_l: f64,
+    r_over_lambda: f64,
+    /// `(omegabar, Fpbar, stable)` from rest up to the first fold (or the end).
+    points: Vec<(f64, f64, bool)>,
+    /// First loss of stability: `(omegabar_b, kind)`.
+    boundary: Option<(f64, String)>,
+}
+
+fn column(study: &Study, lambda_over_l: f64) -> Result<Column> {
+    let base = Case {
+        label: "base".into(),
+        set: toml::Table::new(),
+        scale: None,
+    };
+    let vary = [Vary {
+        key: "shape.lambda_over_l".into(),
+        values: vec![lambda_over_l],
+        range: None,
+    }];
+    let s = variant(study, &base, &vary, &[lambda_over_l])?;
+    let ShapeParams::Helix { lambda, radius, .. } = s.shape else {
+        return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
+    };
+    let model = Model::new(&s.physical())?;
+    let rest = rest_state(&model, &s.newton)?;
+    let branch = trace(
+        &model,
+        &rest,
+        model.scales.omega_to_bar(s.branch.omega_max),
+        &s.continuation,
+        false,
+        &mut Silent,
+    )?;
+    let mut points = Vec::new();
+    for p in branch.points.iter().take_while(|p| p.tangent_p > 0.0) {
+        let o = observables_at(&model, &rest, &p.u, p.p)?;
+        points.push((p.p, o.fpbar, p.spectrum.unstable == 0));
+    }
+    let boundary = branch
+        .events
+        .iter()
+        .find(|e| e.unstable_before == 0 && e.unstable_after > 0)
+        .map(|e| (e.p, e.kind.name().to_string()));
+    Ok(Column {
+        lambda_over_l,
+        r_over_lambda: radius / lambda,
+        points,
+        boundary,
+    })
+}
+
+/// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
+fn interpolate(points: &[(f64, f64, bool)], omegabar: f64) -> f64 {
+    points
+        .windows(2)
+        .find(|w| w[0].0 <= omegabar && omegabar <= w[1].0)
+        .map_or(f64::NAN, |w| {
+            let t = (omegabar - w[0].0) / (w[1].0 - w[0].0);
+            w[0].1 + t * (w[1].1 - w[0].1)
+        })
+}
+
+/// The exponent `m`: from the plan, or from `output/exponent_m/fit.json`.
+fn exponent(m: Option<f64>) -> Result<f64> {
+    if let Some(m) = m {
+        return Ok(m);
+    }
+    let path = Path::new("output/exponent_m/fit.json");
+    let text = std::fs::read_to_string(path).map_err(|_| {
+        Error::input(
+            "study.m",
+            "give m, or run studies/exponent_m.toml first (output/exponent_m/fit.json)",
+        )
+    })?;
+    let v: Value = serde_json::from_str(&text)
+        .map_err(|e| Error::input("study.m", format!("{}: {e}", path.display())))?;
+    v["m"]
+        .as_f64()
+        .ok_or_else(|| Error::input("study.m", format!("{} has no number `m`", path.display())))
+}
+
+/// A flagellum placed on the map: its `lambda/l` and the range of `log10(omegabar (R/lambda)^m)`
+/// for `EI` in [1e-24, 1e-22] N m^2 and 300 to 700 rev/s in water (`mu = 1e-3` Pa s); the central
+/// value for 500 rev/s and `EI = 3.5e-24` N m^2 (measured for E. coli).
+struct Flagellum {
+    label: String,
+    lambda_over_l: f64,
+    low: f64,
+    central: f64,
+    high: f64,
+}
+
+fn flagella(path: &str, m: f64) -> Result<(Vec<Flagellum>, Vec<String>)> {
+    let table = Table::read(Path::new(path))?;
+    let (org, form) = (table.index("organism")?, table.index("form")?);
+    let (pc, rc, lc) = (
+        table.index("pitch_um")?,
+        table.index("helix_radius_um")?,
+        table.index("length_um")?,
+    );
+    let mu = 1e-3;
+    let mut placed = Vec::new();
+    let mut skipped = Vec::new();
+    for r in 0..table.rows.len() {
+        let label = format!("{} ({})", table.text(r, org), table.text(r, form));
+        let (Some(pitch), Some(radius), Some(length)) = (
+            table.number(r, pc),
+            table.number(r, rc),
+            table.number(r, lc),
+        ) else {
+            skipped.push(format!("{label}: length unknown, not placed"));
+            continue;
+        };
+        let l = length * 1e-6;
+        let shape = (radius / pitch).powf(m);
+        let y = |rev_per_s: f64, ei: f64| {
+            (2.0 * std::f64::consts::PI * rev_per_s * mu * l.powi(4) / ei * shape).log10()
+        };
+        placed.push(Flagellum {
+            label,
+            lambda_over_l: pitch / length,
+            low: y(300.0, 1e-22),
+            central: y(500.0, 3.5e-24),
+            high: y(700.0, 1e-24),
+        });
+    }
+    Ok((placed, skipped))
+}
+
+/// Runs the study: `phase.csv`, `boundary.csv`, `phase.svg`.
+pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
+    let Some(Plan::Phase {
+        lambda_over_l,
+        m,
+        rows,
+        bacteria,
+    }) = &study.study
+    else {
+        return Err(Error::input("study.kind", "expected a phase study"));
+    };
+    let m = exponent(*m)?;
+    let mut values = lambda_over_l.clone();
+    values.sort_by(f64::total_cmp);
+    let columns = values
+        .par_iter()
+        .map(|&v| column(study, v))
+        .collect::<Result<Vec<Column>>>()?;
+    let mut table = CsvWriter::create(&dir.join("phase.csv"))?;
+    let mut bounds = CsvWriter::create(&dir.join("boundary.csv"))?;
+    for c in &columns {
+        let shape = c.r_over_lambda.powf(m);
+        for &(omegabar, fpbar, stable) in &c.points {
+            table.row(&PhaseRow {
+                lambda_over_l: c.lambda_over_l,
+                r_over_lambda: c.r_over_lambda,
+                omegabar,
+                y: omegabar * shape,
+                fpbar,
+                stable,
+            })?;
+        }
+        if let Some((omegabar_b, kind)) = &c.boundary {
+            bounds.row(&BoundaryRow {
+                lambda_over_l: c.lambda_over_l,
+                r_over_lambda: c.r_over_lambda,
+                omegabar_b: *omegabar_b,
+                y_b: omegabar_b * shape,
+                kind: kind.clone(),
+            })?;
+        }
+    }
+    // The vertical grid in log10(omegabar (R/lambda)^m), over what the branches cover.
+    let logs: Vec<f64> = columns
+        .iter()
+        .flat_map(|c| {
+            c.points
+                .iter()
+                .filter(|p| p.0 > 0.0)
+                .map(move |p| (p.0 * c.r_over_lambda.powf(m)).log10())
+        })
+        .collect();
+    let (lo, hi) = logs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let ys: Vec<f64> = (0..*rows)
+        .map(|i| lo + (hi - lo) * i as f64 / (*rows - 1) as f64)
+        .collect();
+    let z: Vec<Vec<f64>> = ys
+        .iter()
+        .map(|y| {
+            columns
+                .iter()
+                .map(|c| interpolate(&c.points, 10f64.powf(*y) / c.r_over_lambda.powf(m)))
+                .collect()
+        })
+        .collect();
+    let (bx, by): (Vec<f64>, Vec<f64>) = columns
+        .iter()
+        .filter_map(|c| {
+            c.boundary
+                .as_ref()
+                .map(|(wb, _)| (c.lambda_over_l, (wb * c.r_over_lambda.powf(m)).log10()))
+        })
+        .unzip();
+    let mut overlays = vec![Series {
+        label: "stability boundary (omega_b)".into(),
+        x: bx,
+        y: by,
+        style: Style::Line,
+        stable: None,
+        err: None,
+    }];
+    let mut skipped = Vec::new();
+    if let Some(path) = bacteria {
+        let (placed, missing) = flagella(path, m)?;
+        skipped = missing;
+        for f in placed {
+            overlays.push(Series {
+                label: f.label,
+                x: vec![f.lambda_over_l],
+                y: vec![f.central],
+                style: Style::Markers(MarkerShape::Square),
+                stable: None,
+                err: Some(vec![(f.high - f.central).max(f.central - f.low)]),
+            });
+        }
+    }
+    write_heatmap(
+        &Heatmap {
+            title: format!("{}: propulsive force, m = {m:.3}", study.name),
+            x_label: "lambda/l (-)".into(),
+            y_label: "log10(omegabar (R/lambda)^m) (-)".into(),
+            colorbar_label: "Fpbar = Fp l^2/EI (-)".into(),
+            x: values.clone(),
+            y: ys,
+            z,
+            overlays,
+        },
+        &dir.join("phase.svg"),
+    )?;
+    Ok(json!({
+        "kind": "phase",
+        "m": m,
+        "columns": columns.iter().map(|c| json!({"lambda_over_l": c.lambda_over_l, "R_over_lambda": c.r_over_lambda, "omegabar_b": c.boundary.as_ref().map(|b| b.0), "kind": c.boundary.as_ref().map(|b| b.1.clone()), "points": c.points.len()})).collect::<Vec<_>>(),
+        "skipped_flagella": skipped,
+    }))
+}

@@ -1,0 +1,234 @@
+//! What a study asks `helixbif run` to do: the `[study]` table of a study file.
+//!
+//! ```toml
+//! [study]
+//! kind = "sweep"                       # branch | locate | sweep | phase | shapes
+//! cases = [{ label = "E", set = {} }]  # variants of the base model (overrides by dotted key)
+//! vary = [{ key = "rod.E", range = { from = 0.8e6, to = 2e6, count = 5, log = true } }]
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// A variant of the study's model: a label and overrides (dotted keys, TOML values).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    pub label: String,
+    #[serde(default)]
+    pub set: toml::Table,
+    /// The model field that a swept `factor` multiplies in this case (e.g. `rod.E`), so that
+    /// each case can vary a different parameter about the base model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<String>,
+}
+
+/// Evenly spaced values (geometrically when `log`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Range {
+    pub from: f64,
+    pub to: f64,
+    pub count: usize,
+    #[serde(default)]
+    pub log: bool,
+}
+
+/// A swept parameter: a model field by its dotted key (`rod.E`, `shape.l`, ...), one of the
+/// dimensionless ratios `shape.lambda_over_l` (the pitch set to this times `l`, `l` and `R`
+/// fixed) and `shape.R_over_lambda` (the radius set to this times the pitch), or `factor`, which
+/// multiplies the field named by each case's `scale`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vary {
+    pub key: String,
+    #[serde(default)]
+    pub values: Vec<f64>,
+    #[serde(default)]
+    pub range: Option<Range>,
+}
+
+impl Vary {
+    /// The listed values, or those of the range.
+    pub fn points(&self) -> Vec<f64> {
+        match &self.range {
+            Some(r) if r.count == 1 => vec![r.from],
+            Some(r) => (0..r.count)
+                .map(|i| {
+                    let t = i as f64 / (r.count - 1) as f64;
+                    if r.log {
+                        r.from * (r.to / r.from).powf(t)
+                    } else {
+                        r.from + (r.to - r.from) * t
+                    }
+                })
+                .collect(),
+            None => self.values.clone(),
+        }
+    }
+}
+
+/// How the results of a sweep are drawn and fitted.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepFigure {
+    /// Columns of `sweep.csv` on the axes.
+    pub x: String,
+    pub y: String,
+    #[serde(default)]
+    pub log_x: bool,
+    #[serde(default)]
+    pub log_y: bool,
+    /// Column whose values separate the series (default: `case`).
+    #[serde(default)]
+    pub series: Option<String>,
+    /// `through_origin` (a line `y = k x`), `power_law` (`y = C x^p`) or `common_power_law`
+    /// (one exponent shared by the series, each with its own prefactor: the separable form
+    /// `y = M(x) N(series)`, whose exponent is written to `fit.json`).
+    #[serde(default)]
+    pub fit: Option<FitKind>,
+}
+
+/// A fit drawn on a sweep figure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitKind {
+    ThroughOrigin,
+    PowerLaw,
+    CommonPowerLaw,
+}
+
+/// The `[study]` table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Plan {
+    /// Branches from rest to `branch.omega_max`, one per case, drawn together.
+    Branch {
+        #[serde(default)]
+        cases: Vec<Case>,
+    },
+    /// `omega_b`, optionally over a ladder of node counts with Richardson extrapolation.
+    Locate {
+        #[serde(default)]
+        extrapolate: bool,
+        #[serde(default)]
+        nodes: Vec<usize>,
+    },
+    /// `omega_b` over the product of the cases and the values of one or two parameters.
+    Sweep {
+        #[serde(default)]
+        cases: Vec<Case>,
+        vary: Vec<Vary>,
+        #[serde(default)]
+        figures: Vec<SweepFigure>,
+    },
+    /// The propulsive force over (`lambda/l`, `omegabar (R/lambda)^m`): a branch per value of
+    /// `lambda/l`, the stability boundary, and natural flagella placed on it.
+    Phase {
+        lambda_over_l: Vec<f64>,
+        /// The exponent `m`; when absent, read from `output/exponent_m/fit.json`.
+        #[serde(default)]
+        m: Option<f64>,
+        /// Rows of the vertical axis of the map.
+        #[serde(default = "default_rows")]
+        rows: usize,
+        /// Natural flagella (CSV: pitch_um, helix_radius_um, length_um, organism, ...).
+        #[serde(default)]
+        bacteria: Option<String>,
+    },
+    /// Steady shapes at a few rates seen from two orthogonal sides, and the critical mode.
+    Shapes { omegas: Vec<f64> },
+}
+
+fn default_rows() -> usize {
+    40
+}
+
+impl Plan {
+    /// The kind's name.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Plan::Branch { .. } => "branch",
+            Plan::Locate { .. } => "locate",
+            Plan::Sweep { .. } => "sweep",
+            Plan::Phase { .. } => "phase",
+            Plan::Shapes { .. } => "shapes",
+        }
+    }
+
+    /// Checks the ranges of the plan's own fields.
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Plan::Sweep { vary, .. } => {
+                if vary.is_empty() || vary.len() > 2 {
+                    return Err(Error::input(
+                        "study.vary",
+                        format!("sweep one or two parameters, got {}", vary.len()),
+                    ));
+                }
+                for v in vary {
+                    if let Some(r) = &v.range {
+                        let ok = r.count >= 1
+                            && r.from.is_finite()
+                            && r.to.is_finite()
+                            && (!r.log || (r.from > 0.0 && r.to > 0.0));
+                        if !ok {
+                            return Err(Error::input(
+                                format!("study.vary.{}.range", v.key),
+                                "needs count >= 1, finite ends, positive ends for log spacing",
+                            ));
+                        }
+                    } else if v.values.is_empty() {
+                        return Err(Error::input(
+                            format!("study.vary.{}", v.key),
+                            "give `values` or `range`",
+                        ));
+                    }
+                    if v.points().iter().any(|x| !x.is_finite()) {
+                        return Err(Error::input(
+                            format!("study.vary.{}", v.key),
+                            "values must be finite",
+                        ));
+                    }
+                }
+                Ok(())
+            }
+            Plan::Phase {
+                lambda_over_l,
+                m,
+                rows,
+                ..
+            } => {
+                if lambda_over_l.len() < 2
+                    || lambda_over_l.iter().any(|v| !(v.is_finite() && *v > 0.0))
+                {
+                    return Err(Error::input(
+                        "study.lambda_over_l",
+                        "needs at least two positive values",
+                    ));
+                }
+                if m.is_some_and(|m| !m.is_finite()) {
+                    return Err(Error::input("study.m", "must be finite"));
+                }
+                if *rows < 2 {
+                    return Err(Error::input(
+                        "study.rows",
+                        format!("must be >= 2, got {rows}"),
+                    ));
+                }
+                Ok(())
+            }
+            Plan::Shapes { omegas } => {
+                if omegas.is_empty() || omegas.iter().any(|w| !w.is_finite() || *w < 0.0) {
+                    return Err(Error::input(
+                        "study.omegas",
+                        "needs at least one finite rate >= 0 (rad/s)",
+                    ));
+                }
+                Ok(())
+            }
+            Plan::Branch { .. } | Plan::Locate { .. } => Ok(()),
+        }
+    }
+}

@@ -1,0 +1,104 @@
+//! `helixbif run STUDY`: does what the study's `[study]` table declares and writes
+//! `output/<study name>/` (CSV, `meta.json`, SVG figures).
+
+use std::path::Path;
+
+use serde_json::{Value, json};
+
+use super::figures::{self, Case as FigureCase};
+use super::plan::Plan;
+use super::runs::{default_ladder, run_branch, run_ladder, run_locate};
+use super::sweep::{cases, run_sweep, variant};
+use super::{Study, sweep_figures};
+use crate::model::Model;
+use crate::output::{Meta, create_dir};
+use crate::params::ShapeParams;
+use crate::{Error, Result};
+
+/// A folder-friendly form of a case label.
+pub fn slug(label: &str) -> String {
+    let s: String = label
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    s.split('_')
+        .filter(|part| !part.is_empty())
+        .collect::<Vec<_>>()
+        .join("_")
+}
+
+/// Runs the study into `dir`; returns a summary for the terminal.
+pub fn run(study: &Study, dir: &Path) -> Result<Value> {
+    create_dir(dir)?;
+    let plan = study.study.clone().unwrap_or(Plan::Locate {
+        extrapolate: false,
+        nodes: Vec::new(),
+    });
+    let report = match &plan {
+        Plan::Branch { cases: plan_cases } => {
+            let cases = cases(plan_cases);
+            let mut tables = Vec::new();
+            let mut summaries = Vec::new();
+            for case in &cases {
+                let s = variant(study, case, &[], &[])?;
+                let model = Model::new(&s.physical())?;
+                let sub = if cases.len() == 1 {
+                    dir.to_path_buf()
+                } else {
+                    dir.join(slug(&case.label))
+                };
+                let (report, t) = run_branch(&s, &model, s.branch.omega_max, &sub)?;
+                summaries.push(json!({ "case": case.label, "report": report, "events": t.events.iter().map(|e| json!({"kind": e.kind, "omega": e.omega, "im": e.im})).collect::<Vec<_>>() }));
+                tables.push((
+                    case.label.clone(),
+                    matches!(s.shape, ShapeParams::Helix { .. }),
+                    t,
+                ));
+            }
+            let fig_cases: Vec<FigureCase> = tables
+                .iter()
+                .map(|(label, rigid, t)| FigureCase {
+                    label,
+                    tables: t,
+                    rigid: *rigid,
+                })
+                .collect();
+            figures::branch_figures(dir, &study.name, &fig_cases)?;
+            json!({ "kind": "branch", "cases": summaries })
+        }
+        Plan::Locate { extrapolate, nodes } => {
+            let value = if *extrapolate {
+                let ladder = if nodes.is_empty() {
+                    default_ladder(study)
+                } else {
+                    nodes.clone()
+                };
+                serde_json::to_value(run_ladder(study, &ladder)?)
+            } else {
+                let model = Model::new(&study.physical())?;
+                serde_json::to_value(run_locate(study, &model)?)
+            }
+            .map_err(|e| Error::Numerical(e.to_string()))?;
+            let path = dir.join("locate.json");
+            std::fs::write(&path, format!("{value:#}\n"))
+                .map_err(crate::output::io_error(&path))?;
+            json!({ "kind": "locate", "result": value })
+        }
+        Plan::Sweep { .. } => {
+            let summary = run_sweep(study, dir, None)?;
+            let fits = sweep_figures(study, dir)?;
+            json!({ "kind": "sweep", "summary": summary, "fits": fits })
+        }
+        Plan::Phase { .. } => super::phase::run_phase(study, dir)?,
+        Plan::Shapes { .. } => super::shapes::run_shapes(study, dir)?,
+    };
+    let model = Model::new(&study.physical())?;
+    Meta::new(study, model.scales, &report).write(&dir.join("meta.json"))?;
+    Ok(report)
+}

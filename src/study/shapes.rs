@@ -1,0 +1,184 @@
+//! `kind = "shapes"`: steady shapes at a few rates seen from two orthogonal sides (as two cameras
+//! would see them), and the critical eigenmode at `omega_b`.
+
+use std::path::Path;
+
+use faer::c64;
+use nalgebra::Vector3;
+use serde_json::{Value, json};
+
+use super::Study;
+use super::plan::Plan;
+use crate::branch::locate;
+use crate::continuation::arclength::Silent;
+use crate::continuation::stability::mode;
+use crate::dofs::Layout;
+use crate::model::Model;
+use crate::output::CsvWriter;
+use crate::plot::{Figure, Series, Style, write_panels};
+use crate::solve::solve_at;
+use crate::steady::Steady;
+use crate::{Error, Result};
+
+/// One node of a shape in `shapes.csv` (SI).
+#[derive(serde::Serialize)]
+struct ShapeRow {
+    omega: f64,
+    i: usize,
+    x: f64,
+    y: f64,
+    z: f64,
+}
+
+/// One node of the critical mode in `mode.csv`: the state at `omega_b` and the real and
+/// imaginary parts of the mode's displacement (normalized to unit largest modulus).
+#[derive(serde::Serialize)]
+struct ModeRow {
+    i: usize,
+    x: f64,
+    y: f64,
+    z: f64,
+    re_dx: f64,
+    re_dy: f64,
+    re_dz: f64,
+    im_dx: f64,
+    im_dy: f64,
+    im_dz: f64,
+}
+
+/// Two side views (x-z and y-z, in cm) of a set of curves.
+fn side_views(title: &str, curves: &[(String, Vec<Vector3<f64>>, Style)]) -> [Figure; 2] {
+    let view = |name: &str, horizontal: usize, label: &str| Figure {
+        title: format!("{title}: {name}"),
+        x_label: format!("{label} (cm)"),
+        y_label: "z (cm)".into(),
+        series: curves
+            .iter()
+            .map(|(l, x, style)| Series {
+                label: l.clone(),
+                x: x.iter().map(|p| 100.0 * p[horizontal]).collect(),
+                y: x.iter().map(|p| 100.0 * p.z).collect(),
+                style: *style,
+                stable: None,
+                err: None,
+            })
+            .collect(),
+        ..Figure::default()
+    };
+    [
+        view("x-z (camera along y)", 0, "x"),
+        view("y-z (camera along x)", 1, "y"),
+    ]
+}
+
+/// Runs the study: `shapes.csv`, `mode.csv`, `shapes.svg`, `mode.svg`.
+pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
+    let Some(Plan::Shapes { omegas }) = &study.study else {
+        return Err(Error::input("study.kind", "expected a shapes study"));
+    };
+    let model = Model::new(&study.physical())?;
+    model.check_resolution()?;
+    let ell = model.scales.length;
+    let mut rows = CsvWriter::create(&dir.join("shapes.csv"))?;
+    let mut curves = Vec::new();
+    for &omega in omegas {
+        let solution = solve_at(&model, model.scales.omega_to_bar(omega), &study.newton)?;
+        let x: Vec<Vector3<f64>> = solution.state.config.x.iter().map(|p| p * ell).collect();
+        for (i, p) in x.iter().enumerate() {
+            rows.row(&ShapeRow {
+                omega,
+                i,
+                x: p.x,
+                y: p.y,
+                z: p.z,
+            })?;
+        }
+        curves.push((format!("omega = {omega} rad/s"), x, Style::Line));
+    }
+    write_panels(
+        &side_views("steady shapes", &curves),
+        &dir.join("shapes.svg"),
+        (1200, 600),
+    )?;
+
+    // The critical mode at omega_b.
+    let (located, event) = locate(
+        &model,
+        study.branch.omega_max,
+        &study.newton,
+        &study.continuation,
+        &mut Silent,
+    )?;
+    let Some(event) = event else {
+        return Ok(json!({ "kind": "shapes", "omegas": omegas, "mode": null }));
+    };
+    let steady = Steady::new(&model, event.p);
+    let (k, m) = steady.stability_pair(&event.u)?;
+    let (value, v) = mode(&k, &m, event.eigenvalue)?;
+    let base = steady.config(&event.u).x;
+    let displacement = |i: usize| -> (Vector3<f64>, Vector3<f64>) {
+        if i < Layout::CLAMPED_NODES {
+            return (Vector3::zeros(), Vector3::zeros());
+        }
+        let c = |k: usize| v[3 * (i - Layout::CLAMPED_NODES) + k];
+        let d: [c64; 3] = [c(0), c(1), c(2)];
+        (
+            Vector3::new(d[0].re, d[1].re, d[2].re),
+            Vector3::new(d[0].im, d[1].im, d[2].im),
+        )
+    };
+    let mut mode_rows = CsvWriter::create(&dir.join("mode.csv"))?;
+    for (i, p) in base.iter().enumerate() {
+        let (re, im) = displacement(i);
+        mode_rows.row(&ModeRow {
+            i,
+            x: p.x * ell,
+            y: p.y * ell,
+            z: p.z * ell,
+            re_dx: re.x,
+            re_dy: re.y,
+            re_dz: re.z,
+            im_dx: im.x,
+            im_dy: im.y,
+            im_dz: im.z,
+        })?;
+    }
+    // Drawn with the largest displacement a tenth of the reference length.
+    let amplitude = 0.1;
+    let shifted = |sign: f64| -> Vec<Vector3<f64>> {
+        base.iter()
+            .enumerate()
+            .map(|(i, p)| (p + displacement(i).0 * (sign * amplitude)) * ell)
+            .collect()
+    };
+    let omega_b = located.omega_b.unwrap_or(f64::NAN);
+    let mode_curves = vec![
+        (
+            format!("steady state at omega_b = {omega_b:.4} rad/s"),
+            base.iter().map(|p| p * ell).collect(),
+            Style::Line,
+        ),
+        (
+            "+ critical mode (Re)".to_string(),
+            shifted(1.0),
+            Style::Dashed,
+        ),
+        (
+            "- critical mode (Re)".to_string(),
+            shifted(-1.0),
+            Style::Dashed,
+        ),
+    ];
+    write_panels(
+        &side_views(&format!("{} mode", located.kind), &mode_curves),
+        &dir.join("mode.svg"),
+        (1200, 600),
+    )?;
+    Ok(json!({
+        "kind": "shapes",
+        "omegas": omegas,
+        "omega_b": omega_b,
+        "event": located.kind,
+        "eigenvalue": [value.re / model.scales.time, value.im / model.scales.time],
+    }))
+}

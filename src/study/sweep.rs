@@ -1,0 +1,476 @@
+//! Sweeps: `omega_b` over a grid of model variants, run in parallel, resumable and shardable.
+//!
+//! Every point of the grid (case x values of one or two parameters) has a fixed index. Finished
+//! points are appended to the CSV at once (one flushed row each), so a killed sweep loses only
+//! the points under way; a re-run reads the file and skips the points already there. With
+//! `--shard K/N` a run takes the points whose index is `K-1` modulo `N` and writes
+//! `sweep.shard-K-of-N.csv`; `merge` joins the shards into `sweep.csv`, refusing files that come
+//! from another study or that miss or repeat points. Beside each CSV a `.plan.json` records the
+//! fingerprint of the study that produced it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::plan::{Case, Plan, Vary};
+use super::{Study, get_number, set_path};
+use crate::branch::locate;
+use crate::continuation::arclength::Silent;
+use crate::model::Model;
+use crate::output::{create_dir, io_error};
+use crate::params::ShapeParams;
+use crate::{Error, Result};
+
+/// One point of a sweep grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepPoint {
+    pub index: usize,
+    pub case: usize,
+    pub values: Vec<f64>,
+}
+
+/// The cases of a plan (one unnamed case when none are given).
+pub fn cases(cases: &[Case]) -> Vec<Case> {
+    if cases.is_empty() {
+        vec![Case {
+            label: "base".into(),
+            set: toml::Table::new(),
+            scale: None,
+        }]
+    } else {
+        cases.to_vec()
+    }
+}
+
+/// The grid: every case with every combination of the swept values, in a fixed order.
+pub fn grid(case_count: usize, vary: &[Vary]) -> Vec<SweepPoint> {
+    let mut combos: Vec<Vec<f64>> = vec![Vec::new()];
+    for v in vary {
+        combos = combos
+            .into_iter()
+            .flat_map(|c| {
+                v.points().into_iter().map(move |x| {
+                    let mut next = c.clone();
+                    next.push(x);
+                    next
+                })
+            })
+            .collect();
+    }
+    (0..case_count)
+        .flat_map(|case| combos.iter().cloned().map(move |values| (case, values)))
+        .enumerate()
+        .map(|(index, (case, values))| SweepPoint {
+            index,
+            case,
+            values,
+        })
+        .collect()
+}
+
+const LAMBDA_OVER_L: &str = "shape.lambda_over_l";
+const R_OVER_LAMBDA: &str = "shape.R_over_lambda";
+const FACTOR: &str = "factor";
+
+/// The study of one point: the base with the case's overrides and the swept values (plain keys
+/// first, then `lambda/l`, then `R/lambda`).
+pub fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Result<Study> {
+    let mut table = base.to_table()?;
+    table.remove("study");
+    for (key, value) in &case.set {
+        set_path(&mut table, key, value.clone())?;
+    }
+    let derived = [LAMBDA_OVER_L, R_OVER_LAMBDA, FACTOR];
+    for (v, x) in vary
+        .iter()
+        .zip(values)
+        .filter(|(v, _)| !derived.contains(&v.key.as_str()))
+    {
+        set_path(&mut table, &v.key, toml::Value::Float(*x))?;
+    }
+    if let Some((_, x)) = vary.iter().zip(values).find(|(v, _)| v.key == FACTOR) {
+        let key = case.scale.as_deref().ok_or_else(|| {
+            Error::input(
+                "study.cases.scale",
+                format!("case `{}` sweeps `factor` but names no `scale`", case.label),
+            )
+        })?;
+        let base_value = get_number(&table, key)
+            .ok_or_else(|| Error::input(key, "the scaled field must be a number of the model"))?;
+        set_path(&mut table, key, toml::Value::Float(x * base_value))?;
+    }
+    for (target, from, key) in [
+        ("shape.lambda", "shape.l", LAMBDA_OVER_L),
+        ("shape.R", "shape.lambda", R_OVER_LAMBDA),
+    ] {
+        if let Some((_, x)) = vary.iter().zip(values).find(|(v, _)| v.key == key) {
+            let reference = get_number(&table, from).ok_or_else(|| {
+                Error::input(key, format!("needs a helix with a numeric `{from}`"))
+            })?;
+            set_path(&mut table, target, toml::Value::Float(x * reference))?;
+        }
+    }
+    Study::from_table(table)
+}
+
+/// The fixed columns of `sweep.csv` after the swept keys.
+const RESULT_COLUMNS: [&str; 17] = [
+    "E",
+    "r0",
+    "mu",
+    "l",
+    "lambda_over_l",
+    "R_over_lambda",
+    "EI",
+    "E_r0_4_over_mu_l_4",
+    "kind",
+    "omega_b",
+    "omegabar_b",
+    "im",
+    "Fpbar",
+    "hbar",
+    "nodes",
+    "seconds",
+    "status",
+];
+
+/// The header of `sweep.csv` for a plan sweeping `vary`.
+pub fn header(vary: &[Vary]) -> Vec<String> {
+    ["point", "case"]
+        .iter()
+        .map(|s| s.to_string())
+        .chain(vary.iter().map(|v| v.key.clone()))
+        .chain(RESULT_COLUMNS.iter().map(|s| s.to_string()))
+        .collect()
+}
+
+fn number(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:e}")).unwrap_or_default()
+}
+
+/// Runs `locate` at one point and formats its row; a failure is recorded in the row, not raised.
+fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) -> Vec<String> {
+    let start = Instant::now();
+    let case = &cases[point.case];
+    let mut row = vec![point.index.to_string(), case.label.clone()];
+    row.extend(point.values.iter().map(|x| format!("{x:e}")));
+    let outcome = variant(base, case, vary, &point.values).and_then(|study| {
+        let model = Model::new(&study.physical())?;
+        let (located, _) = locate(
+            &model,
+            study.branch.omega_max,
+            &study.newton,
+            &study.continuation,
+            &mut Silent,
+        )?;
+        Ok((study, located))
+    });
+    match outcome {
+        Ok((study, located)) => {
+            let p = study.physical();
+            let (lol, rol) = match p.shape {
+                ShapeParams::Helix {
+                    l, lambda, radius, ..
+                } => (Some(lambda / l), Some(radius / lambda)),
+                _ => (None, None),
+            };
+            let ell = p.shape.reference_length();
+            row.extend([
+                number(Some(p.rod.youngs_modulus)),
+                number(Some(p.rod.r0)),
+                number(Some(p.fluid.mu)),
+                number(Some(ell)),
+                number(lol),
+                number(rol),
+                number(Some(p.bending_stiffness())),
+                number(Some(
+                    p.rod.youngs_modulus * p.rod.r0.powi(4) / (p.fluid.mu * ell.powi(4)),
+                )),
+                located.kind.clone(),
+                number(located.omega_b),
+                number(located.omegabar_b),
+                number(located.im),
+                number(located.fpbar),
+                number(located.hbar),
+                located.nodes.to_string(),
+                format!("{:.3}", start.elapsed().as_secs_f64()),
+                "ok".into(),
+            ]);
+        }
+        Err(e) => {
+            row.extend((0..8).map(|_| String::new()));
+            row.push("error".into());
+            row.extend((0..5).map(|_| String::new()));
+            row.push(base.discretization.nodes.to_string());
+            row.push(format!("{:.3}", start.elapsed().as_secs_f64()));
+            row.push(e.to_string().replace(['\n', ','], " "));
+        }
+    }
+    row
+}
+
+/// A fingerprint of everything that determines a sweep's results.
+pub fn fingerprint(study: &Study) -> Result<String> {
+    let mut s = study.clone();
+    s.name = String::new();
+    serde_json::to_string(&s).map_err(|e| Error::Numerical(e.to_string()))
+}
+
+/// The CSV file of a run: `sweep.csv`, or `sweep.shard-K-of-N.csv`.
+pub fn csv_name(shard: Option<(usize, usize)>) -> String {
+    match shard {
+        Some((k, n)) => format!("sweep.shard-{k}-of-{n}.csv"),
+        None => "sweep.csv".into(),
+    }
+}
+
+fn plan_path(csv: &Path) -> PathBuf {
+    csv.with_extension("plan.json")
+}
+
+/// Reads the rows of a sweep CSV, keyed by point index; checks its header.
+fn read_rows(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<String>>> {
+    let mut reader = csv::Reader::from_path(path)
+        .map_err(|e| Error::input("sweep", format!("{}: {e}", path.display())))?;
+    let found: Vec<String> = reader
+        .headers()
+        .map_err(|e| Error::input("sweep", format!("{}: {e}", path.display())))?
+        .iter()
+        .map(String::from)
+        .collect();
+    if found != header {
+        return Err(Error::input(
+            "sweep",
+            format!(
+                "{} has the columns of another sweep; delete it or choose another --out",
+                path.display()
+            ),
+        ));
+    }
+    let mut rows = BTreeMap::new();
+    for record in reader.records() {
+        // A row cut short by a kill is dropped (its point runs again).
+        let Ok(record) = record else { continue };
+        let row: Vec<String> = record.iter().map(String::from).collect();
+        if let Some(i) = row.first().and_then(|s| s.parse::<usize>().ok()) {
+            rows.insert(i, row);
+        }
+    }
+    Ok(rows)
+}
+
+fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
+    let tmp = path.with_extension("csv.tmp");
+    {
+        let mut w = csv::Writer::from_path(&tmp)
+            .map_err(|e| Error::input("sweep", format!("{}: {e}", tmp.display())))?;
+        let io = |e: csv::Error| Error::Io {
+            path: tmp.display().to_string(),
+            source: std::io::Error::other(e.to_string()),
+        };
+        w.write_record(header).map_err(io)?;
+        for row in rows.values() {
+            w.write_record(row).map_err(io)?;
+        }
+        w.flush().map_err(io_error(&tmp))?;
+    }
+    std::fs::rename(&tmp, path).map_err(io_error(path))
+}
+
+/// Checks (or writes) the fingerprint beside a sweep CSV.
+fn check_plan(csv: &Path, study: &Study) -> Result<()> {
+    let path = plan_path(csv);
+    let mine = fingerprint(study)?;
+    match std::fs::read_to_string(&path) {
+        Ok(theirs) if theirs != mine => Err(Error::input(
+            "sweep",
+            format!(
+                "{} was produced by a different study; delete it or choose another --out",
+                csv.display()
+            ),
+        )),
+        Ok(_) => Ok(()),
+        Err(_) => std::fs::write(&path, mine).map_err(io_error(&path)),
+    }
+}
+
+/// What a sweep run reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepSummary {
+    pub file: String,
+    pub points: usize,
+    pub already_done: usize,
+    pub computed: usize,
+    pub failed: usize,
+    pub seconds: f64,
+}
+
+/// Runs the sweep of `study` (its plan must be a sweep) into `dir`, skipping finished points.
+pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Result<SweepSummary> {
+    let Some(Plan::Sweep {
+        cases: plan_cases,
+        vary,
+        ..
+    }) = &study.study
+    else {
+        return Err(Error::input(
+            "study.kind",
+            "`sweep` needs a study whose [study] kind is \"sweep\"",
+        ));
+    };
+    if let Some((k, n)) = shard
+        && (n == 0 || k == 0 || k > n)
+    {
+        return Err(Error::input(
+            "--shard",
+            format!("expected K/N with 1 <= K <= N, got {k}/{n}"),
+        ));
+    }
+    let start = Instant::now();
+    create_dir(dir)?;
+    let cases = cases(plan_cases);
+    let header = header(vary);
+    let all = grid(cases.len(), vary);
+    let mine: Vec<SweepPoint> = all
+        .into_iter()
+        .filter(|p| shard.is_none_or(|(k, n)| p.index % n == k - 1))
+        .collect();
+    let path = dir.join(csv_name(shard));
+    check_plan(&path, study)?;
+    let done = if path.exists() {
+        read_rows(&path, &header)?
+    } else {
+        BTreeMap::new()
+    };
+    // Rewrite what was kept (dropping any row cut short), then append as points finish.
+    write_rows(&path, &header, &done)?;
+    let todo: Vec<&SweepPoint> = mine
+        .iter()
+        .filter(|p| !done.contains_key(&p.index))
+        .collect();
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&path)
+        .map_err(io_error(&path))?;
+    let writer = Mutex::new(csv::Writer::from_writer(file));
+    let bar = ProgressBar::new(todo.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "sweep [{elapsed_precise}] {bar:30} {pos}/{len} points, eta {eta}",
+        )
+        .expect("a valid template"),
+    );
+    let failures = Mutex::new(0usize);
+    let results: Vec<Result<()>> = todo
+        .par_iter()
+        .map(|point| {
+            let row = run_point(study, &cases, vary, point);
+            if row.last().is_some_and(|s| s != "ok") {
+                *failures.lock().expect("no panic while counting") += 1;
+            }
+            let mut w = writer.lock().expect("no panic while writing");
+            let io = |e: csv::Error| Error::Io {
+                path: path.display().to_string(),
+                source: std::io::Error::other(e.to_string()),
+            };
+            w.write_record(&row).map_err(io)?;
+            w.flush().map_err(io_error(&path))?;
+            bar.inc(1);
+            Ok(())
+        })
+        .collect();
+    bar.finish_and_clear();
+    results.into_iter().collect::<Result<Vec<()>>>()?;
+    drop(writer);
+    // Sort the finished file by point.
+    let rows = read_rows(&path, &header)?;
+    write_rows(&path, &header, &rows)?;
+    Ok(SweepSummary {
+        file: path.display().to_string(),
+        points: mine.len(),
+        already_done: done.len(),
+        computed: todo.len(),
+        failed: failures.into_inner().expect("no panic while counting"),
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
+/// shard counts, and missing or repeated points.
+pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
+    let Some(Plan::Sweep {
+        cases: plan_cases,
+        vary,
+        ..
+    }) = &study.study
+    else {
+        return Err(Error::input(
+            "study.kind",
+            "`merge` needs a study whose [study] kind is \"sweep\"",
+        ));
+    };
+    let header = header(vary);
+    let total = grid(cases(plan_cases).len(), vary).len();
+    let mine = fingerprint(study)?;
+    let mut shards: Vec<(usize, usize, PathBuf)> = std::fs::read_dir(dir)
+        .map_err(io_error(dir))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter_map(|p| {
+            let name = p.file_name()?.to_str()?.to_string();
+            let rest = name.strip_prefix("sweep.shard-")?.strip_suffix(".csv")?;
+            let (k, n) = rest.split_once("-of-")?;
+            Some((k.parse().ok()?, n.parse().ok()?, p))
+        })
+        .collect();
+    shards.sort();
+    if shards.is_empty() {
+        return Err(Error::input(
+            "merge",
+            format!("no sweep.shard-K-of-N.csv files in {}", dir.display()),
+        ));
+    }
+    let n = shards[0].1;
+    if shards.iter().any(|s| s.1 != n) || shards.len() != n {
+        return Err(Error::input(
+            "merge",
+            format!(
+                "expected the {n} shards of one split, found {:?}",
+                shards.iter().map(|s| (s.0, s.1)).collect::<Vec<_>>()
+            ),
+        ));
+    }
+    let mut rows = BTreeMap::new();
+    for (_, _, path) in &shards {
+        let theirs = std::fs::read_to_string(plan_path(path)).unwrap_or_default();
+        if theirs != mine {
+            return Err(Error::input(
+                "merge",
+                format!("{} was produced by a different study", path.display()),
+            ));
+        }
+        for (i, row) in read_rows(path, &header)? {
+            if rows.insert(i, row).is_some() {
+                return Err(Error::input(
+                    "merge",
+                    format!("point {i} appears in two shards"),
+                ));
+            }
+        }
+    }
+    if rows.len() != total {
+        let missing: Vec<usize> = (0..total).filter(|i| !rows.contains_key(i)).collect();
+        return Err(Error::input(
+            "merge",
+            format!("points missing (unfinished shards?): {missing:?}"),
+        ));
+    }
+    let path = dir.join("sweep.csv");
+    write_rows(&path, &header, &rows)?;
+    std::fs::write(plan_path(&path), mine).map_err(io_error(&path))?;
+    Ok(rows.len())
+}
