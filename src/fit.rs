@@ -280,9 +280,10 @@ pub struct CommonPowerLaw {
     pub p_ci: [f64; 2],
     /// `(group, N_k)`.
     pub prefactors: Vec<(String, f64)>,
-    /// Each group fitted alone (groups of at least three points), for the check of the
-    /// separable form: their exponents should agree with the common one.
-    pub per_group: Vec<(String, PowerLaw)>,
+    /// Each group fitted alone by the same estimator (groups of at least three points):
+    /// `(group, p, p_ci)`, for the check of the separable form (the exponents should agree with
+    /// the common one within their intervals).
+    pub per_group: Vec<(String, f64, [f64; 2])>,
     pub n: usize,
     /// Coefficient of determination in `ln y`.
     pub r2: f64,
@@ -347,10 +348,17 @@ pub fn common_power_law(groups: &[(String, Vec<f64>, Vec<f64>)]) -> Result<Commo
     } else {
         f64::INFINITY
     };
-    let per_group = groups
+    let per_group = logs
         .iter()
         .filter(|g| g.1.len() >= 3)
-        .map(|(g, x, y)| power_law(x, y).map(|f| (g.clone(), f)))
+        .map(|(g, lx, ly)| {
+            let (_, slope, sse) = linear_fit_xy(lx, ly);
+            let mx = mean(lx);
+            let sxx: f64 = lx.iter().map(|a| (a - mx).powi(2)).sum();
+            let dof = lx.len() - 2;
+            let half = t95(dof)? * (sse / dof as f64 / sxx).sqrt();
+            Ok(((*g).clone(), slope, [slope - half, slope + half]))
+        })
         .collect::<Result<Vec<_>>>()?;
     Ok(CommonPowerLaw {
         p,

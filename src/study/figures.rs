@@ -251,7 +251,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "n": f.n,
                     "r2": f.r2,
                     "prefactors": f.prefactors,
-                    "per_series_m": f.per_group.iter().map(|(g, p)| json!({"series": g, "m": -p.p, "m_ci": [-p.p_ci[1], -p.p_ci[0]]})).collect::<Vec<_>>(),
+                    "per_series_m": f.per_group.iter().map(|(g, p, ci)| json!({"series": g, "m": -p, "m_ci": [-ci[1], -ci[0]]})).collect::<Vec<_>>(),
                 });
                 let path = dir.join("fit.json");
                 std::fs::write(&path, format!("{record:#}\n")).map_err(io_error(&path))?;
@@ -296,7 +296,12 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
         }
         write_figure(
             &Figure {
-                title: format!("{}: {} against {}", study.name, spec.y, spec.x),
+                title: format!(
+                    "{}: {} against {}",
+                    study.name,
+                    short_name(&spec.y),
+                    short_name(&spec.x)
+                ),
                 x_label: axis_label(&spec.x),
                 y_label: axis_label(&spec.y),
                 x_scale: scale(spec.log_x),
@@ -337,11 +342,15 @@ pub fn axis_label(column: &str) -> String {
         "fluid.mu" => "Pa s",
         _ => "-",
     };
-    let name = match column {
+    format!("{} ({unit})", short_name(column))
+}
+
+/// The readable name of a column of `sweep.csv`.
+fn short_name(column: &str) -> &str {
+    match column {
         "E_r0_4_over_mu_l_4" => "E r0^4/(mu l^4)",
         "lambda_over_l" | "shape.lambda_over_l" => "lambda/l",
         "R_over_lambda" | "shape.R_over_lambda" => "R/lambda",
         other => other,
-    };
-    format!("{name} ({unit})")
+    }
 }

@@ -56,18 +56,24 @@ struct Column {
     boundary: Option<(f64, String)>,
 }
 
-fn column(study: &Study, lambda_over_l: f64) -> Result<Column> {
+fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Result<Column> {
     let base = Case {
         label: "base".into(),
         set: toml::Table::new(),
         scale: None,
     };
-    let vary = [Vary {
-        key: "shape.lambda_over_l".into(),
-        values: vec![lambda_over_l],
+    let ratio = |key: &str, value: f64| Vary {
+        key: key.into(),
+        values: vec![value],
         range: None,
-    }];
-    let s = variant(study, &base, &vary, &[lambda_over_l])?;
+    };
+    let mut vary = vec![ratio("shape.lambda_over_l", lambda_over_l)];
+    let mut values = vec![lambda_over_l];
+    if let Some(r) = r_over_lambda {
+        vary.push(ratio("shape.R_over_lambda", r));
+        values.push(r);
+    }
+    let s = variant(study, &base, &vary, &values)?;
     let ShapeParams::Helix { lambda, radius, .. } = s.shape else {
         return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
     };
@@ -181,6 +187,7 @@ fn flagella(path: &str, m: f64) -> Result<(Vec<Flagellum>, Vec<String>)> {
 pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
     let Some(Plan::Phase {
         lambda_over_l,
+        r_over_lambda,
         m,
         rows,
         bacteria,
@@ -193,7 +200,7 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
     values.sort_by(f64::total_cmp);
     let columns = values
         .par_iter()
-        .map(|&v| column(study, v))
+        .map(|&v| column(study, v, *r_over_lambda))
         .collect::<Result<Vec<Column>>>()?;
     let mut table = CsvWriter::create(&dir.join("phase.csv"))?;
     let mut bounds = CsvWriter::create(&dir.join("boundary.csv"))?;
@@ -267,13 +274,22 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
         let (placed, missing) = flagella(path, m)?;
         skipped = missing;
         for f in placed {
+            // The exact range as a vertical segment, the central value as a marker on it.
             overlays.push(Series {
-                label: f.label,
+                label: format!("{} (range)", f.label),
+                x: vec![f.lambda_over_l, f.lambda_over_l],
+                y: vec![f.low, f.high],
+                style: Style::Line,
+                stable: None,
+                err: None,
+            });
+            overlays.push(Series {
+                label: String::new(),
                 x: vec![f.lambda_over_l],
                 y: vec![f.central],
                 style: Style::Markers(MarkerShape::Square),
                 stable: None,
-                err: Some(vec![(f.high - f.central).max(f.central - f.low)]),
+                err: None,
             });
         }
     }

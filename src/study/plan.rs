@@ -127,6 +127,9 @@ pub enum Plan {
     /// `lambda/l`, the stability boundary, and natural flagella placed on it.
     Phase {
         lambda_over_l: Vec<f64>,
+        /// Keep `R/lambda` at this value (the radius follows the pitch); absent: `R` fixed.
+        #[serde(default, rename = "R_over_lambda")]
+        r_over_lambda: Option<f64>,
         /// The exponent `m`; when absent, read from `output/exponent_m/fit.json`.
         #[serde(default)]
         m: Option<f64>,

@@ -1,0 +1,270 @@
+//! Study files: every study of `studies/` parses and a reduced version of it runs; sweeps are
+//! resumable and shardable with the same numbers; `fit` recovers a known power law.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use helixbif::study::Study;
+use helixbif::study::plan::Plan;
+use helixbif::study::run::run;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("helixbif-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A reduced version of a study: few nodes, the first two values of every list, a short range.
+fn reduced(mut study: Study) -> Study {
+    study.discretization.per_turn = None;
+    study.discretization.nodes = 16;
+    study.branch.omega_max = study.branch.omega_max.min(0.8);
+    match &mut study.study {
+        Some(Plan::Sweep { vary, cases, .. }) => {
+            for v in vary.iter_mut() {
+                v.values = v.points().into_iter().take(2).collect();
+                v.range = None;
+            }
+            cases.truncate(2);
+        }
+        Some(Plan::Phase {
+            lambda_over_l,
+            m,
+            rows,
+            ..
+        }) => {
+            lambda_over_l.truncate(2);
+            m.get_or_insert(1.0);
+            *rows = 8;
+        }
+        Some(Plan::Shapes { omegas }) => omegas.truncate(2),
+        Some(Plan::Branch { cases }) => cases.truncate(2),
+        _ => {}
+    }
+    study
+}
+
+/// Counts the `<text>` elements equal to `label` in an SVG file, after checking it parses.
+fn svg_texts(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc =
+        roxmltree::Document::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    doc.descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .filter_map(|n| n.text().map(|t| t.trim().to_string()))
+        .collect()
+}
+
+#[test]
+fn every_study_parses_and_a_reduced_version_runs() {
+    let studies = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&studies)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    assert!(names.len() >= 8, "{names:?}");
+    // Relative paths in studies (the flagella table) are relative to the repository root.
+    std::env::set_current_dir(env!("CARGO_MANIFEST_DIR")).unwrap();
+    for path in names {
+        let study = Study::from_path(Some(&path), &[])
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let small = reduced(study);
+        let dir = temp_dir(&format!("study-{}", small.name));
+        let report = run(&small, &dir).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(dir.join("meta.json").exists(), "{}", path.display());
+        // Every SVG written is valid XML with labelled axes.
+        let svgs: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+            .collect();
+        if small.study.as_ref().is_some_and(|p| p.kind() != "locate") {
+            assert!(!svgs.is_empty(), "{}: no figure ({report})", path.display());
+        }
+        for svg in &svgs {
+            let texts = svg_texts(svg);
+            assert!(
+                texts.iter().any(|t| t.contains('(') && t.contains(')')),
+                "{}: no axis label with a unit",
+                svg.display()
+            );
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
+
+fn helixbif(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+/// A small sweep study file: 8 points, 16 nodes.
+fn small_sweep(dir: &Path) -> PathBuf {
+    let path = dir.join("small.toml");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/fig4b_pitch.toml"),
+    )
+    .unwrap()
+    .replace("per_turn = 15.0", "")
+    .replace("nodes = 60", "nodes = 16")
+    .replace(
+        "values = [0.15, 0.2, 0.25, 0.3, 0.35]",
+        "values = [0.2, 0.22, 0.24, 0.26, 0.28, 0.3, 0.32, 0.34]",
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The rows of a sweep CSV without the timing column, sorted by point.
+fn rows(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let seconds = header.iter().position(|h| *h == "seconds").unwrap();
+    let mut rows: Vec<String> = lines
+        .map(|l| {
+            l.split(',')
+                .enumerate()
+                .filter(|(i, _)| *i != seconds)
+                .map(|(_, v)| v)
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect();
+    rows.sort_by_key(|r| r.split(',').next().unwrap().parse::<usize>().unwrap());
+    rows
+}
+
+#[test]
+fn a_killed_sweep_resumes_and_shards_merge_to_the_same_numbers() {
+    let dir = temp_dir("sweep");
+    let study = small_sweep(&dir);
+    let s = study.to_str().unwrap();
+    // Uninterrupted reference.
+    let whole = dir.join("whole");
+    let (code, _, err) = helixbif(&["sweep", s, "--out", whole.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let reference = rows(&whole.join("sweep.csv"));
+    assert_eq!(reference.len(), 8);
+    // Killed midway: wait until some points are on disk, kill, re-run.
+    let killed = dir.join("killed");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(["sweep", s, "--out", killed.to_str().unwrap()])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let csv = killed.join("sweep.csv");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    loop {
+        let done = std::fs::read_to_string(&csv)
+            .map(|t| t.lines().count().saturating_sub(1))
+            .unwrap_or(0);
+        if done >= 2 || std::time::Instant::now() > deadline {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let partial = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    let (code, out, err) = helixbif(&["sweep", s, "--out", killed.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let summary: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(
+        summary["already_done"].as_u64().unwrap() as usize
+            + summary["computed"].as_u64().unwrap() as usize,
+        8
+    );
+    assert!(
+        summary["already_done"].as_u64().unwrap() as usize >= partial.min(8) - 1,
+        "{summary} vs {partial}"
+    );
+    assert_eq!(
+        rows(&csv),
+        reference,
+        "resumed sweep differs from the uninterrupted one"
+    );
+    // A complete sweep re-run computes nothing.
+    let (_, out, _) = helixbif(&["sweep", s, "--out", killed.to_str().unwrap(), "--json"]);
+    let summary: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(summary["computed"], 0);
+    // Two shards merged equal the whole.
+    let sharded = dir.join("sharded");
+    for k in ["1/2", "2/2"] {
+        let (code, _, err) =
+            helixbif(&["sweep", s, "--shard", k, "--out", sharded.to_str().unwrap()]);
+        assert_eq!(code, 0, "{err}");
+    }
+    let (code, _, err) = helixbif(&["merge", s, "--out", sharded.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(rows(&sharded.join("sweep.csv")), reference);
+    // Merging shards of another study is refused.
+    let (code, _, err) = helixbif(&[
+        "merge",
+        s,
+        "--set",
+        "rod.E=2e6",
+        "--out",
+        sharded.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("different study"), "{err}");
+    // The figure holds one marker per point and its axis labels.
+    let texts = svg_texts(&whole.join("sweep_0.svg"));
+    assert!(texts.iter().any(|t| t == "omega_b (rad/s)"), "{texts:?}");
+    let svg = std::fs::read_to_string(whole.join("sweep_0.svg")).unwrap();
+    assert_eq!(svg.matches("<circle").count(), 8);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn fit_recovers_a_power_law_from_a_csv() {
+    let dir = temp_dir("fit");
+    let path = dir.join("data.csv");
+    let mut text = String::from("x,y\n");
+    let mut state = 2024u64;
+    for i in 0..20 {
+        let x = 0.5 + 0.25 * i as f64;
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let noise = 1.0 + 0.02 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
+        text.push_str(&format!("{x},{}\n", 4.0 * x.powf(-0.6) * noise));
+    }
+    std::fs::write(&path, text).unwrap();
+    let (code, out, err) = helixbif(&[
+        "fit",
+        path.to_str().unwrap(),
+        "--x",
+        "x",
+        "--y",
+        "y",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let p_ci: Vec<f64> = v["p_ci"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(p_ci[0] < -0.6 && -0.6 < p_ci[1], "{v}");
+    assert!((v["p"].as_f64().unwrap() + 0.6).abs() < 0.02);
+    for key in ["C", "C_ci", "n", "r2"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    let (code, _, err) = helixbif(&["fit", path.to_str().unwrap(), "--x", "nope", "--y", "y"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("nope"));
+    std::fs::remove_dir_all(&dir).ok();
+}
