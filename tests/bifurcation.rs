@@ -1,6 +1,9 @@
 //! Continuation of the rod: Greenhill's column, agreement with `solve`, convergence of `omega_b`
 //! for the representative helix, and a branch followed around two folds.
 
+mod common;
+
+use common::straight_rod;
 use helixbif::branch::{Parameter, RodProblem, locate, observables_at, rest_state, trace};
 use helixbif::continuation::ContinuationSettings;
 use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
@@ -8,34 +11,13 @@ use helixbif::continuation::events::EventKind;
 use helixbif::continuation::newton::NewtonSettings;
 use helixbif::fit::richardson;
 use helixbif::model::Model;
-use helixbif::params::{Discretization, FluidParams, Handedness, Physical, RodParams, ShapeParams};
+use helixbif::params::{Handedness, Physical, ShapeParams};
 use helixbif::solve::solve_at;
 
 /// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its
 /// own weight at `q L^3 / EI = 7.8373` (continuum).
 fn greenhill(nodes: usize) -> f64 {
-    let physical = Physical {
-        rod: RodParams {
-            youngs_modulus: 1e6,
-            r0: 1e-3,
-            rho: 1000.0,
-            nu: 0.5,
-        },
-        fluid: FluidParams {
-            mu: 1.0,
-            rho: 0.0,
-            g: 9.81,
-            quadrature: Default::default(),
-        },
-        shape: ShapeParams::Straight {
-            length: 1.0,
-            alpha_deg: 180.0,
-        },
-        discretization: Discretization {
-            nodes,
-            per_turn: None,
-        },
-    };
+    let physical = straight_rod(1.0, 1e-3, 180.0, nodes);
     let model = Model::new(&physical).unwrap();
     let problem = RodProblem {
         model: &model,

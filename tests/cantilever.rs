@@ -5,9 +5,11 @@
 //! `w = q L^3 / EI`): `theta'' = -w (1 - s) cos(theta)`, `theta(0) = 0`, `theta'(1) = 0`
 //! (no moment at the free end). Tip drop `int_0^1 sin(theta) ds`, reach `int_0^1 cos(theta) ds`.
 
+mod common;
+
+use common::straight_rod;
 use helixbif::continuation::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use helixbif::steady;
 
 /// Integrates the elastica by RK4 from `theta'(0) = k`; returns `(theta'(1), drop, reach)`.
@@ -48,28 +50,7 @@ fn elastica(w: f64) -> (f64, f64) {
 
 /// Relative errors of the discrete tip drop and reach at `nodes` nodes.
 fn discrete_errors(w: f64, nodes: usize, reference: (f64, f64)) -> (f64, f64) {
-    let physical = Physical {
-        rod: RodParams {
-            youngs_modulus: 1e6,
-            r0: 1e-4,
-            rho: 1000.0,
-            nu: 0.5,
-        },
-        fluid: FluidParams {
-            mu: 1.0,
-            rho: 0.0,
-            g: 9.81,
-            quadrature: Default::default(),
-        },
-        shape: ShapeParams::Straight {
-            length: 0.1,
-            alpha_deg: 90.0,
-        },
-        discretization: Discretization {
-            nodes,
-            per_turn: None,
-        },
-    };
+    let physical = straight_rod(0.1, 1e-4, 90.0, nodes);
     let model = Model::new(&physical).unwrap();
     // Load ramp in the weight (large deflection from a straight start).
     let settings = NewtonSettings::default();

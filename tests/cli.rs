@@ -1,18 +1,8 @@
 //! The command line: JSON output, exit codes and one-line errors naming the field.
 
-use std::process::Command;
+mod common;
 
-fn helixbif(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
-}
+use common::helixbif;
 
 #[test]
 fn solve_json_has_the_documented_keys() {

@@ -4,6 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod common;
+
+use common::helixbif;
 use helixbif::study::Study;
 use helixbif::study::plan::Plan;
 use helixbif::study::run::run;
@@ -93,18 +96,6 @@ fn every_study_parses_and_a_reduced_version_runs() {
         }
         std::fs::remove_dir_all(&dir).ok();
     }
-}
-
-fn helixbif(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
 }
 
 /// A small sweep study file: 8 points, 16 nodes.

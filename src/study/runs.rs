@@ -246,6 +246,21 @@ impl Observer for LocateProgress<'_> {
     }
 }
 
+/// `locate` on a model with the study's range and numerical settings.
+pub fn locate_study(
+    study: &Study,
+    model: &Model,
+    observer: &mut impl Observer,
+) -> Result<(Located, Option<Event>)> {
+    locate(
+        model,
+        study.branch.omega_max,
+        &study.newton,
+        &study.continuation,
+        observer,
+    )
+}
+
 /// `locate` on one model, with a progress bar.
 pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
     let omegabar_max = model.scales.omega_to_bar(study.branch.omega_max);
@@ -254,13 +269,7 @@ pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
         bar: progress(omegabar_max, &format!("locate N = {}", model.nodes())),
         omegabar_max,
     };
-    let result = locate(
-        model,
-        study.branch.omega_max,
-        &study.newton,
-        &study.continuation,
-        &mut observer,
-    );
+    let result = locate_study(study, model, &mut observer);
     observer.bar.finish_and_clear();
     Ok(result?.0)
 }

@@ -9,7 +9,7 @@ use serde_json::{Value, json};
 
 use super::Study;
 use super::plan::Plan;
-use crate::branch::locate;
+use super::runs::locate_study;
 use crate::continuation::arclength::Silent;
 use crate::continuation::stability::mode;
 use crate::dofs::Layout;
@@ -102,13 +102,7 @@ pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
     )?;
 
     // The critical mode at omega_b.
-    let (located, event) = locate(
-        &model,
-        study.branch.omega_max,
-        &study.newton,
-        &study.continuation,
-        &mut Silent,
-    )?;
+    let (located, event) = locate_study(study, &model, &mut Silent)?;
     let Some(event) = event else {
         return Ok(json!({ "kind": "shapes", "omegas": omegas, "mode": null }));
     };

@@ -18,8 +18,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::plan::{Case, Plan, Vary};
+use super::runs::locate_study;
 use super::{Study, get_number, set_path};
-use crate::branch::locate;
 use crate::continuation::arclength::Silent;
 use crate::model::Model;
 use crate::output::{create_dir, io_error};
@@ -161,13 +161,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
     row.extend(point.values.iter().map(|x| format!("{x:e}")));
     let outcome = variant(base, case, vary, &point.values).and_then(|study| {
         let model = Model::new(&study.physical())?;
-        let (located, _) = locate(
-            &model,
-            study.branch.omega_max,
-            &study.newton,
-            &study.continuation,
-            &mut Silent,
-        )?;
+        let (located, _) = locate_study(&study, &model, &mut Silent)?;
         Ok((study, located))
     });
     match outcome {
@@ -310,19 +304,20 @@ pub struct SweepSummary {
     pub seconds: f64,
 }
 
+/// The cases and swept parameters of a sweep study; `command` names the command for the error.
+fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
+    match &study.study {
+        Some(Plan::Sweep { cases, vary, .. }) => Ok((cases, vary)),
+        _ => Err(Error::input(
+            "study.kind",
+            format!("`{command}` needs a study whose [study] kind is \"sweep\""),
+        )),
+    }
+}
+
 /// Runs the sweep of `study` (its plan must be a sweep) into `dir`, skipping finished points.
 pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Result<SweepSummary> {
-    let Some(Plan::Sweep {
-        cases: plan_cases,
-        vary,
-        ..
-    }) = &study.study
-    else {
-        return Err(Error::input(
-            "study.kind",
-            "`sweep` needs a study whose [study] kind is \"sweep\"",
-        ));
-    };
+    let (plan_cases, vary) = sweep_plan(study, "sweep")?;
     if let Some((k, n)) = shard
         && (n == 0 || k == 0 || k > n)
     {
@@ -403,17 +398,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
 /// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
 /// shard counts, and missing or repeated points.
 pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
-    let Some(Plan::Sweep {
-        cases: plan_cases,
-        vary,
-        ..
-    }) = &study.study
-    else {
-        return Err(Error::input(
-            "study.kind",
-            "`merge` needs a study whose [study] kind is \"sweep\"",
-        ));
-    };
+    let (plan_cases, vary) = sweep_plan(study, "merge")?;
     let header = header(vary);
     let total = grid(cases(plan_cases).len(), vary).len();
     let mine = fingerprint(study)?;

@@ -1,7 +1,46 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
+use helixbif::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use nalgebra::Vector3;
+
+/// Runs the `helixbif` binary: exit code, stdout, stderr.
+pub fn helixbif(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+/// A straight, thin rubber rod (`E = 1 MPa`, `rho = 1000 kg/m^3`) of length `length` and radius
+/// `r0`, clamped at `alpha_deg` from the downward vertical, in a weightless unit-viscosity fluid
+/// (the weight comes from the rod alone, `q = rho g pi r0^2`).
+pub fn straight_rod(length: f64, r0: f64, alpha_deg: f64, nodes: usize) -> Physical {
+    Physical {
+        rod: RodParams {
+            youngs_modulus: 1e6,
+            r0,
+            rho: 1000.0,
+            nu: 0.5,
+        },
+        fluid: FluidParams {
+            mu: 1.0,
+            rho: 0.0,
+            g: 9.81,
+            quadrature: Default::default(),
+        },
+        shape: ShapeParams::Straight { length, alpha_deg },
+        discretization: Discretization {
+            nodes,
+            per_turn: None,
+        },
+    }
+}
 
 /// A small deterministic pseudo-random generator (xorshift64*), so tests need no `rand` crate.
 pub struct Rng(u64);
