@@ -69,11 +69,23 @@ impl Handedness {
     }
 }
 
+/// How a helix is clamped to the motor (MODEL.md section 8).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HelixClamp {
+    /// The reference: clamped at the helix's own end, the clamped tangent the helix's.
+    #[default]
+    Helix,
+    /// As lab rods on a motor shaft: the first edge on the rotation axis (pointing down), joined
+    /// to the helix's end by a straight radial connector.
+    Axis,
+}
+
 /// The stress-free (natural) shape of the rod.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeParams {
-    /// Helix about the rotation axis, clamped at its top end, tangent along the helix.
+    /// Helix about the rotation axis, clamped at its top end.
     Helix {
         /// Axial length `l` (m).
         l: f64,
@@ -83,6 +95,9 @@ pub enum ShapeParams {
         #[serde(rename = "R")]
         radius: f64,
         handedness: Handedness,
+        /// Where the rod is held (default: the helix's own end, tangent along the helix).
+        #[serde(default)]
+        clamp: HelixClamp,
     },
     /// Planar circular arc, tangent at the clamp along `-e_z`.
     Arc {
@@ -116,10 +131,19 @@ impl ShapeParams {
     pub fn contour_length(&self) -> f64 {
         match *self {
             ShapeParams::Helix {
-                l, lambda, radius, ..
+                l,
+                lambda,
+                radius,
+                clamp,
+                ..
             } => {
-                (l / lambda)
-                    * (lambda * lambda + (2.0 * std::f64::consts::PI * radius).powi(2)).sqrt()
+                let helix = (l / lambda)
+                    * (lambda * lambda + (2.0 * std::f64::consts::PI * radius).powi(2)).sqrt();
+                match clamp {
+                    HelixClamp::Helix => helix,
+                    // The connector; the short edge on the axis is left out.
+                    HelixClamp::Axis => helix + radius,
+                }
             }
             ShapeParams::Arc { length, .. } | ShapeParams::Straight { length, .. } => length,
         }
@@ -195,6 +219,7 @@ impl Physical {
                 lambda: 0.05,
                 radius: 0.0159,
                 handedness: Handedness::Right,
+                clamp: HelixClamp::Helix,
             },
             discretization: Discretization {
                 nodes: 60,

@@ -7,15 +7,23 @@
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-use crate::params::ShapeParams;
+use crate::params::{HelixClamp, ShapeParams};
 
 /// Node positions of the natural shape, in SI units (m).
 ///
 /// * helix: `X(phi) = (R cos phi, -h R sin phi, -lambda phi / (2 pi))`, `phi_i = i 2 pi (l/lambda) / (N-1)`;
-///   its axis is the rotation axis and the clamp sits at `X(0) = (R, 0, 0)`;
+///   its axis is the rotation axis and the clamp sits at `X(0) = (R, 0, 0)`; with the axis clamp
+///   ([`HelixClamp::Axis`]) see [`axis_clamped_helix`];
 /// * arc: `X(s) = (R (1 - cos(s/R)), 0, -R sin(s/R))`, tangent `-e_z` at the clamp (the origin);
 /// * straight: `X(s) = s (sin alpha, 0, -cos alpha)` from the clamp at the origin.
 pub fn natural_nodes(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
+    if let ShapeParams::Helix {
+        clamp: HelixClamp::Axis,
+        ..
+    } = shape
+    {
+        return axis_clamped_helix(shape, nodes);
+    }
     let steps = (nodes - 1) as f64;
     (0..nodes)
         .map(|i| {
@@ -26,6 +34,7 @@ pub fn natural_nodes(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
                     lambda,
                     radius,
                     handedness,
+                    ..
                 } => {
                     let phi = u * 2.0 * PI * l / lambda;
                     Vector3::new(
@@ -45,6 +54,38 @@ pub fn natural_nodes(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
             }
         })
         .collect()
+}
+
+/// A helix held on the rotation axis: node 0 above the origin and node 1 at the origin (the
+/// clamped first edge on the axis, pointing down, one helix chord long), a straight radial
+/// connector from the origin to the helix's end `X(0) = (R, 0, 0)` in edges of about that chord,
+/// then the helix at equal steps of `phi` with the remaining nodes.
+pub fn axis_clamped_helix(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
+    let ShapeParams::Helix {
+        l,
+        lambda,
+        radius,
+        handedness,
+        ..
+    } = *shape
+    else {
+        unreachable!("called for helices only");
+    };
+    let own = ShapeParams::Helix {
+        l,
+        lambda,
+        radius,
+        handedness,
+        clamp: HelixClamp::Helix,
+    };
+    let guess = own.contour_length() / (nodes - 1) as f64;
+    let connector = ((radius / guess).round() as usize).clamp(1, nodes.saturating_sub(6).max(1));
+    let helix = natural_nodes(&own, nodes - 1 - connector);
+    let chord = (helix[1] - helix[0]).norm();
+    let mut x = vec![Vector3::new(0.0, 0.0, chord), Vector3::zeros()];
+    x.extend((1..connector).map(|k| Vector3::new(radius * k as f64 / connector as f64, 0.0, 0.0)));
+    x.extend(helix);
+    x
 }
 
 /// Voronoi lengths of the nodes of a polygon: half the adjacent edges (one half-edge at each end).
@@ -71,6 +112,7 @@ mod tests {
             lambda: 0.05,
             radius: 0.0159,
             handedness: Handedness::Right,
+            clamp: HelixClamp::Helix,
         };
         let x = natural_nodes(&shape, 41);
         let chords: Vec<f64> = x.windows(2).map(|p| (p[1] - p[0]).norm()).collect();
@@ -82,6 +124,31 @@ mod tests {
         assert!((x[40].z + 0.2).abs() < 1e-14);
         let w = voronoi_lengths(&x);
         assert!((w.iter().sum::<f64>() - polygon).abs() < 1e-14);
+    }
+
+    #[test]
+    fn axis_clamp_starts_on_the_axis_and_joins_the_helix() {
+        let shape = ShapeParams::Helix {
+            l: 0.2,
+            lambda: 0.05,
+            radius: 0.0159,
+            handedness: Handedness::Right,
+            clamp: HelixClamp::Axis,
+        };
+        let x = natural_nodes(&shape, 60);
+        assert_eq!(x.len(), 60);
+        assert!(x[0].x == 0.0 && x[0].y == 0.0 && x[0].z > 0.0 && x[1].norm() == 0.0);
+        // The helix part ends at the helix's far end.
+        assert!((x[59].z + 0.2).abs() < 1e-14);
+        let first_helix = x
+            .iter()
+            .position(|p| (p - Vector3::new(0.0159, 0.0, 0.0)).norm() < 1e-15)
+            .unwrap();
+        assert!(first_helix >= 3);
+        // Connector edges are close to the helix chord.
+        let chord = (x[first_helix + 1] - x[first_helix]).norm();
+        let connector = (x[2] - x[1]).norm();
+        assert!((connector / chord - 1.0).abs() < 0.5);
     }
 
     #[test]

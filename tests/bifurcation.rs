@@ -200,3 +200,27 @@ fn a_branch_with_two_folds_is_followed_around_both() {
         model.scales.omega_from_bar(lower)
     );
 }
+
+#[test]
+fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
+    // MODEL.md section 8: the lab clamp (first edge on the axis, radial connector) against the
+    // reference clamp (the helix's own end). Both lose stability at a Hopf point; the connector
+    // lets the helix's top swing about the axis, which lowers omega_b by a few percent.
+    let omega_b = |clamp: &str| {
+        let study = helixbif::study::Study::load(None, &[format!("shape.clamp={clamp}")]).unwrap();
+        let model = Model::new(&study.physical()).unwrap();
+        let (located, _) = locate(
+            &model,
+            2.0,
+            &NewtonSettings::default(),
+            &ContinuationSettings::default(),
+            &mut Silent,
+        )
+        .unwrap();
+        assert_eq!(located.kind, "hopf");
+        located.omega_b.unwrap()
+    };
+    let (own, axis) = (omega_b("helix"), omega_b("axis"));
+    println!("omega_b at N = 60: helix clamp {own:.6} rad/s, axis clamp {axis:.6} rad/s");
+    assert!(axis < own && axis > 0.85 * own, "{own} vs {axis}");
+}
