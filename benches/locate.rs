@@ -50,8 +50,13 @@ impl Problem for Timed<'_> {
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         self.inner.retract(u, du)
     }
-    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)> {
-        timed(&self.stability, || self.inner.stability_pair(u, p))
+    fn stability_pair(
+        &self,
+        u: &[f64],
+        p: f64,
+        lin: &Linearization,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
+        timed(&self.stability, || self.inner.stability_pair(u, p, lin))
     }
     fn scales(&self) -> (f64, f64) {
         self.inner.scales()

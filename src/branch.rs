@@ -72,8 +72,13 @@ impl Problem for RodProblem<'_> {
         self.steady(0.0).retract(u, du)
     }
 
-    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)> {
-        self.steady(p).stability_pair(u)
+    fn stability_pair(
+        &self,
+        u: &[f64],
+        p: f64,
+        lin: &Linearization,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
+        self.steady(p).stability_pair_from(u, &lin.g_u)
     }
 
     fn scales(&self) -> (f64, f64) {

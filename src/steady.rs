@@ -328,7 +328,12 @@ impl Steady<'_> {
     /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`.
     pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
         let lin = self.linearize(u)?;
-        let j = &lin.jacobian;
+        self.stability_pair_from(u, &lin.jacobian)
+    }
+
+    /// [`Steady::stability_pair`] from the Jacobian `j` of the steady residual at `u`, already
+    /// at hand (the continuation corrector ends with it).
+    pub fn stability_pair_from(&self, u: &[f64], j: &Mat<f64>) -> Result<(Mat<f64>, Mat<f64>)> {
         let nx = self.layout().free_positions();
         let nt = j.nrows() - nx;
         let j_tt = Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]);
@@ -341,14 +346,13 @@ impl Steady<'_> {
                 "singular twist block in the stability operator".into(),
             ));
         }
-        let x = &lin.config.x;
-        let resistance = match lin.drag {
-            Some(d) => d.resistance,
-            None => self
-                .model
-                .fluid
-                .resistance(x, &format!("stability at omegabar = 0, N = {}", x.len()))?,
-        };
+        let x = self.config(u).x;
+        let context = format!(
+            "stability at omegabar = {:.6e}, N = {}",
+            self.omega,
+            x.len()
+        );
+        let resistance = self.model.fluid.resistance(&x, &context)?;
         let n3 = 3 * x.len();
         let first = self.layout().x(Layout::CLAMPED_NODES, 0);
         let columns = Mat::from_fn(n3, nx, |r, c| if r == first + c { 1.0 } else { 0.0 });

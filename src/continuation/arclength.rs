@@ -250,9 +250,15 @@ impl<P: Problem> System for AtParameter<'_, P> {
     }
 }
 
-/// The leading spectrum at a solution.
-pub fn stability(problem: &impl Problem, u: &[f64], p: f64, keep: usize) -> Result<Spectrum> {
-    let (k, m) = problem.stability_pair(u, p)?;
+/// The leading spectrum at a solution whose linearization is `lin`.
+pub fn stability(
+    problem: &impl Problem,
+    u: &[f64],
+    p: f64,
+    lin: &Linearization,
+    keep: usize,
+) -> Result<Spectrum> {
+    let (k, m) = problem.stability_pair(u, p, lin)?;
     spectrum(&k, &m, keep)
 }
 
@@ -303,7 +309,7 @@ pub fn follow<P: Problem>(
     let zero = vec![0.0; u0.len()];
     let (tu, tp) = tangent(&lin, &metric, &zero, direction.signum() / metric.wp)?;
     let first = Point {
-        spectrum: stability(problem, &u0, p0, settings.eigenvalues)?,
+        spectrum: stability(problem, &u0, p0, &lin, settings.eigenvalues)?,
         u: u0,
         p: p0,
         s: 0.0,
@@ -354,7 +360,7 @@ pub fn follow<P: Problem>(
                 )));
             }
             let (tu, tp) = tangent(&c.lin, &metric, &last.tangent_u, last.tangent_p)?;
-            let spectrum = stability(problem, &c.u, c.p, settings.eigenvalues)?;
+            let spectrum = stability(problem, &c.u, c.p, &c.lin, settings.eigenvalues)?;
             Ok(Point {
                 u: c.u,
                 p: c.p,

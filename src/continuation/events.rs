@@ -135,7 +135,7 @@ pub fn locate(
             Target::Turning => tangent(&c.lin, metric, &a.tangent_u, a.tangent_p)?.1,
             Target::Crossing(_) => a.tangent_p,
         };
-        let spectrum = stability(problem, &c.u, c.p, settings.eigenvalues)?;
+        let spectrum = stability(problem, &c.u, c.p, &c.lin, settings.eigenvalues)?;
         let value = spectrum.nearest(tracked);
         Ok(Sample {
             sigma,

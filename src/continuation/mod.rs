@@ -40,8 +40,14 @@ pub trait Problem {
         u.iter().zip(du).map(|(a, b)| a + b).collect()
     }
     /// The stability pair `(K, M)` at a solution: the linearized dynamics `M dv/dt = K v`,
-    /// eigenproblem `K v = s M v`, `M` symmetric positive definite.
-    fn stability_pair(&self, u: &[f64], p: f64) -> Result<(Mat<f64>, Mat<f64>)>;
+    /// eigenproblem `K v = s M v`, `M` symmetric positive definite. `lin` is the linearization
+    /// at `(u, p)`, which the engine always has at hand when it asks.
+    fn stability_pair(
+        &self,
+        u: &[f64],
+        p: f64,
+        lin: &Linearization,
+    ) -> Result<(Mat<f64>, Mat<f64>)>;
     /// Typical sizes of a change of `u` (root mean square per unknown) and of `p`: the units of
     /// the arclength.
     fn scales(&self) -> (f64, f64) {
