@@ -21,7 +21,7 @@ pub enum Parameter {
     Weight,
 }
 
-/// Typical change of a position unknown (solver units, a hundredth of the reference length) and
+/// Typical change of a position unknown (solver units: a twentieth of the reference length) and
 /// of the parameters: the units of the arclength.
 const POSITION_SCALE: f64 = 5e-2;
 const OMEGA_SCALE: f64 = 10.0;
@@ -101,6 +101,13 @@ pub fn trace(
     observer: &mut impl Observer,
 ) -> Result<Branch> {
     model.check_resolution()?;
+    if model.fluid.quadrature == crate::fluid::Quadrature::Original {
+        return Err(crate::Error::input(
+            "fluid.quadrature",
+            "the original quadrature's mobility is indefinite (A_ii t_i = 0), so Z_ff is no mass \
+             matrix for the stability problem: continuation needs \"reference\"",
+        ));
+    }
     let problem = RodProblem {
         model,
         parameter: Parameter::Omega,
@@ -182,17 +189,23 @@ pub fn locate(
         points,
         corrector_iterations,
     };
+    let reached = branch.points.last().map_or(0.0, |p| p.p);
     match branch.stop {
         Stop::FirstInstability => {}
+        Stop::ParameterLimit if reached > omegabar_max => return Ok((none, None)),
         Stop::StepTooSmall(reason) => {
             return Err(crate::Error::Numerical(format!(
                 "continuation stalled at omega = {:.6e} rad/s before any instability: {reason}",
-                model
-                    .scales
-                    .omega_from_bar(branch.points.last().map_or(0.0, |p| p.p))
+                model.scales.omega_from_bar(reached)
             )));
         }
-        _ => return Ok((none, None)),
+        Stop::ParameterLimit | Stop::MaxPoints => {
+            return Err(crate::Error::Numerical(format!(
+                "the branch turned back or ran out of points (continuation.max_points) at omega = \
+                 {:.6e} rad/s before omega_max = {omega_max} rad/s, with no instability found",
+                model.scales.omega_from_bar(reached)
+            )));
+        }
     }
     let event = branch
         .events

@@ -375,9 +375,6 @@ fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> a
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(&study, out);
     let summary = run_sweep(&study, &dir, shard)?;
-    if shard.is_none() {
-        sweep_figures(&study, &dir)?;
-    }
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
@@ -398,6 +395,9 @@ fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> a
             summary.failed, summary.file
         ))
         .into());
+    }
+    if shard.is_none() {
+        sweep_figures(&study, &dir)?;
     }
     Ok(())
 }

@@ -103,6 +103,39 @@ fn branch_points_agree_with_solve() {
 }
 
 #[test]
+fn omega_b_does_not_depend_on_the_continuation_steps_and_sits_on_the_axis() {
+    // A neighbour of the representative helix whose spectrum has two complex pairs close to
+    // each other near omega_b: the located event must not depend on the step size, and the
+    // critical eigenvalue must lie on the imaginary axis.
+    let study = helixbif::study::Study::load(
+        None,
+        &["rod.E=1004000".into(), "discretization.nodes=61".into()],
+    )
+    .unwrap();
+    let model = Model::new(&study.physical()).unwrap();
+    let newton = NewtonSettings::default();
+    let mut results = Vec::new();
+    for ds_max in [4.0, 1.0] {
+        let settings = ContinuationSettings {
+            ds_max,
+            ..ContinuationSettings::default()
+        };
+        let (located, event) = locate(&model, 2.0, &newton, &settings, &mut Silent).unwrap();
+        let event = event.unwrap();
+        assert!(
+            event.eigenvalue.re.abs() < 1e-5 * event.eigenvalue.norm(),
+            "critical eigenvalue {} off the axis",
+            event.eigenvalue
+        );
+        results.push(located.omega_b.unwrap());
+    }
+    assert!(
+        (results[0] - results[1]).abs() < 1e-7 * results[0],
+        "{results:?}"
+    );
+}
+
+#[test]
 fn omega_b_of_the_representative_helix_converges_in_n() {
     let newton = NewtonSettings::default();
     let settings = ContinuationSettings::default();

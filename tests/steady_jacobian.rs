@@ -13,8 +13,9 @@ use helixbif::model::Model;
 use helixbif::params::Physical;
 use helixbif::steady::Steady;
 
-/// Relative errors of the whole Jacobian and of its viscous part at a random state.
-fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64) {
+/// Relative errors of the whole Jacobian, of its viscous part, and of its twist-twist block (each
+/// relative to its own largest entry) at a random state.
+fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64, f64) {
     let mut physical = Physical::representative();
     physical.discretization.nodes = nodes;
     let model = Model::new(&physical).unwrap();
@@ -32,6 +33,8 @@ fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64) {
     let h = 1e-7;
     let (mut analytic, mut numeric) = (Vec::new(), Vec::new());
     let (mut viscous, mut viscous_fd) = (Vec::new(), Vec::new());
+    let (mut twist, mut twist_fd) = (Vec::new(), Vec::new());
+    let first_angle = model.rod.layout.free_positions();
     for c in 0..u.len() {
         let mut up = u.clone();
         up[c] += h;
@@ -47,6 +50,10 @@ fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64) {
             numeric.push((gp[r] - gm[r]) / (2.0 * h));
             viscous.push(jac[(r, c)] - jac0[(r, c)]);
             viscous_fd.push((gp[r] - gm[r] - gp0[r] + gm0[r]) / (2.0 * h));
+            if r >= first_angle && c >= first_angle {
+                twist.push(jac[(r, c)]);
+                twist_fd.push((gp[r] - gm[r]) / (2.0 * h));
+            }
         }
     }
     let visc_err = if omegabar == 0.0 {
@@ -54,7 +61,11 @@ fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64) {
     } else {
         relative_max_error(&viscous, &viscous_fd)
     };
-    (relative_max_error(&analytic, &numeric), visc_err)
+    (
+        relative_max_error(&analytic, &numeric),
+        visc_err,
+        relative_max_error(&twist, &twist_fd),
+    )
 }
 
 #[test]
@@ -62,7 +73,11 @@ fn jacobian_matches_finite_differences_with_rotation() {
     for (nodes, omegabar, amp, seed) in
         [(20, 125.0, 0.1, 1), (30, 300.0, 0.3, 2), (24, 0.0, 0.2, 3)]
     {
-        let (err, visc) = check(nodes, omegabar, amp, seed);
+        let (err, visc, twist) = check(nodes, omegabar, amp, seed);
+        assert!(
+            twist < 1e-6,
+            "N = {nodes}, omegabar = {omegabar}: twist block relative error {twist:e}"
+        );
         assert!(
             err < 1e-6,
             "N = {nodes}, omegabar = {omegabar}: relative error {err:e}"

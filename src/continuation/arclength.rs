@@ -23,9 +23,8 @@
 //! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure, or
 //! when the corrector travelled more than half a step from the predicted point, or when the
 //! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
-//! jump to another branch). Next to a branch point the bordered matrix is nearly singular and the
-//! computed tangent unreliable: when it disagrees with the chord by more than that angle, the
-//! chord is used as the tangent.
+//! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
+//! the range followed.
 //!
 //! At every accepted point the leading eigenvalues of `K v = s M v` are computed
 //! ([`super::stability`]). A change of the unstable count between two points is an event, pinned
@@ -46,6 +45,10 @@ use crate::{Error, Result};
 
 /// Relative size of a Newton correction at round-off level.
 const ROUND_OFF: f64 = 1e-13;
+
+/// A corrector whose residual stops falling below this many times `tol` has reached its
+/// round-off floor.
+const STAGNATION: f64 = 1e3;
 
 /// Smallest cosine between successive unit tangents (a turn of at most about 30 degrees).
 const MIN_TANGENT_COSINE: f64 = 0.85;
@@ -184,6 +187,7 @@ pub fn correct(
 ) -> Result<Corrected> {
     let ru: Vec<f64> = t_u.iter().map(|v| metric.wu * v).collect();
     let rp = metric.wp * t_p;
+    let (u_predicted, p_predicted) = (u.clone(), p);
     let mut previous = f64::INFINITY;
     for iterations in 0..=settings.max_corrector {
         let lin = problem.linearize(&u, p)?;
@@ -193,9 +197,12 @@ pub fn correct(
                 "non-finite residual in the corrector".into(),
             ));
         }
-        // Converged, or stagnating at a round-off floor above `tol` (a stiff, fine rod whose
-        // Jacobian is nearly singular, next to a branch point, amplifies the floor's noise).
-        if g_norm <= settings.tol || (g_norm <= settings.tol.sqrt() && g_norm > 0.5 * previous) {
+        // Converged, or stagnating at a round-off floor a little above `tol` (a stiff, fine
+        // rod whose Jacobian is nearly singular, next to a branch point, amplifies the floor's
+        // noise).
+        if g_norm <= settings.tol
+            || (g_norm <= STAGNATION * settings.tol && g_norm > 0.5 * previous)
+        {
             return Ok(Corrected {
                 u,
                 p,
@@ -204,8 +211,16 @@ pub fn correct(
             });
         }
         previous = g_norm;
+        // The hyperplane row: bring the iterate back onto the hyperplane through the predicted
+        // point (the nonlinear update leaves it at second order).
+        let drift: f64 = ru
+            .iter()
+            .zip(u.iter().zip(&u_predicted))
+            .map(|(r, (a, b))| r * (a - b))
+            .sum::<f64>()
+            + rp * (p - p_predicted);
         let mut rhs: Vec<f64> = lin.g.iter().map(|v| -v).collect();
-        rhs.push(0.0);
+        rhs.push(-drift);
         let z = bordered_solve(&lin, &ru, rp, &rhs)
             .ok_or_else(|| Error::Numerical("singular bordered matrix in the corrector".into()))?;
         // A correction at round-off size: the residual is at its floor (stiff stretching makes
@@ -327,6 +342,12 @@ pub fn follow<P: Problem>(
     let mut halvings = 0;
     while branch.points.len() < settings.max_points {
         let last = branch.points.last().expect("the branch has a first point");
+        // No step moves the parameter by more than a fraction of the range followed, so that a
+        // stable window between two events is not stepped over.
+        let dp_max = settings.max_parameter_step * (limits.p_max - limits.p_min);
+        if (ds * last.tangent_p).abs() > dp_max {
+            ds = (dp_max / last.tangent_p.abs()).max(settings.ds_min);
+        }
         let step: Vec<f64> = last.tangent_u.iter().map(|t| ds * t).collect();
         let predicted = problem.retract(&last.u, &step);
         let p_predicted = last.p + ds * last.tangent_p;

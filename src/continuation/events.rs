@@ -104,6 +104,13 @@ struct Sample {
 }
 
 /// Pins down the event of kind `target` between the consecutive points `a` and `b`.
+///
+/// The bracket is kept by a robust test, not by the sign of the interpolated function: a sample
+/// belongs to `b`'s side when its unstable count differs from `a`'s (a crossing) or when its
+/// tangent has turned (a fold). Regula falsi on the tracked eigenvalue's real part (or on the
+/// tangent's `p` part) only proposes where to sample next, and bisection takes over whenever
+/// its values disagree with the sides. So the final bracket always contains the change of the
+/// count, even where the nearest-eigenvalue tracking jumps between two pairs.
 pub fn locate(
     problem: &impl Problem,
     a: &Point,
@@ -157,25 +164,31 @@ pub fn locate(
             spectrum: point.spectrum.clone(),
         }
     };
+    // Which side of the event a sample lies on (true: `b`'s).
+    let beyond = |s: &Sample| match target {
+        Target::Turning => s.tangent_p * a.tangent_p < 0.0,
+        Target::Crossing(_) => s.spectrum.unstable != a.spectrum.unstable,
+    };
+    // The function whose root is sought, negative on `a`'s side when the tracking is sound.
+    let growing = b.spectrum.unstable >= a.spectrum.unstable;
     let f = |s: &Sample| match target {
-        Target::Turning => s.tangent_p * a.tangent_p.signum(),
-        Target::Crossing(_) => s.value.re,
+        Target::Turning => -s.tangent_p * a.tangent_p.signum(),
+        Target::Crossing(_) if growing => s.value.re,
+        Target::Crossing(_) => -s.value.re,
     };
     let mut lo = from_point(a, 0.0, tracked_start);
     let mut hi = from_point(b, b.s - a.s, tracked_start);
-    // The function changes sign between lo and hi; make lo the negative side.
-    if f(&lo) > f(&hi) {
-        std::mem::swap(&mut lo, &mut hi);
-    }
-    let (mut f_lo, mut f_hi) = (f(&lo), f(&hi));
     let step = (b.s - a.s).abs();
     let converged = |lo: &Sample, hi: &Sample| {
         (hi.p - lo.p).abs() <= settings.event_tol * lo.p.abs().max(p_scale)
             && (hi.sigma - lo.sigma).abs() <= settings.event_tol.sqrt() * step
     };
-    let estimate = |lo: &Sample, hi: &Sample, f_lo: f64, f_hi: f64| {
+    // Regula falsi between the sides when the function agrees with them, else bisection.
+    let next_sigma = |lo: &Sample, hi: &Sample, weight_lo: f64, weight_hi: f64| {
+        let (f_lo, f_hi) = (f(lo) * weight_lo, f(hi) * weight_hi);
         let sigma = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
-        if sigma.is_finite() && sigma != lo.sigma && sigma != hi.sigma {
+        let inside = |x: f64| (x - lo.sigma) * (x - hi.sigma) < 0.0;
+        if f_lo < 0.0 && f_hi > 0.0 && sigma.is_finite() && inside(sigma) {
             sigma
         } else {
             0.5 * (lo.sigma + hi.sigma)
@@ -188,50 +201,59 @@ pub fn locate(
             hi.value
         }
     };
+    // Illinois weights: halve the function value of a side kept twice in a row.
+    let (mut w_lo, mut w_hi) = (1.0, 1.0);
     let mut last_side = 0i8;
-    for _ in 0..100 {
-        if converged(&lo, &hi) || f_lo == 0.0 || f_hi == 0.0 {
-            break;
+    let mut iterations = 0;
+    while !converged(&lo, &hi) {
+        iterations += 1;
+        if iterations > 200 {
+            return Err(crate::Error::Numerical(format!(
+                "event not resolved to {:e} within 200 samples (bracket p in [{}, {}])",
+                settings.event_tol, lo.p, hi.p
+            )));
         }
-        let sigma = estimate(&lo, &hi, f_lo, f_hi);
+        let sigma = next_sigma(&lo, &hi, w_lo, w_hi);
         let s = sample_at(sigma, tracked(sigma, &lo, &hi))?;
-        if f(&s) < 0.0 {
-            lo = s;
-            f_lo = f(&lo);
-            if last_side == -1 {
-                f_hi *= 0.5;
-            }
-            last_side = -1;
-        } else {
+        if beyond(&s) {
             hi = s;
-            f_hi = f(&hi);
+            w_hi = 1.0;
             if last_side == 1 {
-                f_lo *= 0.5;
+                w_lo *= 0.5;
             }
             last_side = 1;
+        } else {
+            lo = s;
+            w_lo = 1.0;
+            if last_side == -1 {
+                w_hi *= 0.5;
+            }
+            last_side = -1;
         }
     }
     let width = (hi.p - lo.p).abs() / lo.p.abs().max(p_scale);
     let bracket = (lo.p.min(hi.p), lo.p.max(hi.p));
-    let best = if f(&lo) == 0.0 {
-        lo
-    } else if f(&hi) == 0.0 {
-        hi
-    } else {
-        let sigma = estimate(&lo, &hi, f(&lo), f(&hi));
-        sample_at(sigma, tracked(sigma, &lo, &hi))?
-    };
-    let (kind, eigenvalue) = match target {
-        Target::Turning => (EventKind::Fold, best.spectrum.nearest(c64::new(0.0, 0.0))),
-        Target::Crossing(_) if is_complex(best.value) => (EventKind::Hopf, best.value),
-        Target::Crossing(_) => (EventKind::BranchPoint, best.value),
+    // The event at the final estimate of the root, inside the bracket.
+    let sigma = next_sigma(&lo, &hi, 1.0, 1.0);
+    let best = sample_at(sigma, tracked(sigma, &lo, &hi))?;
+    // The eigenvalue nearest the imaginary axis (the one crossing there).
+    let critical = *best
+        .spectrum
+        .leading
+        .iter()
+        .min_by(|x, y| x.re.abs().total_cmp(&y.re.abs()))
+        .expect("a spectrum has eigenvalues");
+    let kind = match target {
+        Target::Turning => EventKind::Fold,
+        Target::Crossing(_) if is_complex(critical) => EventKind::Hopf,
+        Target::Crossing(_) => EventKind::BranchPoint,
     };
     Ok(Event {
         kind,
         u: best.u,
         p: best.p,
         s: a.s + best.sigma,
-        eigenvalue: c64::new(eigenvalue.re, eigenvalue.im.abs()),
+        eigenvalue: c64::new(critical.re, critical.im.abs()),
         bracket,
         precision: width,
         multiplicity,

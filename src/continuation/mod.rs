@@ -73,6 +73,8 @@ pub struct ContinuationSettings {
     pub event_tol: f64,
     /// Number of leading eigenvalues kept per point.
     pub eigenvalues: usize,
+    /// Largest change of the parameter in one step, as a fraction of the range followed.
+    pub max_parameter_step: f64,
 }
 
 impl Default for ContinuationSettings {
@@ -86,13 +88,14 @@ impl Default for ContinuationSettings {
             tol: 1e-9,
             event_tol: 1e-8,
             eigenvalues: 6,
+            max_parameter_step: 1.0 / 60.0,
         }
     }
 }
 
 impl ContinuationSettings {
     /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
-    /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`.
+    /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`.
     pub fn validate(&self) -> Result<()> {
         let ok = |c: bool, field: &str, msg: String| {
             if c {
@@ -136,6 +139,11 @@ impl ContinuationSettings {
             self.eigenvalues >= 1,
             "continuation.eigenvalues",
             format!("must be >= 1, got {}", self.eigenvalues),
+        )?;
+        ok(
+            self.max_parameter_step > 0.0 && self.max_parameter_step <= 1.0,
+            "continuation.max_parameter_step",
+            format!("must lie in (0, 1], got {}", self.max_parameter_step),
         )
     }
 }

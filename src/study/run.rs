@@ -33,13 +33,16 @@ pub fn slug(label: &str) -> String {
         .join("_")
 }
 
-/// Runs the study into `dir`; returns a summary for the terminal.
+/// Runs the study into `dir`; returns a summary for the terminal. A branch that stalls or a sweep
+/// point that fails makes it a numerical failure, after every result and figure is written.
 pub fn run(study: &Study, dir: &Path) -> Result<Value> {
     create_dir(dir)?;
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
         nodes: Vec::new(),
     });
+    // What did not complete; reported as a numerical failure once everything is written.
+    let mut failures: Vec<String> = Vec::new();
     let report = match &plan {
         Plan::Branch { cases: plan_cases } => {
             let cases = cases(plan_cases);
@@ -70,6 +73,12 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
                 })
                 .collect();
             figures::branch_figures(dir, &study.name, &fig_cases)?;
+            let stalled: Vec<String> = summaries
+                .iter()
+                .filter(|c| c["report"]["stalled"] == true)
+                .map(|c| format!("{}: {}", c["case"], c["report"]["stop"]))
+                .collect();
+            failures.extend(stalled);
             json!({ "kind": "branch", "cases": summaries })
         }
         Plan::Locate { extrapolate, nodes } => {
@@ -92,6 +101,12 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
         }
         Plan::Sweep { .. } => {
             let summary = run_sweep(study, dir, None)?;
+            if summary.failed > 0 {
+                failures.push(format!(
+                    "{} sweep points failed (status column of {})",
+                    summary.failed, summary.file
+                ));
+            }
             let fits = sweep_figures(study, dir)?;
             json!({ "kind": "sweep", "summary": summary, "fits": fits })
         }
@@ -100,5 +115,13 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
     };
     let model = Model::new(&study.physical())?;
     Meta::new(study, model.scales, &report).write(&dir.join("meta.json"))?;
+    if !failures.is_empty() {
+        return Err(Error::Numerical(format!(
+            "study `{}` incomplete ({}); what was computed is in {}",
+            study.name,
+            failures.join("; "),
+            dir.display()
+        )));
+    }
     Ok(report)
 }

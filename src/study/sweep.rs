@@ -335,13 +335,19 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .into_iter()
         .filter(|p| shard.is_none_or(|(k, n)| p.index % n == k - 1))
         .collect();
+    // Bad input anywhere in the grid is refused before anything is computed.
+    for point in &mine {
+        variant(study, &cases[point.case], vary, &point.values)?;
+    }
     let path = dir.join(csv_name(shard));
     check_plan(&path, study)?;
-    let done = if path.exists() {
+    // Finished points are kept; failed ones run again.
+    let mut done = if path.exists() {
         read_rows(&path, &header)?
     } else {
         BTreeMap::new()
     };
+    done.retain(|_, row| row.last().is_some_and(|s| s == "ok"));
     // Rewrite what was kept (dropping any row cut short), then append as points finish.
     write_rows(&path, &header, &done)?;
     let todo: Vec<&SweepPoint> = mine
