@@ -9,6 +9,7 @@
 
 pub mod branch;
 pub mod continuation;
+pub mod dynamics;
 pub mod dofs;
 pub mod error;
 pub mod fit;

@@ -1,0 +1,400 @@
+//! Time integration of the overdamped rod (`helixbif::dynamics`) against the linear stability
+//! analysis and the steady solver, on the representative helix at a small node count:
+//!
+//! 1. the Jacobian of one implicit step against finite differences (and its mass-matrix part,
+//!    and the shape derivative of `Z_ff` on its own);
+//! 2. a small perturbation along the least stable mode decays (below `omega_b`) or grows (above)
+//!    at `Re s` and turns at `Im s`;
+//! 3. a spin-up from rest settles on the steady state of `solve_at`;
+//! 4. BDF2 converges at second order with fixed steps, the clamp staying exact;
+//! 5. `bisect` brackets the Hopf point found by `locate`.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::ops::ControlFlow;
+
+use common::{Rng, relative_max_error};
+use faer::c64;
+use helixbif::branch::{locate, observables_at, rest_state};
+use helixbif::continuation::ContinuationSettings;
+use helixbif::continuation::arclength::Silent;
+use helixbif::continuation::events::EventKind;
+use helixbif::continuation::newton::{NewtonSettings, System, norm};
+use helixbif::continuation::stability::spectrum;
+use helixbif::dynamics::{
+    BisectSettings, DynamicsSettings, ImplicitStep, Rate, bisect, integrate, least_stable_mode,
+    natural_chart_unknowns, perturb,
+};
+use helixbif::model::Model;
+use helixbif::params::Physical;
+use helixbif::solve::solve_at;
+use helixbif::steady::Steady;
+
+/// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
+/// inside a factorization (as in the command-line tool).
+fn helix(nodes: usize) -> Model {
+    faer::set_global_parallelism(faer::Par::Seq);
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = nodes;
+    Model::new(&physical).unwrap()
+}
+
+/// `omegabar_b` of the model, checked to be a Hopf point.
+fn hopf(model: &Model) -> f64 {
+    let (located, event) = locate(
+        model,
+        2.0,
+        &NewtonSettings::default(),
+        &ContinuationSettings::default(),
+        &mut Silent,
+    )
+    .unwrap();
+    let event = event.unwrap();
+    assert_eq!(event.kind, EventKind::Hopf, "{located:?}");
+    event.p
+}
+
+/// Central finite differences of `f` over the first `columns` unknowns of `u`, row-major
+/// `rows x columns`.
+fn finite_differences(
+    u: &[f64],
+    columns: usize,
+    f: impl Fn(&[f64]) -> Vec<f64>,
+) -> (usize, Vec<f64>) {
+    let h = 1e-7;
+    let mut cols = Vec::new();
+    for c in 0..columns {
+        let (mut up, mut um) = (u.to_vec(), u.to_vec());
+        up[c] += h;
+        um[c] -= h;
+        let (fp, fm) = (f(&up), f(&um));
+        cols.push(
+            fp.iter()
+                .zip(&fm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<_>>(),
+        );
+    }
+    let rows = cols[0].len();
+    let mut out = Vec::with_capacity(rows * columns);
+    for r in 0..rows {
+        for col in &cols {
+            out.push(col[r]);
+        }
+    }
+    (rows, out)
+}
+
+fn entries(m: &faer::Mat<f64>) -> Vec<f64> {
+    (0..m.nrows())
+        .flat_map(|r| (0..m.ncols()).map(move |c| m[(r, c)]))
+        .collect()
+}
+
+#[test]
+fn step_jacobian_matches_finite_differences() {
+    let model = helix(20);
+    let omega = 300.0;
+    let steady = Steady::new(&model, omega);
+    let nx = model.rod.layout.free_positions();
+    let ds = model.rod.rest_lengths[0];
+    let mut rng = Rng::new(7);
+    // A non-equilibrium state and a previous one, as in a step of size dt.
+    let base = steady.free_vector(&model.natural_config());
+    let u: Vec<f64> = base.iter().map(|v| v + 0.1 * ds * rng.uniform()).collect();
+    let previous: Vec<f64> = u[..nx]
+        .iter()
+        .map(|v| v + 0.01 * ds * rng.uniform())
+        .collect();
+    let dt = 1e-3;
+    let step = ImplicitStep {
+        steady: steady.clone(),
+        c0: 1.0 / dt,
+        offset: previous.iter().map(|x| -x / dt).collect(),
+    };
+
+    // The whole step Jacobian.
+    let (_, jac) = step.residual_and_jacobian(&u).unwrap();
+    let (_, fd) = finite_differences(&u, u.len(), |v| step.residual(v).unwrap());
+    let whole = relative_max_error(&entries(&jac), &fd);
+
+    // Its mass-matrix part d[Z_ff(x) v(x)]/dx = c0 Z_ff + d(Z_ff)[v], on its own.
+    let mass = step.motion_jacobian(&u).unwrap();
+    let (_, fd_mass) = finite_differences(&u, nx, |v| step.motion_force(v).unwrap());
+    let mass_err = relative_max_error(&entries(&mass), &fd_mass);
+
+    // The shape derivative of Z_ff alone, -[Z B(X; Z V)]_ff: velocity held fixed (c0 = 0).
+    let velocity: Vec<f64> = u[..nx]
+        .iter()
+        .zip(&previous)
+        .map(|(a, b)| (a - b) / dt)
+        .collect();
+    let frozen = ImplicitStep {
+        steady: steady.clone(),
+        c0: 0.0,
+        offset: velocity,
+    };
+    let shape = frozen.motion_jacobian(&u).unwrap();
+    let (_, fd_shape) = finite_differences(&u, nx, |v| frozen.motion_force(v).unwrap());
+    let shape_err = relative_max_error(&entries(&shape), &fd_shape);
+    let size = |m: &faer::Mat<f64>| entries(m).iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    println!(
+        "relative errors: step Jacobian {whole:.2e} (largest entry {:.2e}), mass part {mass_err:.2e} \
+         (largest {:.2e}), shape derivative of Z_ff {shape_err:.2e} (largest {:.2e})",
+        size(&jac),
+        size(&mass),
+        size(&shape)
+    );
+    assert!(whole < 1e-6, "step Jacobian: {whole:e}");
+    assert!(mass_err < 1e-6, "mass-matrix part: {mass_err:e}");
+    assert!(shape_err < 1e-6, "shape derivative of Z_ff: {shape_err:e}");
+}
+
+/// Integrates a perturbation of amplitude `1e-4` (in `ell`) along the least stable mode at
+/// `fraction * omega_b` and fits `ln a(t)` (the complex modal amplitude) against `t`: returns
+/// (fitted `s`, predicted `s`).
+fn modal_rate(fraction: f64, t_end: f64) -> (c64, c64) {
+    let model = helix(20);
+    let omega = fraction * hopf(&model);
+    let solution = solve_at(&model, omega, &NewtonSettings::default()).unwrap();
+    let us = natural_chart_unknowns(&model, &solution.state.config, &solution.state.chart).unwrap();
+    let steady = Steady::new(&model, omega);
+    let residual = norm(&steady.residual(&us).unwrap());
+    assert!(
+        residual < 1e-8,
+        "steady state in the natural chart: {residual:e}"
+    );
+    let mode = least_stable_mode(&model, omega, &us).unwrap();
+    assert!(mode.is_complex(), "{:?}", mode.eigenvalue);
+    // The same eigenvalue as the stability module's.
+    let (k, m) = steady.stability_pair(&us).unwrap();
+    let leading = spectrum(&k, &m, 4).unwrap().leading[0];
+    assert!((leading.re - mode.eigenvalue.re).abs() < 1e-8 * leading.norm());
+    assert!((leading.im.abs() - mode.eigenvalue.im).abs() < 1e-8 * leading.norm());
+
+    let amplitude = 1e-4;
+    let u0 = perturb(&model, &us, &mode, amplitude, 0.0).unwrap();
+    let nx = model.rod.layout.free_positions();
+    let a0 = mode.amplitude(
+        &u0[..nx]
+            .iter()
+            .zip(&us)
+            .map(|(a, b)| a - b)
+            .collect::<Vec<_>>(),
+    );
+    assert!(
+        (a0 - c64::new(amplitude, 0.0)).norm() < 1e-2 * amplitude,
+        "{a0:?}"
+    );
+    let settings = DynamicsSettings {
+        rtol: 0.0,
+        atol: 1e-11,
+        ..DynamicsSettings::default()
+    };
+    let mut record = Vec::new();
+    let run = integrate(&model, Rate::Fixed(omega), u0, t_end, &settings, |s| {
+        let dx: Vec<f64> = (0..nx).map(|i| s.u[i] - us[i]).collect();
+        record.push((s.t, mode.amplitude(&dx)));
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    println!(
+        "omega = {fraction} omega_b: {} steps, {} rejected, {} Newton iterations",
+        run.steps, run.rejected, run.newton_iterations
+    );
+    // Least squares on t >= t_end/10 (after the other modes, excited at second order by the
+    // finite amplitude and the twist, have decayed), the phase unwrapped.
+    let mut phase_offset = 0.0;
+    let mut previous = record[0].1.arg();
+    let mut points = Vec::new();
+    for &(t, a) in &record {
+        let mut jump = a.arg() - previous;
+        while jump > PI {
+            jump -= 2.0 * PI;
+            phase_offset -= 2.0 * PI;
+        }
+        while jump < -PI {
+            jump += 2.0 * PI;
+            phase_offset += 2.0 * PI;
+        }
+        previous = a.arg();
+        if t >= 0.1 * t_end {
+            points.push((t, a.norm().ln(), a.arg() + phase_offset));
+        }
+    }
+    let slope = |y: &dyn Fn(&(f64, f64, f64)) -> f64| {
+        let n = points.len() as f64;
+        let mt = points.iter().map(|p| p.0).sum::<f64>() / n;
+        let my = points.iter().map(y).sum::<f64>() / n;
+        let sxy: f64 = points.iter().map(|p| (p.0 - mt) * (y(p) - my)).sum();
+        let sxx: f64 = points.iter().map(|p| (p.0 - mt).powi(2)).sum();
+        sxy / sxx
+    };
+    let fitted = c64::new(slope(&|p| p.1), slope(&|p| p.2));
+    // Still linear: the amplitude stayed small.
+    let largest = record.iter().map(|r| r.1.norm()).fold(0.0, f64::max);
+    assert!(largest < 3.0 * amplitude, "amplitude grew to {largest:e}");
+    (fitted, mode.eigenvalue)
+}
+
+#[test]
+fn perturbation_decays_at_the_predicted_rate_below_omega_b() {
+    let (fitted, predicted) = modal_rate(0.8, 0.04);
+    println!("0.8 omega_b: fitted s = {fitted}, predicted s = {predicted}");
+    assert!(predicted.re < 0.0);
+    assert!((fitted.re / predicted.re - 1.0).abs() < 0.05);
+    assert!((fitted.im / predicted.im - 1.0).abs() < 0.05);
+}
+
+#[test]
+fn perturbation_grows_at_the_predicted_rate_above_omega_b() {
+    let (fitted, predicted) = modal_rate(1.1, 0.04);
+    println!("1.1 omega_b: fitted s = {fitted}, predicted s = {predicted}");
+    assert!(predicted.re > 0.0);
+    assert!((fitted.re / predicted.re - 1.0).abs() < 0.05);
+    assert!((fitted.im / predicted.im - 1.0).abs() < 0.05);
+}
+
+#[test]
+fn spin_up_from_rest_settles_on_the_steady_state() {
+    let model = helix(20);
+    let omega = 0.8 * hopf(&model);
+    let newton = NewtonSettings::default();
+    let rest = rest_state(&model, &newton).unwrap();
+    let solved = solve_at(&model, omega, &newton).unwrap().observables;
+    let u0 = Steady::new(&model, 0.0).free_vector(&rest.config);
+    // A loose tolerance: the steady state is an exact fixed point of BDF2, only the transient
+    // is approximated.
+    let settings = DynamicsSettings {
+        rtol: 1e-4,
+        atol: 1e-4,
+        ..DynamicsSettings::default()
+    };
+    let rate = Rate::Ramp {
+        target: omega,
+        ramp_time: 0.1,
+    };
+    let run = integrate(&model, rate, u0, 10.0, &settings, |_| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let simulated = observables_at(&model, &rest, &run.last.u, omega).unwrap();
+    println!(
+        "{} steps, {} rejected, {} Newton iterations; simulated {simulated:?}; solve_at {solved:?}",
+        run.steps, run.rejected, run.newton_iterations
+    );
+    for (name, a, b) in [
+        ("Fp", simulated.fp, solved.fp),
+        ("Tp", simulated.tp, solved.tp),
+        ("hbar", simulated.hbar, solved.hbar),
+    ] {
+        let err = (a / b - 1.0).abs();
+        println!("{name}: relative difference {err:.2e}");
+        assert!(err < 1e-6, "{name}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn bdf2_converges_at_second_order_and_keeps_the_clamp() {
+    let model = helix(20);
+    let omega = 0.8 * hopf(&model);
+    let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
+    let steady = Steady::new(&model, 0.0);
+    let u0 = steady.free_vector(&rest.config);
+    let t_end = 0.01;
+    let rate = Rate::Ramp {
+        target: omega,
+        ramp_time: t_end,
+    };
+    let nx = model.rod.layout.free_positions();
+    let final_positions = |steps: usize| {
+        let settings = DynamicsSettings {
+            adaptive: false,
+            dt0: t_end / steps as f64,
+            dt_min: 1e-9,
+            ..DynamicsSettings::default()
+        };
+        let mut clamp_exact = true;
+        let run = integrate(&model, rate, u0.clone(), t_end, &settings, |s| {
+            let x = steady.config(&s.u).x;
+            clamp_exact &= x[0] == model.natural[0] && x[1] == model.natural[1];
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        assert!(clamp_exact, "the clamp moved");
+        assert_eq!(run.steps, steps);
+        assert_eq!(run.last.t, t_end);
+        run.last.u[..nx].to_vec()
+    };
+    let reference = final_positions(1280);
+    let counts = [20, 40, 80, 160];
+    let errors: Vec<f64> = counts
+        .iter()
+        .map(|&n| {
+            final_positions(n)
+                .iter()
+                .zip(&reference)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+        })
+        .collect();
+    let ratios: Vec<f64> = errors.windows(2).map(|w| w[0] / w[1]).collect();
+    println!("steps {counts:?}: max position errors {errors:?}, ratios {ratios:?}");
+    // Second order: the error falls by 4 per halving (3.3, 3.7, 3.9 measured: the coarsest
+    // step, |s| h ~ 0.2 for the fast shape modes, is not yet asymptotic).
+    for r in &ratios {
+        assert!(
+            *r > 3.0 && *r < 5.0,
+            "second order expected: ratios {ratios:?}"
+        );
+    }
+    let last = ratios[ratios.len() - 1];
+    assert!((last / 4.0 - 1.0).abs() < 0.1, "ratios {ratios:?}");
+}
+
+#[test]
+fn bisect_brackets_the_hopf_point() {
+    let model = helix(20);
+    let omega_b = hopf(&model);
+    // Coarse settings to keep the test short: a 15% bracket, a short hold, 30 steps per period
+    // (BDF2 damping then shifts the boundary by about 1%).
+    let settings = BisectSettings {
+        precision: 0.15,
+        ramp_time: 0.15,
+        hold_time: 0.5,
+        window: 0.12,
+        steps_per_period: 30.0,
+        dynamics: DynamicsSettings {
+            rtol: 1e-4,
+            atol: 1e-7,
+            ..BisectSettings::default().dynamics
+        },
+        ..BisectSettings::default()
+    };
+    let result = bisect(&model, 0.8 * omega_b, 1.3 * omega_b, &settings).unwrap();
+    for t in &result.trials {
+        println!(
+            "omega/omega_b = {:.4}: stable {}, growth {:.3}, escaped {}, breakdown {}, {} steps",
+            t.omega / omega_b,
+            t.stable,
+            t.growth,
+            t.escaped,
+            t.breakdown.is_some(),
+            t.steps
+        );
+    }
+    println!(
+        "bracket {:?} (omega_b = {omega_b}), {} steps, {} Newton iterations, {} Jacobians",
+        result.bracket, result.steps, result.newton_iterations, result.jacobians
+    );
+    let (a, b) = result.bracket;
+    assert!(
+        a < omega_b && omega_b < b,
+        "{:?} vs {omega_b}",
+        result.bracket
+    );
+    assert!(b - a <= 0.15 * b);
+    for t in &result.trials {
+        assert_eq!(t.stable, t.omega < omega_b, "{t:?}");
+    }
+}
