@@ -9,8 +9,8 @@
 
 pub mod branch;
 pub mod continuation;
-pub mod dynamics;
 pub mod dofs;
+pub mod dynamics;
 pub mod error;
 pub mod fit;
 pub mod fluid;

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
+use helixbif::dynamics::{BisectSettings, DynamicsSettings, bisect};
 use helixbif::fit::power_law;
 use helixbif::model::Model;
 use helixbif::output::Table;
@@ -12,6 +13,7 @@ use helixbif::params::ShapeParams;
 use helixbif::solve::{Solution, solve_at};
 use helixbif::study::run::run;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
+use helixbif::study::simulate::{SimulateOptions, run_simulate};
 use helixbif::study::sweep::{merge, run_sweep};
 use helixbif::study::{Study, figures, sweep_figures};
 
@@ -103,6 +105,52 @@ enum Command {
         /// Folder holding the shards; default `output/<study name>/`.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Step the rod through time at a rate (BDF2, adaptive): time series of hbar, Fp, Tp, eta,
+    /// shapes, figures, and late-time mean and standard deviation.
+    Simulate {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Rotation rate (rad/s).
+        #[arg(long)]
+        omega: f64,
+        /// Duration (s).
+        #[arg(long)]
+        t_end: f64,
+        /// Start on the steady state at --omega (default: from rest, the motor spinning up).
+        #[arg(long)]
+        from_steady: bool,
+        /// With --from-steady: displace along the least stable mode by this fraction of the
+        /// reference length.
+        #[arg(long)]
+        perturb: Option<f64>,
+        /// Spin-up time (s) of a run from rest.
+        #[arg(long, default_value_t = 20.0)]
+        ramp_time: f64,
+        /// Statistics over t >= this (s).
+        #[arg(long, default_value_t = 0.0)]
+        transient: f64,
+        /// Write the shape every this many time steps (0: never).
+        #[arg(long, default_value_t = 50)]
+        shape_every: usize,
+        /// Output folder; default `output/<study name>/simulate/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// omega_b the way simulation studies found it: bisection on runs from rest, each judged by
+    /// whether the rod settles on the steady state.
+    Bisect {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// A stable rate (rad/s).
+        #[arg(long)]
+        lo: f64,
+        /// An unstable rate (rad/s).
+        #[arg(long)]
+        hi: f64,
+        /// Relative width of the final bracket.
+        #[arg(long, default_value_t = 1e-2)]
+        precision: f64,
     },
     /// Least-squares power law y = C x^p with 95% confidence intervals.
     Fit {
@@ -438,6 +486,91 @@ fn fit_command(csv: &Path, x: &str, y: &str, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn simulate_command(
+    args: &StudyArgs,
+    opts: SimulateOptions,
+    out: Option<&Path>,
+) -> anyhow::Result<()> {
+    let (study, model) = load(args)?;
+    let dir = out.map_or_else(
+        || Path::new("output").join(&study.name).join("simulate"),
+        Path::to_path_buf,
+    );
+    let report = run_simulate(&model, &DynamicsSettings::default(), &opts, &dir)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!(
+            "simulated `{}` at omega = {} rad/s for {} s: {} steps ({} rejected), {:.1} s; written to {}",
+            study.name,
+            report.omega,
+            report.t_end,
+            report.steps,
+            report.rejected,
+            report.seconds,
+            dir.display()
+        );
+        if let (Some(h), Some(hs), Some(f), Some(fs)) = (
+            report.hbar_mean,
+            report.hbar_std,
+            report.fpbar_mean,
+            report.fpbar_std,
+        ) {
+            println!(
+                "  after t = {} s: hbar = {h:.6} +- {hs:.2e}, Fpbar = {f:.6} +- {fs:.2e}",
+                opts.transient
+            );
+        }
+    }
+    Ok(())
+}
+
+fn bisect_command(args: &StudyArgs, lo: f64, hi: f64, precision: f64) -> anyhow::Result<()> {
+    let (study, model) = load(args)?;
+    if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
+        return Err(Error::input(
+            "--lo",
+            format!("need 0 < lo < hi, got lo = {lo}, hi = {hi}"),
+        )
+        .into());
+    }
+    if !(precision > 0.0 && precision < 1.0) {
+        return Err(Error::input(
+            "--precision",
+            format!("must lie in (0, 1), got {precision}"),
+        )
+        .into());
+    }
+    model.check_resolution()?;
+    let settings = BisectSettings {
+        precision,
+        ..BisectSettings::default()
+    };
+    let started = std::time::Instant::now();
+    let s = model.scales;
+    let result = bisect(&model, s.omega_to_bar(lo), s.omega_to_bar(hi), &settings)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let (a, b) = (
+        s.omega_from_bar(result.bracket.0),
+        s.omega_from_bar(result.bracket.1),
+    );
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({ "omega_b": s.omega_from_bar(result.estimate), "bracket": [a, b], "trials": result.trials.len(), "steps": result.steps, "seconds": seconds, "nodes": model.nodes() })
+        );
+    } else {
+        println!(
+            "bisection of `{}` at N = {}: omega_b in [{a:.6}, {b:.6}] rad/s ({} trials, {} time steps, {seconds:.1} s)",
+            study.name,
+            model.nodes(),
+            result.trials.len(),
+            result.steps
+        );
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
@@ -466,6 +599,35 @@ fn main() -> ExitCode {
         }
         Command::Merge { study, out } => merge_command(study, out.as_deref()),
         Command::Fit { csv, x, y, json } => fit_command(csv, x, y, *json),
+        Command::Simulate {
+            study,
+            omega,
+            t_end,
+            from_steady,
+            perturb,
+            ramp_time,
+            transient,
+            shape_every,
+            out,
+        } => simulate_command(
+            study,
+            SimulateOptions {
+                omega: *omega,
+                t_end: *t_end,
+                from_steady: *from_steady,
+                perturb: *perturb,
+                ramp_time: *ramp_time,
+                transient: *transient,
+                shape_every: *shape_every,
+            },
+            out.as_deref(),
+        ),
+        Command::Bisect {
+            study,
+            lo,
+            hi,
+            precision,
+        } => bisect_command(study, *lo, *hi, *precision),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

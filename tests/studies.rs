@@ -42,6 +42,17 @@ fn reduced(mut study: Study) -> Study {
             *rows = 8;
         }
         Some(Plan::Shapes { omegas }) => omegas.truncate(2),
+        Some(Plan::Dynamics {
+            omegas,
+            t_end,
+            transient,
+            ramp_time,
+        }) => {
+            omegas.truncate(1);
+            *t_end = 10.0;
+            *transient = 5.0;
+            *ramp_time = 2.0;
+        }
         Some(Plan::Branch { cases }) => cases.truncate(2),
         _ => {}
     }

@@ -10,6 +10,7 @@ pub mod plan;
 pub mod run;
 pub mod runs;
 pub mod shapes;
+pub mod simulate;
 pub mod sweep;
 
 pub use figures::sweep_figures;

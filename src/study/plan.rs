@@ -142,6 +142,20 @@ pub enum Plan {
     },
     /// Steady shapes at a few rates seen from two orthogonal sides, and the critical mode.
     Shapes { omegas: Vec<f64> },
+    /// Simulations from rest at each rate (the motor spun up over `ramp_time` s, run to `t_end`
+    /// s); the late-time mean and standard deviation of `hbar` and `Fpbar` (over
+    /// `t >= transient` s) drawn over the continuation branch.
+    Dynamics {
+        omegas: Vec<f64>,
+        t_end: f64,
+        transient: f64,
+        #[serde(default = "default_ramp_time")]
+        ramp_time: f64,
+    },
+}
+
+fn default_ramp_time() -> f64 {
+    20.0
 }
 
 fn default_rows() -> usize {
@@ -157,6 +171,7 @@ impl Plan {
             Plan::Sweep { .. } => "sweep",
             Plan::Phase { .. } => "phase",
             Plan::Shapes { .. } => "shapes",
+            Plan::Dynamics { .. } => "dynamics",
         }
     }
 
@@ -227,6 +242,37 @@ impl Plan {
                     return Err(Error::input(
                         "study.omegas",
                         "needs at least one finite rate >= 0 (rad/s)",
+                    ));
+                }
+                Ok(())
+            }
+            Plan::Dynamics {
+                omegas,
+                t_end,
+                transient,
+                ramp_time,
+            } => {
+                if omegas.is_empty() || omegas.iter().any(|w| !w.is_finite() || *w <= 0.0) {
+                    return Err(Error::input(
+                        "study.omegas",
+                        "needs at least one finite rate > 0 (rad/s)",
+                    ));
+                }
+                if !(t_end.is_finite()
+                    && *t_end > 0.0
+                    && transient.is_finite()
+                    && *transient >= 0.0
+                    && transient < t_end)
+                {
+                    return Err(Error::input(
+                        "study.t_end",
+                        "needs 0 <= transient < t_end (s)",
+                    ));
+                }
+                if !(ramp_time.is_finite() && *ramp_time >= 0.0) {
+                    return Err(Error::input(
+                        "study.ramp_time",
+                        "must be a finite number >= 0 (s)",
                     ));
                 }
                 Ok(())

@@ -112,6 +112,15 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
         }
         Plan::Phase { .. } => super::phase::run_phase(study, dir)?,
         Plan::Shapes { .. } => super::shapes::run_shapes(study, dir)?,
+        Plan::Dynamics { .. } => {
+            let (rows, failed) = super::simulate::run_dynamics(study, dir)?;
+            if failed > 0 {
+                failures.push(format!(
+                    "{failed} simulations failed (status column of dynamics.csv)"
+                ));
+            }
+            json!({ "kind": "dynamics", "rows": rows })
+        }
     };
     let model = Model::new(&study.physical())?;
     Meta::new(study, model.scales, &report).write(&dir.join("meta.json"))?;
