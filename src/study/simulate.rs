@@ -230,7 +230,7 @@ pub fn run_simulate(
             series.row(&row)?;
             rows.push(row);
             if let Some(w) = shapes.as_mut()
-                && count % opts.shape_every == 0
+                && count.is_multiple_of(opts.shape_every)
             {
                 for (i, p) in x.iter().enumerate() {
                     let p = p * scales.length;
