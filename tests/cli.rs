@@ -236,3 +236,71 @@ fn branch_writes_csv_files_and_meta() {
     assert!(meta["crate_version"].is_string() && meta["command_line"].is_array());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn simulate_writes_a_time_series_with_late_statistics() {
+    let dir = std::env::temp_dir().join(format!("helixbif-simulate-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (code, stdout, stderr) = helixbif(&[
+        "simulate",
+        "--set",
+        "discretization.nodes=16",
+        "--omega",
+        "0.2",
+        "--t-end",
+        "30",
+        "--ramp-time",
+        "5",
+        "--transient",
+        "20",
+        "--shape-every",
+        "10",
+        "--out",
+        d,
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!(v["steps"].as_u64().unwrap() > 10);
+    let series = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+    assert_eq!(
+        series.lines().next().unwrap(),
+        "t,omega,hbar,Fp,Fpbar,Tp,eta"
+    );
+    let last: Vec<f64> = series
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert!((last[0] - 30.0).abs() < 1e-6 && (last[1] - 0.2).abs() < 1e-12);
+    // The late-time mean lies within the range of the late samples.
+    let mean = v["hbar_mean"].as_f64().unwrap();
+    let late: Vec<f64> = series
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .map(|x| x.parse::<f64>().unwrap())
+                .collect::<Vec<_>>()
+        })
+        .filter(|r| r[0] >= 20.0)
+        .map(|r| r[2])
+        .collect();
+    let (lo, hi) = late
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    assert!(lo <= mean && mean <= hi, "{mean} not in [{lo}, {hi}]");
+    assert!(dir.join("shapes.csv").exists() && dir.join("timeseries_hbar.svg").exists());
+    std::fs::remove_dir_all(&dir).ok();
+    // Bad input.
+    let (code, _, stderr) = helixbif(&["simulate", "--omega", "0.2", "--t-end", "-1"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--t-end"));
+    let (code, _, stderr) = helixbif(&["bisect", "--lo", "0.5", "--hi", "0.4"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--lo"));
+}

@@ -398,3 +398,27 @@ fn bisect_brackets_the_hopf_point() {
         assert_eq!(t.stable, t.omega < omega_b, "{t:?}");
     }
 }
+
+/// At a steady state the rod does not move in the co-rotating frame, so the forces on the fluid
+/// obtained from force balance and the clamp's mobility equal the steady drag `Z Omega X`.
+#[test]
+fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = 24;
+    let model = Model::new(&physical).unwrap();
+    let omegabar = 150.0;
+    let solution = helixbif::solve::solve_at(&model, omegabar, &NewtonSettings::default()).unwrap();
+    let u = helixbif::dynamics::natural_chart_unknowns(
+        &model,
+        &solution.state.config,
+        &solution.state.chart,
+    )
+    .unwrap();
+    let moving = helixbif::study::simulate::moving_forces(&model, &u, omegabar).unwrap();
+    let steady = helixbif::steady::Steady::new(&model, omegabar);
+    let drag = steady.drag(&steady.config(&u).x).unwrap().unwrap().forces;
+    let scale = drag.iter().map(|f| f.norm()).fold(0.0, f64::max);
+    for (a, b) in moving.iter().zip(&drag) {
+        assert!((a - b).norm() < 1e-7 * scale, "{a} vs {b}");
+    }
+}
