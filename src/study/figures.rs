@@ -169,7 +169,8 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
         ];
         let label = |g: &str| match &spec.series {
             Some(col) => format!(
-                "{col} = {}",
+                "{} = {}",
+                short_name(col),
                 g.parse::<f64>()
                     .map_or(g.to_string(), |v| format!("{v:.4}"))
             ),
@@ -275,12 +276,12 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     .collect();
                 write_figure(
                     &Figure {
-                        title: format!("{}: collapse {} / N", study.name, spec.y),
-                        x_label: spec.x.clone(),
+                        title: format!("{}: collapse {} / N", study.name, short_name(&spec.y)),
+                        x_label: axis_label(&spec.x),
                         y_label: format!(
                             "{} / N({}) (-)",
-                            spec.y,
-                            spec.series.as_deref().unwrap_or("case")
+                            short_name(&spec.y),
+                            short_name(spec.series.as_deref().unwrap_or("case"))
                         ),
                         x_scale: scale(spec.log_x),
                         y_scale: scale(spec.log_y),
