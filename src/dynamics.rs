@@ -85,12 +85,18 @@
 //! would call an unstable state stable. [`bisect`] therefore caps the step at a fraction of the
 //! rotation period.
 //!
-//! **Limitation.** The twist is measured in the natural chart (the reference directors are
-//! parallel-transported from the natural shape's Bishop frame straight onto the current edges),
-//! like the steady solver's. That is exact for any motion (the twist being slaved, the
-//! positions alone carry the state) but degenerates when an edge turns towards the reverse of
-//! its natural direction: a violent post-buckling motion ends with Newton failing down to
-//! `dt_min` (an error), not with a simulation of the large deformation.
+//! **Chart.** The energy measures the twist in a chart (reference directors parallel-transported
+//! from a source frame onto the current edges, reference twist unwrapped near the source's). The
+//! model's natural chart degenerates when an edge turns towards the reverse of its natural
+//! direction (the transport is singular there, and the unwrapping ambiguous beyond a turn of
+//! `pi`), so the integrator carries its own chart along: each step (2) is solved in the chart
+//! carried to the last accepted state ([`Chart::transported`]), where the twist unknowns are
+//! unchanged. Only positions enter (2) and the error estimate (the twist is algebraic); the
+//! stored twists, used by the predictor alone, are re-expressed in the new chart ([`rechart`],
+//! exact). Large post-buckling motions are then integrated like small ones. The samples report
+//! the twist both in the natural chart ([`Sample::u`], inaccurate only where an edge points
+//! nearly opposite to its natural direction) and in the carried chart ([`Sample::u_chart`],
+//! [`Sample::chart`]).
 //!
 //! # Linear modes and bisection
 //!
@@ -266,12 +272,35 @@ impl Rate {
     }
 }
 
-/// One accepted state: time, rate, free unknowns (twist in the natural chart).
+/// One accepted state: time, rate, free unknowns.
+///
+/// `u` has its twist in the model's natural chart (converted exactly by [`rechart`] from the
+/// chart the integrator carries along). That conversion goes through the parallel transport of
+/// the natural directors straight onto the current edges: it loses accuracy (and gives
+/// non-finite twists) when an edge points nearly opposite to its natural direction. The
+/// positions of `u` are always exact; for the twist, use `u_chart` with `chart`, which are
+/// well defined for any motion.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sample {
     pub t: f64,
     pub omega: f64,
     pub u: Vec<f64>,
+    /// The free unknowns with the twist measured in `chart` (same positions as `u`).
+    pub u_chart: Vec<f64>,
+    /// The chart the integrator carries, at the positions of this sample.
+    pub chart: Chart,
+}
+
+impl Sample {
+    fn empty(omega: f64, chart: &Chart) -> Self {
+        Sample {
+            t: 0.0,
+            omega,
+            u: Vec::new(),
+            u_chart: Vec::new(),
+            chart: chart.clone(),
+        }
+    }
 }
 
 /// What [`integrate`] returns: the last accepted state and the counts.
@@ -453,7 +482,15 @@ fn mass(steady: &Steady, u: &[f64]) -> Result<Mat<f64>> {
 /// chart is not (convert it with [`natural_chart_unknowns`]). Converged when
 /// `|R_theta| <= 1e-11`, or below `1e-8` once the updates stop shrinking (round-off).
 pub fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
-    let still = Steady::new(model, 0.0);
+    slave_twist_in(model, &model.chart, u)
+}
+
+/// [`slave_twist`] with the twist measured in `chart` (the source chart of the energy).
+pub fn slave_twist_in(model: &Model, chart: &Chart, u: &[f64]) -> Result<Vec<f64>> {
+    let still = Steady {
+        chart: chart.clone(),
+        ..Steady::new(model, 0.0)
+    };
     let nx = model.rod.layout.free_positions();
     let nt = u.len() - nx;
     let mut u = u.to_vec();
@@ -496,18 +533,32 @@ pub fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
 /// twist of the natural chart carried to `config.x`; exact, including the multiples of `2 pi`.
 /// The result is then polished by [`slave_twist`].
 pub fn natural_chart_unknowns(model: &Model, config: &Config, chart: &Chart) -> Result<Vec<f64>> {
-    let natural = model.chart.transported(&config.x);
+    let converted = rechart(config, chart, &model.chart);
+    slave_twist(model, &Steady::new(model, 0.0).free_vector(&converted))
+}
+
+/// `config` (twist measured in the chart `from`) with its twist re-expressed in the chart `to`:
+/// the same positions and the same material frames and discrete twists, hence the same energy.
+///
+/// With `mref_from`, `mref_to` the reference twists of the two charts carried to `config.x`
+/// ([`Chart::transported`], unwrapped as the energy unwraps them), the twists
+/// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped, its director the same in
+/// both) when `theta_to^j = theta^j + sum_{i <= j} (mref_from_i - mref_to_i)`; exact, including
+/// the multiples of `2 pi`, as long as no edge of `config` points opposite to its tangent in
+/// either chart (where the parallel transport is singular).
+pub fn rechart(config: &Config, from: &Chart, to: &Chart) -> Config {
+    let a = from.transported(&config.x);
+    let b = to.transported(&config.x);
     let mut theta = config.theta.clone();
     let mut shift = 0.0;
     for (j, t) in theta.iter_mut().enumerate().skip(1) {
-        shift += chart.ref_twist[j] - natural.ref_twist[j];
+        shift += a.ref_twist[j] - b.ref_twist[j];
         *t += shift;
     }
-    let converted = Config {
+    Config {
         x: config.x.clone(),
         theta,
-    };
-    slave_twist(model, &Steady::new(model, 0.0).free_vector(&converted))
+    }
 }
 
 /// The history of accepted points used by the scheme.
@@ -579,6 +630,14 @@ impl History {
     fn push(&mut self, t: f64, u: Vec<f64>) {
         self.points.insert(0, (t, u));
         self.points.truncate(3);
+    }
+
+    /// Re-expresses the twist of the stored points, measured in `from`, in the chart `to`
+    /// (only the predictor uses it: (2) and the error estimate use positions alone).
+    fn rechart(&mut self, steady: &Steady, from: &Chart, to: &Chart) {
+        for (_, u) in &mut self.points {
+            *u = steady.free_vector(&rechart(&steady.config(u), from, to));
+        }
     }
 }
 
@@ -681,11 +740,7 @@ pub fn integrate(
     observer: impl FnMut(&Sample) -> ControlFlow<()>,
 ) -> Result<Trajectory> {
     let mut trajectory = Trajectory {
-        last: Sample {
-            t: 0.0,
-            omega: rate.at(0.0),
-            u: Vec::new(),
-        },
+        last: Sample::empty(rate.at(0.0), &model.chart),
         steps: 0,
         rejected: 0,
         newton_iterations: 0,
@@ -739,7 +794,11 @@ fn run(
         points: vec![(0.0, u0.clone())],
         xdot0: (0..nx).map(|i| v0[(i, 0)]).collect(),
     };
-    trajectory.last.u = u0;
+    // The chart of the twist unknowns, carried along with the rod: rebased to every accepted
+    // state (where the twist unknowns are then unchanged), so that the step problem never
+    // measures the twist far from its chart.
+    let mut chart = model.chart.transported(&steady0.config(&u0).x);
+    trajectory.last = sample(&steady0, 0.0, rate.at(0.0), u0, &chart);
     if observer(&trajectory.last).is_break() {
         trajectory.stopped = true;
         return Ok(());
@@ -778,7 +837,10 @@ fn run(
         let (c0, offset, predicted, error_factor) = history.step(h, nx);
         let order = if history.points.len() == 1 { 1 } else { 2 };
         let step = ImplicitStep {
-            steady: Steady::new(model, rate.at(t_next)),
+            steady: Steady {
+                chart: chart.clone(),
+                ..Steady::new(model, rate.at(t_next))
+            },
             c0,
             offset,
         };
@@ -836,12 +898,11 @@ fn run(
         just_rejected = false;
         t = t_next;
         trajectory.steps += 1;
+        let moved = chart.transported(&steady0.config(&u).x);
         history.push(t, u.clone());
-        trajectory.last = Sample {
-            t,
-            omega: rate.at(t),
-            u,
-        };
+        history.rechart(&steady0, &chart, &moved);
+        chart = moved;
+        trajectory.last = sample(&steady0, t, rate.at(t), u, &chart);
         if observer(&trajectory.last).is_break() {
             trajectory.stopped = true;
             return Ok(());
@@ -851,6 +912,18 @@ fn run(
         }
     }
     Ok(())
+}
+
+/// The sample at `t` of the unknowns `u_chart`, twist measured in `chart` (at their positions).
+fn sample(steady: &Steady, t: f64, omega: f64, u_chart: Vec<f64>, chart: &Chart) -> Sample {
+    let config = rechart(&steady.config(&u_chart), chart, &steady.model.chart);
+    Sample {
+        t,
+        omega,
+        u: steady.free_vector(&config),
+        u_chart,
+        chart: chart.clone(),
+    }
 }
 
 /// A linear mode of a steady state: `K v = s M v` (MODEL.md section 5), `v` on the free
@@ -1144,11 +1217,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
     let mut first = 0.0f64;
     let mut escaped = false;
     let mut run_stats = Trajectory {
-        last: Sample {
-            t: 0.0,
-            omega: 0.0,
-            u: Vec::new(),
-        },
+        last: Sample::empty(0.0, &model.chart),
         steps: 0,
         rejected: 0,
         newton_iterations: 0,

@@ -24,12 +24,13 @@ use helixbif::continuation::newton::{NewtonSettings, System, norm};
 use helixbif::continuation::stability::spectrum;
 use helixbif::dynamics::{
     BisectSettings, DynamicsSettings, ImplicitStep, Rate, bisect, integrate, least_stable_mode,
-    natural_chart_unknowns, perturb,
+    natural_chart_unknowns, perturb, rechart, slave_twist_in,
 };
 use helixbif::model::Model;
 use helixbif::params::Physical;
+use helixbif::rod::frame::Chart;
 use helixbif::solve::solve_at;
-use helixbif::steady::Steady;
+use helixbif::steady::{Steady, height};
 
 /// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
 /// inside a factorization (as in the command-line tool).
@@ -399,6 +400,97 @@ fn bisect_brackets_the_hopf_point() {
     }
 }
 
+/// Past `omega_b` the rod buckles into a large motion in which edges turn far from their
+/// natural direction (beyond the reach of the natural chart of the twist): the integrator
+/// carries its chart along, and the twist it carries stays consistent with the positions.
+#[test]
+fn post_buckling_motion_far_from_the_natural_chart() {
+    let model = helix(20);
+    let omega = 1.15 * hopf(&model);
+    let newton = NewtonSettings::default();
+    let rest = rest_state(&model, &newton).unwrap();
+    let u0 = Steady::new(&model, 0.0).free_vector(&rest.config);
+    let natural = model.chart.tangents.clone();
+    let settings = DynamicsSettings {
+        rtol: 1e-3,
+        atol: 1e-4,
+        ..DynamicsSettings::default()
+    };
+    let rate = Rate::Ramp {
+        target: omega,
+        ramp_time: 0.1,
+    };
+    let steady = Steady::new(&model, 0.0);
+    let mut largest = 0.0f64;
+    let mut turned_at = None;
+    let t_end = 150.0;
+    let run = integrate(&model, rate, u0, t_end, &settings, |s| {
+        let x = steady.config(&s.u_chart).x;
+        let angle = x
+            .windows(2)
+            .zip(&natural)
+            .map(|(p, t)| (p[1] - p[0]).normalize().dot(t).clamp(-1.0, 1.0).acos())
+            .fold(0.0f64, f64::max);
+        largest = largest.max(angle);
+        if largest > 150f64.to_radians() && turned_at.is_none() {
+            turned_at = Some(s.t);
+        }
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    println!(
+        "{} steps, {} rejected, {} Newton iterations; largest turn of an edge {:.1} deg \
+         (150 deg first at t = {turned_at:?}), hbar at the end {:.3}",
+        run.steps,
+        run.rejected,
+        run.newton_iterations,
+        largest.to_degrees(),
+        height(&steady.config(&run.last.u_chart).x) / height(&rest.config.x)
+    );
+    assert_eq!(run.last.t, t_end);
+    assert!(largest > 120f64.to_radians(), "{}", largest.to_degrees());
+
+    // The carried twist is slaved in its chart, and re-solving it in a fresh chart (the Bishop
+    // frame of the final polygon), from a start 0.2 rad off, gives the same forces on the
+    // positions.
+    let last = &run.last;
+    let nx = model.rod.layout.free_positions();
+    let carried = Steady {
+        chart: last.chart.clone(),
+        ..Steady::new(&model, omega)
+    };
+    let r_carried = carried.residual(&last.u_chart).unwrap();
+    let r_theta = norm(&r_carried[nx..]);
+    let x = carried.config(&last.u_chart).x;
+    let fresh_chart = Chart::bishop(&x);
+    let converted = rechart(&carried.config(&last.u_chart), &last.chart, &fresh_chart);
+    let mut start = Steady::new(&model, 0.0).free_vector(&converted);
+    for (j, t) in start[nx..].iter_mut().enumerate() {
+        *t += 0.2 * (j as f64).sin();
+    }
+    let fresh_u = slave_twist_in(&model, &fresh_chart, &start).unwrap();
+    let fresh = Steady {
+        chart: fresh_chart.clone(),
+        ..Steady::new(&model, omega)
+    };
+    let r_fresh = fresh.residual(&fresh_u).unwrap();
+    let diff: Vec<f64> = (0..nx).map(|i| r_fresh[i] - r_carried[i]).collect();
+    let scale = norm(&r_carried[..nx]);
+    // The twists agree too: the carried one converted to the fresh chart is the re-solved one.
+    let twist_diff = converted
+        .theta
+        .iter()
+        .zip(&fresh.config(&fresh_u).theta)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    println!(
+        "R_theta in the carried chart {r_theta:.2e}; position residual {scale:.3e}, difference \
+         with the twist re-solved in a fresh chart {:.2e}; twist difference {twist_diff:.2e}",
+        norm(&diff)
+    );
+    assert!(r_theta < 1e-6, "{r_theta:e}");
+    assert!(norm(&diff) < 1e-6 * scale.max(1.0), "{:e}", norm(&diff));
+    assert!(twist_diff < 1e-6, "{twist_diff:e}");
+}
 /// At a steady state the rod does not move in the co-rotating frame, so the forces on the fluid
 /// obtained from force balance and the clamp's mobility equal the steady drag `Z Omega X`.
 #[test]
@@ -414,7 +506,8 @@ fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
         &solution.state.chart,
     )
     .unwrap();
-    let moving = helixbif::study::simulate::moving_forces(&model, &u, omegabar).unwrap();
+    let moving =
+        helixbif::study::simulate::moving_forces(&model, &u, &model.chart, omegabar).unwrap();
     let steady = helixbif::steady::Steady::new(&model, omegabar);
     let drag = steady.drag(&steady.config(&u).x).unwrap().unwrap().forces;
     let scale = drag.iter().map(|f| f.norm()).fold(0.0, f64::max);

@@ -23,15 +23,22 @@ use crate::dynamics::{
 use crate::model::Model;
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
+use crate::rod::frame::Chart;
 use crate::solve::solve_at;
 use crate::steady::{Observables, Steady, height, rotation_velocity};
 use crate::{Error, Result};
 
-/// The forces on the fluid of a moving state `u` at rate `omegabar` (see the module docs).
-pub fn moving_forces(model: &Model, u: &[f64], omegabar: f64) -> Result<Vec<Vector3<f64>>> {
+/// The forces on the fluid of a moving state `u` (twist measured in `chart`, e.g. a
+/// [`Sample`]'s `u_chart` and `chart`) at rate `omegabar` (see the module docs).
+pub fn moving_forces(
+    model: &Model,
+    u: &[f64],
+    chart: &Chart,
+    omegabar: f64,
+) -> Result<Vec<Vector3<f64>>> {
     let steady = Steady::new(model, omegabar);
     let config = steady.config(u);
-    let gradient = model.rod.gradient(&config, &model.chart);
+    let gradient = model.rod.gradient(&config, chart);
     let gravity = model.gravity(model.weight);
     let layout = model.rod.layout;
     let n = layout.nodes();
@@ -215,8 +222,8 @@ pub fn run_simulate(
     let mut count = 0usize;
     let observer = |s: &Sample| {
         let result = (|| -> Result<()> {
-            let forces = moving_forces(model, &s.u, s.omega)?;
-            let x = steady.config(&s.u).x;
+            let forces = moving_forces(model, &s.u_chart, &s.chart, s.omega)?;
+            let x = steady.config(&s.u_chart).x;
             let o: Observables = model.observables(s.omega, &x, &forces, h0);
             let row = TimeRow {
                 t: s.t * scales.time,
