@@ -109,9 +109,7 @@
 use std::ops::ControlFlow;
 
 use faer::linalg::solvers::PartialPivLu;
-use faer::linalg::triangular_solve::{
-    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
-};
+use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side, c64};
 use nalgebra::Vector3;
@@ -119,7 +117,9 @@ use serde::Serialize;
 
 use crate::branch::rest_state;
 use crate::continuation::newton::{NewtonSettings, System, norm};
+use crate::continuation::stability::reduce_with_factor;
 use crate::dofs::Layout;
+use crate::error::ensure;
 use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::Config;
@@ -177,14 +177,7 @@ impl DynamicsSettings {
     /// Checks ranges: `rtol, atol >= 0` not both zero, `0 < dt_min <= dt0 <= dt_max < inf`,
     /// `max_steps >= 1`, `0 < newton_tol < 1`, `max_newton >= 1`.
     pub fn validate(&self) -> Result<()> {
-        let ok = |c: bool, field: &str, msg: String| {
-            if c {
-                Ok(())
-            } else {
-                Err(Error::input(field, msg))
-            }
-        };
-        ok(
+        ensure(
             self.rtol >= 0.0
                 && self.atol >= 0.0
                 && self.rtol + self.atol > 0.0
@@ -195,7 +188,7 @@ impl DynamicsSettings {
                 self.rtol, self.atol
             ),
         )?;
-        ok(
+        ensure(
             self.dt_min > 0.0
                 && self.dt_min <= self.dt0
                 && self.dt0 <= self.dt_max
@@ -206,17 +199,17 @@ impl DynamicsSettings {
                 self.dt_min, self.dt0, self.dt_max
             ),
         )?;
-        ok(
+        ensure(
             self.max_steps >= 1,
             "dynamics.max_steps",
             format!("must be >= 1, got {}", self.max_steps),
         )?;
-        ok(
+        ensure(
             self.newton_tol > 0.0 && self.newton_tol < 1.0,
             "dynamics.newton_tol",
             format!("must lie in (0, 1), got {}", self.newton_tol),
         )?;
-        ok(
+        ensure(
             self.max_newton >= 1,
             "dynamics.max_newton",
             format!("must be >= 1, got {}", self.max_newton),
@@ -959,17 +952,12 @@ impl Mode {
 pub fn least_stable_mode(model: &Model, omega: f64, u: &[f64]) -> Result<Mode> {
     let (k, m) = Steady::new(model, omega).stability_pair(u)?;
     let n = k.nrows();
-    let llt = m.llt(Side::Lower).map_err(|_| {
-        Error::Numerical("the stability mass matrix is not positive definite".into())
-    })?;
-    let l = llt.L();
-    let mut left = k.clone();
-    solve_lower_triangular_in_place(l, left.as_mut(), Par::Seq);
-    let mut both = left.transpose().to_owned();
-    solve_lower_triangular_in_place(l, both.as_mut(), Par::Seq);
+    let (c, l) = reduce_with_factor(&k, &m)?;
+    let l = l.as_ref();
+    let both = c.transpose().to_owned();
     // both = C^T.
     let fail = |e| Error::Numerical(format!("eigen solver failed: {e:?}"));
-    let right = both.transpose().to_owned().eigen().map_err(fail)?;
+    let right = c.eigen().map_err(fail)?;
     let leftv = both.eigen().map_err(fail)?;
     let s_r = right.S();
     let pick = (0..n)

@@ -58,5 +58,14 @@ impl Error {
     }
 }
 
+/// `Ok` when `condition` holds, else an input error naming `field` with `message`.
+pub fn ensure(condition: bool, field: &str, message: String) -> Result<()> {
+    if condition {
+        Ok(())
+    } else {
+        Err(Error::input(field, message))
+    }
+}
+
 /// Result alias used throughout the library.
 pub type Result<T> = std::result::Result<T, Error>;

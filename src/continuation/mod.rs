@@ -17,7 +17,8 @@ pub mod stability;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::{Error, Result};
+use crate::Result;
+use crate::error::ensure;
 
 /// `G`, `G_u = dG/du` and `G_p = dG/dp` at one point.
 pub struct Linearization {
@@ -97,14 +98,7 @@ impl ContinuationSettings {
     /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
     /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`.
     pub fn validate(&self) -> Result<()> {
-        let ok = |c: bool, field: &str, msg: String| {
-            if c {
-                Ok(())
-            } else {
-                Err(Error::input(field, msg))
-            }
-        };
-        ok(
+        ensure(
             self.ds_min > 0.0
                 && self.ds_min <= self.ds
                 && self.ds <= self.ds_max
@@ -115,32 +109,32 @@ impl ContinuationSettings {
                 self.ds_min, self.ds, self.ds_max
             ),
         )?;
-        ok(
+        ensure(
             self.max_points >= 1,
             "continuation.max_points",
             format!("must be >= 1, got {}", self.max_points),
         )?;
-        ok(
+        ensure(
             self.max_corrector >= 2,
             "continuation.max_corrector",
             format!("must be >= 2, got {}", self.max_corrector),
         )?;
-        ok(
+        ensure(
             self.tol > 0.0 && self.tol < 1.0,
             "continuation.tol",
             format!("must lie in (0, 1), got {}", self.tol),
         )?;
-        ok(
+        ensure(
             self.event_tol > 0.0 && self.event_tol < 1e-2,
             "continuation.event_tol",
             format!("must lie in (0, 0.01), got {}", self.event_tol),
         )?;
-        ok(
+        ensure(
             self.eigenvalues >= 1,
             "continuation.eigenvalues",
             format!("must be >= 1, got {}", self.eigenvalues),
         )?;
-        ok(
+        ensure(
             self.max_parameter_step > 0.0 && self.max_parameter_step <= 1.0,
             "continuation.max_parameter_step",
             format!("must lie in (0, 1], got {}", self.max_parameter_step),

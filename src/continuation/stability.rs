@@ -49,8 +49,8 @@ fn reduce(k: &Mat<f64>, m: &Mat<f64>) -> Result<Mat<f64>> {
     Ok(reduce_with_factor(k, m)?.0)
 }
 
-/// `C` and the Cholesky factor `L` of `M`.
-fn reduce_with_factor(k: &Mat<f64>, m: &Mat<f64>) -> Result<(Mat<f64>, Mat<f64>)> {
+/// `C = L^{-1} K L^{-T}` and the Cholesky factor `L` of `M = L L^T`.
+pub fn reduce_with_factor(k: &Mat<f64>, m: &Mat<f64>) -> Result<(Mat<f64>, Mat<f64>)> {
     let llt = m.llt(Side::Lower).map_err(|_| {
         Error::Numerical("the stability mass matrix is not positive definite".into())
     })?;
