@@ -144,15 +144,21 @@ pub fn solve(
         if !g_norm.is_finite() {
             return Err(fail("the residual is not finite".into(), &history));
         }
-        let du = newton_step(&jac.partial_piv_lu(), &g)
-            .ok_or_else(|| fail("singular Jacobian".into(), &history))?;
-        if g_norm <= settings.tol || norm(&du) <= 1e-13 * (1.0 + norm(&u)) {
+        let done = |u: Vec<f64>, history: Vec<f64>| {
             let report = NewtonReport {
                 iterations: history.len() - 1,
                 residual_norm: g_norm,
                 history,
             };
-            return Ok((u, report));
+            Ok((u, report))
+        };
+        if g_norm <= settings.tol {
+            return done(u, history);
+        }
+        let du = newton_step(&jac.partial_piv_lu(), &g)
+            .ok_or_else(|| fail("singular Jacobian".into(), &history))?;
+        if norm(&du) <= 1e-13 * (1.0 + norm(&u)) {
+            return done(u, history);
         }
         if history.len() > settings.max_iter {
             return Err(fail(

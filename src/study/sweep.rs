@@ -208,10 +208,15 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
     row
 }
 
-/// A fingerprint of everything that determines a sweep's results.
+/// A fingerprint of everything that determines a sweep's results (the study without its name
+/// and its figure specifications).
 pub fn fingerprint(study: &Study) -> Result<String> {
     let mut s = study.clone();
     s.name = String::new();
+    // How results are drawn does not change them.
+    if let Some(Plan::Sweep { figures, .. }) = &mut s.study {
+        figures.clear();
+    }
     serde_json::to_string(&s).map_err(|e| Error::Numerical(e.to_string()))
 }
 
