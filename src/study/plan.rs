@@ -214,16 +214,27 @@ impl Plan {
             }
             Plan::Phase {
                 lambda_over_l,
+                r_over_lambda,
                 m,
                 rows,
                 ..
             } => {
-                if lambda_over_l.len() < 2
-                    || lambda_over_l.iter().any(|v| !(v.is_finite() && *v > 0.0))
+                let mut sorted = lambda_over_l.clone();
+                sorted.sort_by(f64::total_cmp);
+                let distinct = sorted.windows(2).all(|w| w[0] < w[1]);
+                if sorted.len() < 2
+                    || !distinct
+                    || sorted.iter().any(|v| !(v.is_finite() && *v > 0.0))
                 {
                     return Err(Error::input(
                         "study.lambda_over_l",
-                        "needs at least two positive values",
+                        "needs at least two distinct positive values",
+                    ));
+                }
+                if r_over_lambda.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+                    return Err(Error::input(
+                        "study.R_over_lambda",
+                        "must be a finite number > 0",
                     ));
                 }
                 if m.is_some_and(|m| !m.is_finite()) {

@@ -301,6 +301,17 @@ pub fn default_ladder(study: &Study) -> Vec<usize> {
 
 /// Runs `locate` at each node count of `ladder` and extrapolates.
 pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
+    let mut distinct = ladder.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.len() < 3 {
+        return Err(Error::input(
+            "--nodes",
+            format!(
+                "a Richardson extrapolation needs at least three distinct node counts, got {ladder:?}"
+            ),
+        ));
+    }
     let mut results = Vec::new();
     for &n in ladder {
         let mut s = study.clone();

@@ -294,6 +294,14 @@ fn check_plan(csv: &Path, study: &Study) -> Result<()> {
             ),
         )),
         Ok(_) => Ok(()),
+        Err(_) if csv.exists() => Err(Error::input(
+            "sweep",
+            format!(
+                "{} has no fingerprint file {} beside it, so its study is unknown; delete it or choose another --out",
+                csv.display(),
+                path.display()
+            ),
+        )),
         Err(_) => std::fs::write(&path, mine).map_err(io_error(&path)),
     }
 }
@@ -442,7 +450,17 @@ pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
     }
     let mut rows = BTreeMap::new();
     for (_, _, path) in &shards {
-        let theirs = std::fs::read_to_string(plan_path(path)).unwrap_or_default();
+        let fingerprint_path = plan_path(path);
+        let theirs = std::fs::read_to_string(&fingerprint_path).map_err(|_| {
+            Error::input(
+                "merge",
+                format!(
+                    "{} has no fingerprint file {}",
+                    path.display(),
+                    fingerprint_path.display()
+                ),
+            )
+        })?;
         if theirs != mine {
             return Err(Error::input(
                 "merge",
