@@ -51,15 +51,7 @@ fn main() {
         let result = bisect(&model, 0.6 * omega_b, 1.5 * omega_b, &settings).expect("bisect");
         let t_bisect = start.elapsed().as_secs_f64();
         for t in &result.trials {
-            eprintln!(
-                "N = {n}: omega/omega_b = {:.5} stable {} growth {:.3} escaped {} breakdown {} steps {}",
-                t.omega / omega_b,
-                t.stable,
-                t.growth,
-                t.escaped,
-                t.breakdown.is_some(),
-                t.steps
-            );
+            eprintln!("N = {n}: {}", t.summary(omega_b));
         }
         println!(
             "| {n} | {t_locate:.2} s | {omega_b:.4} | {t_bisect:.1} s | [{:.4}, {:.4}] | {} | {} | {} | {} | {:.0} |",

@@ -1147,6 +1147,21 @@ pub struct Trial {
     pub jacobians: usize,
 }
 
+impl Trial {
+    /// One line for a log: the trial's rate relative to `omegabar_b` and its verdict.
+    pub fn summary(&self, omegabar_b: f64) -> String {
+        format!(
+            "omega/omega_b = {:.5}: stable {}, growth {:.3}, escaped {}, breakdown {}, {} steps",
+            self.omega / omegabar_b,
+            self.stable,
+            self.growth,
+            self.escaped,
+            self.breakdown.is_some(),
+            self.steps
+        )
+    }
+}
+
 /// What [`bisect`] returns.
 #[derive(Clone, Debug, Serialize)]
 pub struct Bisection {

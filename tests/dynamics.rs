@@ -374,15 +374,7 @@ fn bisect_brackets_the_hopf_point() {
     };
     let result = bisect(&model, 0.8 * omega_b, 1.3 * omega_b, &settings).unwrap();
     for t in &result.trials {
-        println!(
-            "omega/omega_b = {:.4}: stable {}, growth {:.3}, escaped {}, breakdown {}, {} steps",
-            t.omega / omega_b,
-            t.stable,
-            t.growth,
-            t.escaped,
-            t.breakdown.is_some(),
-            t.steps
-        );
+        println!("{}", t.summary(omega_b));
     }
     println!(
         "bracket {:?} (omega_b = {omega_b}), {} steps, {} Newton iterations, {} Jacobians",
