@@ -67,10 +67,12 @@ fn run(label: &str, physical: &Physical) {
     let model = Model::new(physical).expect("valid benchmark model");
     let start = Instant::now();
     let rest = rest_state(&model, &NewtonSettings::default()).expect("rest state");
+    let omegabar_max = model.scales.omega_to_bar(2.0);
     let problem = Timed {
         inner: RodProblem {
             model: &model,
             parameter: Parameter::Omega,
+            parameter_scale: helixbif::branch::omega_scale(omegabar_max),
         },
         linearize: RefCell::new((0, 0.0)),
         residual: RefCell::new((0, 0.0)),
@@ -79,7 +81,7 @@ fn run(label: &str, physical: &Physical) {
     let u0 = problem.inner.steady(0.0).free_vector(&rest.config);
     let limits = Limits {
         p_min: -1.0,
-        p_max: model.scales.omega_to_bar(2.0),
+        p_max: omegabar_max,
         stop_at_first_instability: true,
     };
     let branch = follow(

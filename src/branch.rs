@@ -21,16 +21,29 @@ pub enum Parameter {
     Weight,
 }
 
-/// Typical change of a position unknown (solver units: a twentieth of the reference length) and
-/// of the parameters: the units of the arclength.
+/// Typical change of a position unknown (solver units: a twentieth of the reference length):
+/// with the parameter's scale, the units of the arclength.
 const POSITION_SCALE: f64 = 5e-2;
+/// The smallest scale of `omegabar` in the arclength, and the typical weight `q ell^3/EI`.
 const OMEGA_SCALE: f64 = 10.0;
-const WEIGHT_SCALE: f64 = 1.0;
+pub const WEIGHT_SCALE: f64 = 1.0;
+
+/// The scale of `omegabar` in the arclength for a branch followed up to `omegabar_max`: a
+/// hundredth of the range (at least [`OMEGA_SCALE`]), so that the largest step
+/// (`continuation.ds_max`) covers a fixed fraction of the range where the branch is straight,
+/// and the number of points does not grow with the rate that the instability needs (a thin or
+/// tight helix buckles at `omegabar` in the tens of thousands).
+pub fn omega_scale(omegabar_max: f64) -> f64 {
+    (0.01 * omegabar_max.abs()).max(OMEGA_SCALE)
+}
 
 /// The steady rod problem `G(u; p) = 0` with `p` the chosen [`Parameter`].
 pub struct RodProblem<'a> {
     pub model: &'a Model,
     pub parameter: Parameter,
+    /// The typical change of `p` (the parameter's unit in the arclength): [`omega_scale`] or
+    /// [`WEIGHT_SCALE`].
+    pub parameter_scale: f64,
 }
 
 impl<'a> RodProblem<'a> {
@@ -82,16 +95,14 @@ impl Problem for RodProblem<'_> {
     }
 
     fn scales(&self) -> (f64, f64) {
-        match self.parameter {
-            Parameter::Omega => (POSITION_SCALE, OMEGA_SCALE),
-            Parameter::Weight => (POSITION_SCALE, WEIGHT_SCALE),
-        }
+        (POSITION_SCALE, self.parameter_scale)
     }
 }
 
 pub use crate::solve::rest_state;
 
-/// Continuation in `omegabar` from rest up to `omegabar_max`.
+/// Continuation in `omegabar` from rest up to `omegabar_max`, which may be negative (the motor
+/// turning clockwise seen from above): the branch is then followed towards negative rates.
 pub fn trace(
     model: &Model,
     rest: &SteadyState,
@@ -111,14 +122,17 @@ pub fn trace(
     let problem = RodProblem {
         model,
         parameter: Parameter::Omega,
+        parameter_scale: omega_scale(omegabar_max),
     };
     let u0 = problem.steady(0.0).free_vector(&rest.config);
+    // A fold may take the branch back past rest, a little.
     let limits = Limits {
-        p_min: -omegabar_max.abs() * 0.5,
-        p_max: omegabar_max,
+        p_min: omegabar_max.min(-0.5 * omegabar_max),
+        p_max: omegabar_max.max(-0.5 * omegabar_max),
         stop_at_first_instability,
     };
-    follow(&problem, u0, 0.0, 1.0, settings, &limits, observer)
+    let direction = omegabar_max.signum();
+    follow(&problem, u0, 0.0, direction, settings, &limits, observer)
 }
 
 /// Observables of the solution `u` at `omegabar` on a branch from `rest`.
@@ -140,7 +154,9 @@ pub fn observables_at(
 /// What `helixbif locate` reports.
 #[derive(Clone, Debug, Serialize)]
 pub struct Located {
-    /// `hopf`, `fold`, `branch_point`, or `none` when the branch stays stable up to `omega_max`.
+    /// `hopf`, `fold`, `branch_point` (the first loss of stability), `unstable_at_rest` (the
+    /// state at `omega = 0` is already unstable: nothing to locate), or `none` when the branch
+    /// stays stable up to `omega_max`.
     pub kind: String,
     pub omega_b: Option<f64>,
     pub omegabar_b: Option<f64>,
@@ -155,10 +171,27 @@ pub struct Located {
     pub nodes: usize,
     /// Relative width of the final bracket in `omega`.
     pub precision: Option<f64>,
+    /// Number of unstable eigenvalues of the rest state (0 unless `kind` is
+    /// `unstable_at_rest`).
+    pub unstable_at_rest: usize,
     /// Largest rate followed (rad/s) when no instability was found.
     pub omega_max: f64,
     pub points: usize,
     pub corrector_iterations: usize,
+}
+
+impl Located {
+    /// The status of a located result in a table: `ok` for a loss of stability or a branch
+    /// stable throughout, else what prevents an `omega_b`.
+    pub fn status(&self) -> String {
+        match self.kind.as_str() {
+            "unstable_at_rest" => format!(
+                "unstable_at_rest ({} unstable eigenvalues at omega = 0)",
+                self.unstable_at_rest
+            ),
+            _ => "ok".into(),
+        }
+    }
 }
 
 /// Follows the branch from rest to its first loss of stability and pins it down.
@@ -169,6 +202,7 @@ pub fn locate(
     settings: &ContinuationSettings,
     observer: &mut impl Observer,
 ) -> Result<(Located, Option<Event>)> {
+    model.check_resolution()?;
     let rest = rest_state(model, newton)?;
     let omegabar_max = model.scales.omega_to_bar(omega_max);
     let branch = trace(model, &rest, omegabar_max, settings, true, observer)?;
@@ -185,32 +219,55 @@ pub fn locate(
         hbar: None,
         nodes: model.nodes(),
         precision: None,
+        unstable_at_rest: 0,
         omega_max,
         points,
         corrector_iterations,
     };
     let reached = branch.points.last().map_or(0.0, |p| p.p);
+    let reached_omega = model.scales.omega_from_bar(reached);
     match branch.stop {
         Stop::FirstInstability => {}
-        Stop::ParameterLimit if reached > omegabar_max => return Ok((none, None)),
+        Stop::UnstableAtStart => {
+            let count = branch.points[0].spectrum.unstable;
+            let located = Located {
+                kind: "unstable_at_rest".into(),
+                unstable_at_rest: count,
+                ..none
+            };
+            return Ok((located, None));
+        }
+        Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => return Ok((none, None)),
         Stop::StepTooSmall(reason) => {
             return Err(crate::Error::Numerical(format!(
-                "continuation stalled at omega = {:.6e} rad/s before any instability: {reason}",
-                model.scales.omega_from_bar(reached)
+                "continuation stalled at omega = {reached_omega:.6e} rad/s before any \
+                 instability: {reason}"
             )));
         }
-        Stop::ParameterLimit | Stop::MaxPoints => {
+        Stop::ParameterLimit => {
             return Err(crate::Error::Numerical(format!(
-                "the branch turned back or ran out of points (continuation.max_points) at omega = \
-                 {:.6e} rad/s before omega_max = {omega_max} rad/s, with no instability found",
-                model.scales.omega_from_bar(reached)
+                "the branch turned back past omega = 0 at omega = {reached_omega:.6e} rad/s \
+                 (after {points} points) before reaching omega_max = {omega_max} rad/s, with \
+                 no instability found"
+            )));
+        }
+        Stop::MaxPoints => {
+            return Err(crate::Error::Numerical(format!(
+                "the continuation used all {points} points (continuation.max_points) by omega = \
+                 {reached_omega:.6e} rad/s, before omega_max = {omega_max} rad/s, with no \
+                 instability found: raise continuation.max_points (or continuation.ds_max)"
             )));
         }
     }
     let event = branch
         .events
-        .last()
-        .expect("a first instability is an event")
+        .iter()
+        .find(|e| e.loses_stability())
+        .ok_or_else(|| {
+            crate::Error::Numerical(
+                "the branch became unstable but no event was located where it did".into(),
+            )
+        })?
         .clone();
     let o = observables_at(model, &rest, &event.u, event.p)?;
     let s = &model.scales;

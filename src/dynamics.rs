@@ -1,4 +1,4 @@
-//! Time integration of the overdamped rod in the co-rotating frame (MODEL.md section 5), the
+//! Time integration of the overdamped rod in the co-rotating frame (docs/model.md section 5), the
 //! linear modes of a steady state, and a dynamic estimate of `omega_b` by bisection.
 //!
 //! # Equations
@@ -919,7 +919,7 @@ fn sample(steady: &Steady, t: f64, omega: f64, u_chart: Vec<f64>, chart: &Chart)
     }
 }
 
-/// A linear mode of a steady state: `K v = s M v` (MODEL.md section 5), `v` on the free
+/// A linear mode of a steady state: `K v = s M v` (docs/model.md section 5), `v` on the free
 /// positions, scaled so that its largest component has modulus 1 and is real.
 #[derive(Clone, Debug)]
 pub struct Mode {
@@ -1293,7 +1293,8 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
 
 /// `omegabar_b` by bisection on simulations from rest (the way simulation studies found it):
 /// `lo` must be stable and `hi` unstable by [`trial`] (checked, an error otherwise); the bracket
-/// is halved until `hi - lo <= precision * hi`.
+/// is halved until `|hi - lo| <= precision |hi|`. Both rates have one sign (the motor may turn
+/// either way), `lo` the nearer to zero.
 ///
 /// Near `omega_b` a verdict rests on the sign of the growth rate of the critical mode, which
 /// vanishes there (`Re s ~ 0.25..0.36 (omegabar - omegabar_b)` for the representative helix at
@@ -1303,10 +1304,11 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
 /// ([`crate::branch::locate`]) is two orders of magnitude faster for a far tighter bracket.
 pub fn bisect(model: &Model, lo: f64, hi: f64, settings: &BisectSettings) -> Result<Bisection> {
     settings.validate()?;
-    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+    // The motor may turn either way: the bracket lies on one side of zero, `lo` nearer zero.
+    if !(lo != 0.0 && lo * hi > 0.0 && hi.abs() > lo.abs() && hi.is_finite()) {
         return Err(Error::input(
-            "bisect.bracket",
-            format!("need 0 < lo < hi < inf, got lo = {lo}, hi = {hi}"),
+            "--lo",
+            format!("need finite rates of one sign with 0 < |lo| < |hi|, got lo = {lo}, hi = {hi}"),
         ));
     }
     let mut trials = vec![trial(model, lo, settings)?, trial(model, hi, settings)?];
@@ -1317,7 +1319,7 @@ pub fn bisect(model: &Model, lo: f64, hi: f64, settings: &BisectSettings) -> Res
         )));
     }
     let (mut a, mut b) = (lo, hi);
-    while b - a > settings.precision * b {
+    while (b - a).abs() > settings.precision * b.abs() {
         let mid = 0.5 * (a + b);
         let t = trial(model, mid, settings)?;
         if t.stable {

@@ -12,11 +12,11 @@ pub enum Error {
     #[error("invalid input: {field}: {message}")]
     Input { field: String, message: String },
 
-    /// The Lighthill mobility matrix is not symmetric positive definite (Cholesky failed).
-    #[error(
-        "mobility matrix not positive definite ({context}): the node spacing is too close to the Lighthill cut-off delta; use fewer nodes"
-    )]
-    NotPositiveDefinite { context: String },
+    /// The mobility matrix is not symmetric positive definite (Cholesky failed): `context` says
+    /// where (which state), `geometry` why (the smallest node spacing and the closest approach
+    /// of two parts of the rod, against the cut-off).
+    #[error("mobility matrix not positive definite ({context}): {geometry}")]
+    NotPositiveDefinite { context: String, geometry: String },
 
     /// Newton's method did not converge.
     #[error(

@@ -18,6 +18,7 @@ pub mod model;
 pub mod output;
 pub mod params;
 pub mod plot;
+pub mod report;
 pub mod rod;
 pub mod shape;
 pub mod solve;

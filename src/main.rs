@@ -1,5 +1,7 @@
-//! Command-line front end of helixbif: parse, load a study, call the library, print, write.
+//! Command-line front end of helixbif: parse, load a study, call the library, and print the one
+//! report of the command (text, or JSON with `--json`) in one place.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -10,17 +12,35 @@ use helixbif::fit::power_law;
 use helixbif::model::Model;
 use helixbif::output::Table;
 use helixbif::params::ShapeParams;
+use helixbif::report::{BisectReport, FitReport, MergeReport, Report, RunReport, Titled};
 use helixbif::solve::{Solution, solve_at};
 use helixbif::study::run::run;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
 use helixbif::study::simulate::{SimulateOptions, run_simulate};
 use helixbif::study::sweep::{merge, run_sweep};
-use helixbif::study::{Study, figures, sweep_figures};
+use helixbif::study::{Study, default_output, figures, sweep_figures};
+
+const AFTER_HELP: &str = "\
+Every command that reads a study takes an optional study file (TOML, SI units); without one it
+uses the built-in representative helix (docs/model.md section 7). Relative paths inside a study
+resolve against the study file's folder.
+
+--set KEY=VALUE overrides any study field by its dotted path, the value in TOML syntax:
+  --set rod.E=2e6   --set discretization.nodes=80   --set shape.handedness=left
+  --set 'fluid.quadrature=\"reference\"'
+A whole table is replaced by a TOML inline table:
+  --set 'shape={kind=\"straight\", L=0.12, alpha_deg=15}'
+With --set and no --out, results go to output/<name>.set-<overrides>/, never over the
+study's own output/<name>/.
+
+Exit codes: 0 success; 2 bad input (one line on stderr naming the field and the allowed
+range); 1 numerical failure (one line saying where and why; results computed before it are
+kept on disk).";
 
 /// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
 /// (Discrete Elastic Rods + Lighthill slender-body theory).
 #[derive(Parser, Debug)]
-#[command(name = "helixbif", version, about)]
+#[command(name = "helixbif", version, about, after_help = AFTER_HELP)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -31,7 +51,7 @@ struct Cli {
 struct StudyArgs {
     /// Study file (TOML); without one, the built-in representative helix.
     study: Option<PathBuf>,
-    /// Override a study field, e.g. `--set rod.E=2e6 --set discretization.nodes=80`.
+    /// Override a study field: dotted key, TOML value (see the end of `helixbif --help`).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Print one JSON object on stdout and nothing else there.
@@ -42,10 +62,11 @@ struct StudyArgs {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// One rigidly rotating steady state: observables and Newton convergence.
+    #[command(after_help = AFTER_HELP)]
     Solve {
         #[command(flatten)]
         study: StudyArgs,
-        /// Rotation rate of the motor (rad/s, counter-clockwise seen from above).
+        /// Rotation rate of the motor (rad/s; positive counter-clockwise seen from above).
         #[arg(long, allow_negative_numbers = true)]
         omega: f64,
         /// Write the node positions and twist angles (SI) to this CSV file.
@@ -53,21 +74,27 @@ enum Command {
         shape: Option<PathBuf>,
     },
     /// Follow the steady branch from rest in omega: branch.csv, events.csv, meta.json, figures.
+    #[command(after_help = AFTER_HELP)]
     Branch {
         #[command(flatten)]
         study: StudyArgs,
-        /// Largest rotation rate (rad/s); default the study's `branch.omega_max`.
-        #[arg(long)]
+        /// Rate to follow the branch to (rad/s; negative: towards clockwise rotation); default
+        /// the study's `branch.omega_max`.
+        #[arg(long, allow_negative_numbers = true)]
         omega_max: Option<f64>,
         /// Output folder; default `output/<study name>/`.
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// The critical buckling rate omega_b: first loss of stability of the branch from rest.
+    /// The critical buckling rate omega_b: first loss of stability of the branch from rest
+    /// (kind hopf, fold or branch_point; unstable_at_rest when the rest state is already
+    /// unstable; none when the branch stays stable up to branch.omega_max).
+    #[command(after_help = AFTER_HELP)]
     Locate {
         #[command(flatten)]
         study: StudyArgs,
-        /// Relative precision of omega_b (default 1e-8).
+        /// Relative precision of omega_b, |d omega| <= TOL |omega| (default 1e-8; the study's
+        /// continuation.event_tol).
         #[arg(long)]
         tol: Option<f64>,
         /// Run a ladder of node counts and extrapolate omega_b to infinite resolution.
@@ -77,8 +104,14 @@ enum Command {
         #[arg(long, value_delimiter = ',', requires = "extrapolate")]
         nodes: Vec<usize>,
     },
-    /// Do what the study's [study] table declares (branch, locate, sweep, phase, shapes) and
-    /// write `output/<study name>/`.
+    /// Do what the study's [study] table declares and write `output/<study name>/`. Kinds:
+    /// `locate` (the default without a [study] table: omega_b, or a ladder of node counts),
+    /// `branch` (branches from rest, one per case, drawn together), `sweep` (omega_b over a
+    /// parameter grid, fits), `phase` (propulsive force over lambda/l and omegabar
+    /// (R/lambda)^m with the stability boundary and natural flagella), `shapes` (steady
+    /// shapes and the critical mode), `dynamics` (simulations from rest: time averages over
+    /// the branch).
+    #[command(after_help = AFTER_HELP)]
     Run {
         #[command(flatten)]
         study: StudyArgs,
@@ -86,8 +119,10 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// omega_b over the study's parameter grid, in parallel, resumable; `--shard K/N` runs every
-    /// N-th point (from the K-th) for array jobs.
+    /// omega_b over the parameter grid of a study of kind "sweep" (any other study is refused),
+    /// in parallel and resumable; `--shard K/N` runs every N-th point (from the K-th) for
+    /// array jobs.
+    #[command(after_help = AFTER_HELP)]
     Sweep {
         #[command(flatten)]
         study: StudyArgs,
@@ -98,7 +133,9 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Join the shard files of a sweep into sweep.csv.
+    /// Join the shard files of a study of kind "sweep" (any other study is refused) into
+    /// sweep.csv.
+    #[command(after_help = AFTER_HELP)]
     Merge {
         #[command(flatten)]
         study: StudyArgs,
@@ -107,12 +144,14 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Step the rod through time at a rate (BDF2, adaptive): time series of hbar, Fp, Tp, eta,
-    /// shapes, figures, and late-time mean and standard deviation.
+    /// shapes, figures, and late-time mean and standard deviation. Uses the study's [newton]
+    /// table for the rest and steady states.
+    #[command(after_help = AFTER_HELP)]
     Simulate {
         #[command(flatten)]
         study: StudyArgs,
-        /// Rotation rate (rad/s).
-        #[arg(long)]
+        /// Rotation rate (rad/s; negative: clockwise seen from above).
+        #[arg(long, allow_negative_numbers = true)]
         omega: f64,
         /// Duration (s).
         #[arg(long)]
@@ -122,7 +161,7 @@ enum Command {
         from_steady: bool,
         /// With --from-steady: displace along the least stable mode by this fraction of the
         /// reference length.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         perturb: Option<f64>,
         /// Spin-up time (s) of a run from rest.
         #[arg(long, default_value_t = 20.0)]
@@ -138,21 +177,30 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// omega_b the way simulation studies found it: bisection on runs from rest, each judged by
-    /// whether the rod settles on the steady state.
+    /// whether the rod settles on the steady state. Uses the study's [newton] table.
+    #[command(after_help = AFTER_HELP)]
     Bisect {
         #[command(flatten)]
         study: StudyArgs,
-        /// A stable rate (rad/s).
-        #[arg(long)]
+        /// A stable rate (rad/s), nearer zero than --hi (both of one sign).
+        #[arg(long, allow_negative_numbers = true)]
         lo: f64,
         /// An unstable rate (rad/s).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         hi: f64,
         /// Relative width of the final bracket.
         #[arg(long, default_value_t = 1e-2)]
         precision: f64,
+        /// Spin-up time of each trial (s); default 0.2 time units mu ell^4/EI.
+        #[arg(long)]
+        ramp_time: Option<f64>,
+        /// Time held at the trial rate after the spin-up (s); default 1.0 time unit
+        /// mu ell^4/EI.
+        #[arg(long)]
+        hold_time: Option<f64>,
     },
-    /// Least-squares power law y = C x^p with 95% confidence intervals.
+    /// Least-squares power law y = C x^p with 95% confidence intervals; rows without
+    /// positive numbers in both columns (or whose `status` is not ok) are left out and listed.
     Fit {
         /// CSV file with a header row.
         csv: PathBuf,
@@ -168,10 +216,25 @@ enum Command {
     },
 }
 
+/// What a command returns: its report, and whether it asks for JSON.
+type Outcome = anyhow::Result<Box<dyn Report>>;
+
 fn load(args: &StudyArgs) -> Result<(Study, Model), Error> {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let model = Model::new(&study.physical())?;
     Ok((study, model))
+}
+
+/// `--out`, or the study's default folder (which depends on the `--set` overrides).
+fn output_dir(args: &StudyArgs, study: &Study, out: Option<&Path>) -> PathBuf {
+    out.map_or_else(|| default_output(&study.name, &args.set), Path::to_path_buf)
+}
+
+fn titled<T>(study: &Study, result: T) -> Titled<T> {
+    Titled {
+        study: study.name.clone(),
+        result,
+    }
 }
 
 fn write_shape(path: &Path, model: &Model, solution: &Solution) -> anyhow::Result<()> {
@@ -197,72 +260,39 @@ fn write_shape(path: &Path, model: &Model, solution: &Solution) -> anyhow::Resul
     Ok(())
 }
 
-fn solve(study: &StudyArgs, omega: f64, shape: Option<&Path>) -> anyhow::Result<()> {
-    if !omega.is_finite() {
-        return Err(
-            Error::input("--omega", format!("must be a finite number, got {omega}")).into(),
-        );
+fn finite(field: &str, value: f64) -> Result<(), Error> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::input(
+            field,
+            format!("must be a finite number, got {value}"),
+        ))
     }
+}
+
+fn solve(study: &StudyArgs, omega: f64, shape: Option<&Path>) -> Outcome {
+    finite("--omega", omega)?;
     let (study_file, model) = load(study)?;
     let omegabar = model.scales.omega_to_bar(omega);
     let solution = solve_at(&model, omegabar, &study_file.newton)?;
     if let Some(path) = shape {
         write_shape(path, &model, &solution)?;
     }
-    let s = solution.summary(&model);
-    if study.json {
-        println!("{}", serde_json::to_string(&s)?);
-    } else {
-        let o = &s.observables;
-        println!(
-            "steady state of `{}` at N = {} nodes",
-            study_file.name, s.nodes
-        );
-        println!(
-            "  omega    = {:.6e} rad/s   (omegabar = {:.6e})",
-            o.omega, o.omegabar
-        );
-        println!(
-            "  Fp       = {:.6e} N       (Fpbar = {:.6e}; rigid helix {:.6e})",
-            o.fp, o.fpbar, s.fpbar_rigid
-        );
-        println!("  Tp       = {:.6e} N m", o.tp);
-        match o.eta {
-            Some(eta) => println!("  eta      = {eta:.6e}"),
-            None => println!("  eta      = undefined at rest"),
-        }
-        println!(
-            "  h        = {:.6e} m       (h0 = {:.6e} m, hbar = {:.6})",
-            o.h, o.h0, o.hbar
-        );
-        println!(
-            "  Newton   : {} iterations, residual {:.3e}; history {}",
-            s.newton_iterations,
-            s.residual_norm,
-            s.residual_history
-                .iter()
-                .map(|r| format!("{r:.1e}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-        );
-    }
-    Ok(())
+    Ok(Box::new(titled(&study_file, solution.summary(&model))))
 }
 
-fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> anyhow::Result<()> {
+fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> Outcome {
     let (study_file, model) = load(study)?;
     let omega_max = omega_max.unwrap_or(study_file.branch.omega_max);
-    if !(omega_max.is_finite() && omega_max > 0.0) {
+    if !(omega_max.is_finite() && omega_max != 0.0) {
         return Err(Error::input(
             "--omega-max",
-            format!("must be a finite number > 0, got {omega_max}"),
+            format!("must be a finite nonzero number (rad/s), got {omega_max}"),
         )
         .into());
     }
-    let dir = out.map_or_else(
-        || Path::new("output").join(&study_file.name),
-        Path::to_path_buf,
-    );
+    let dir = output_dir(study, &study_file, out);
     let (report, tables) = run_branch(&study_file, &model, omega_max, &dir)?;
     let case = figures::Case {
         label: &study_file.name,
@@ -273,35 +303,11 @@ fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> anyh
     if report.stalled {
         return Err(Error::Numerical(format!(
             "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
-            tables.points.last().map_or(0.0, |r| r.omega),
-            report.stop,
-            report.points,
-            report.out
+            report.omega_reached, report.stop, report.points, report.out
         ))
         .into());
     }
-    if study.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!(
-            "branch of `{}` at N = {}: {} points up to omega = {:.4} rad/s ({}), {} events, {:.2} s; written to {}",
-            study_file.name,
-            model.nodes(),
-            report.points,
-            tables.points.last().map_or(0.0, |r| r.omega),
-            report.stop,
-            report.events,
-            report.seconds,
-            report.out
-        );
-        for e in &tables.events {
-            println!(
-                "  {:<12} omega = {:.8} rad/s (omegabar = {:.6e}), eigenvalue {:+.3e} {:+.4e} i /s",
-                e.kind, e.omega, e.omegabar, e.re, e.im
-            );
-        }
-    }
-    Ok(())
+    Ok(Box::new(titled(&study_file, report)))
 }
 
 fn locate_command(
@@ -309,9 +315,12 @@ fn locate_command(
     tol: Option<f64>,
     extrapolate: bool,
     nodes: &[usize],
-) -> anyhow::Result<()> {
+) -> Outcome {
     let mut overrides = study.set.clone();
     if let Some(t) = tol {
+        if !(t > 0.0 && t < 1e-2) {
+            return Err(Error::input("--tol", format!("must lie in (0, 0.01), got {t}")).into());
+        }
         overrides.push(format!("continuation.event_tol={t:e}"));
     }
     let study_file = Study::from_path(study.study.as_deref(), &overrides)?;
@@ -322,82 +331,25 @@ fn locate_command(
             nodes.to_vec()
         };
         let result = run_ladder(&study_file, &ladder)?;
-        if study.json {
-            println!("{}", serde_json::to_string(&result)?);
-        } else {
-            println!(
-                "omega_b of `{}` over a ladder of node counts:",
-                study_file.name
-            );
-            for ((n, w), k) in result.nodes.iter().zip(&result.omega_b).zip(&result.kinds) {
-                println!("  N = {n:3}: omega_b = {w:.8} rad/s ({k})");
-            }
-            println!(
-                "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; admissible N <= {})",
-                result.omega_b_extrapolated, result.omega_b_error, result.order, result.nodes_max
-            );
-        }
-        return Ok(());
+        return Ok(Box::new(titled(&study_file, result)));
     }
     let model = Model::new(&study_file.physical())?;
     let located = run_locate(&study_file, &model)?;
-    if study.json {
-        println!("{}", serde_json::to_string(&located)?);
-    } else if let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) {
-        println!(
-            "critical rate of `{}` at N = {}: {}",
-            study_file.name, located.nodes, located.kind
-        );
-        println!(
-            "  omega_b    = {w:.10} rad/s   (omegabar_b = {wb:.8e}, relative precision {:.1e})",
-            located.precision.unwrap_or(f64::NAN)
-        );
-        if let Some(im) = located.im {
-            println!(
-                "  frequency  = {im:.8} rad/s     (Im(s) of the critical mode, co-rotating frame)"
-            );
-        }
-        println!(
-            "  Fp         = {:.6e} N     (Fpbar = {:.6})",
-            located.fp.unwrap_or(f64::NAN),
-            located.fpbar.unwrap_or(f64::NAN)
-        );
-        println!("  hbar       = {:.6}", located.hbar.unwrap_or(f64::NAN));
-        println!(
-            "  ({} continuation points, {} corrector iterations)",
-            located.points, located.corrector_iterations
-        );
-    } else {
-        println!(
-            "the branch of `{}` stays stable up to omega_max = {} rad/s (kind: none)",
-            study_file.name, located.omega_max
-        );
-    }
-    Ok(())
+    Ok(Box::new(titled(&study_file, located)))
 }
 
-fn output_dir(study: &Study, out: Option<&Path>) -> PathBuf {
-    out.map_or_else(|| Path::new("output").join(&study.name), Path::to_path_buf)
-}
-
-fn run_command(args: &StudyArgs, out: Option<&Path>) -> anyhow::Result<()> {
+fn run_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(&study, out);
+    let dir = output_dir(args, &study, out);
     let started = std::time::Instant::now();
-    let report = run(&study, &dir)?;
-    if args.json {
-        println!("{report}");
-    } else {
-        println!(
-            "study `{}` ({}) done in {:.1} s; results in {}",
-            study.name,
-            study.study.as_ref().map_or("locate", |p| p.kind()),
-            started.elapsed().as_secs_f64(),
-            dir.display()
-        );
-        println!("{report:#}");
-    }
-    Ok(())
+    let result = run(&study, &dir)?;
+    Ok(Box::new(RunReport {
+        study: study.name.clone(),
+        kind: study.study.as_ref().map_or("locate", |p| p.kind()).into(),
+        seconds: started.elapsed().as_secs_f64(),
+        out: dir.display().to_string(),
+        result,
+    }))
 }
 
 fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
@@ -418,25 +370,11 @@ fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
     Ok((k, n))
 }
 
-fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> anyhow::Result<()> {
+fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> Outcome {
     let shard = shard.map(parse_shard).transpose()?;
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(&study, out);
+    let dir = output_dir(args, &study, out);
     let summary = run_sweep(&study, &dir, shard)?;
-    if args.json {
-        println!("{}", serde_json::to_string(&summary)?);
-    } else {
-        println!(
-            "sweep `{}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
-            study.name,
-            summary.points,
-            summary.already_done,
-            summary.computed,
-            summary.failed,
-            summary.seconds,
-            summary.file
-        );
-    }
     if summary.failed > 0 {
         return Err(Error::Numerical(format!(
             "{} sweep points failed; see the status column of {}",
@@ -447,128 +385,117 @@ fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> a
     if shard.is_none() {
         sweep_figures(&study, &dir)?;
     }
-    Ok(())
+    Ok(Box::new(titled(&study, summary)))
 }
 
-fn merge_command(args: &StudyArgs, out: Option<&Path>) -> anyhow::Result<()> {
+fn merge_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(&study, out);
-    let rows = merge(&study, &dir)?;
+    let dir = output_dir(args, &study, out);
+    let (points, shards) = merge(&study, &dir)?;
     sweep_figures(&study, &dir)?;
-    println!(
-        "merged {rows} points into {}",
-        dir.join("sweep.csv").display()
-    );
-    Ok(())
+    Ok(Box::new(MergeReport {
+        study: study.name.clone(),
+        points,
+        shards,
+        file: dir.join("sweep.csv").display().to_string(),
+    }))
 }
 
-fn fit_command(csv: &Path, x: &str, y: &str, json: bool) -> anyhow::Result<()> {
+fn fit_command(csv: &Path, x: &str, y: &str) -> Outcome {
     let table = Table::read(csv)?;
     let (xc, yc) = (table.index(x)?, table.index(y)?);
-    let (xs, ys): (Vec<f64>, Vec<f64>) = (0..table.rows.len())
-        .filter_map(|r| Some((table.number(r, xc)?, table.number(r, yc)?)))
-        .unzip();
+    let (kept, left_out) = table.usable(xc, yc, true);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = kept.iter().map(|&(_, x, y)| (x, y)).unzip();
     let fit = power_law(&xs, &ys)?;
-    if json {
-        println!("{}", serde_json::to_string(&fit)?);
-    } else {
-        println!("{y} = C {x}^p over {} rows of {}:", fit.n, csv.display());
-        println!(
-            "  p = {:.6}   95% CI [{:.6}, {:.6}]",
-            fit.p, fit.p_ci[0], fit.p_ci[1]
-        );
-        println!(
-            "  C = {:.6e}   95% CI [{:.6e}, {:.6e}]",
-            fit.c, fit.c_ci[0], fit.c_ci[1]
-        );
-        println!("  r2 = {:.6}", fit.r2);
-    }
-    Ok(())
+    Ok(Box::new(FitReport {
+        csv: csv.display().to_string(),
+        x: x.into(),
+        y: y.into(),
+        fit,
+        left_out,
+    }))
 }
 
-fn simulate_command(
-    args: &StudyArgs,
-    opts: SimulateOptions,
-    out: Option<&Path>,
-) -> anyhow::Result<()> {
+fn simulate_command(args: &StudyArgs, mut opts: SimulateOptions, out: Option<&Path>) -> Outcome {
     let (study, model) = load(args)?;
+    opts.newton = study.newton.clone();
     let dir = out.map_or_else(
-        || Path::new("output").join(&study.name).join("simulate"),
+        || default_output(&study.name, &args.set).join("simulate"),
         Path::to_path_buf,
     );
     let report = run_simulate(&model, &DynamicsSettings::default(), &opts, &dir)?;
-    if args.json {
-        println!("{}", serde_json::to_string(&report)?);
-    } else {
-        println!(
-            "simulated `{}` at omega = {} rad/s for {} s: {} steps ({} rejected), {:.1} s; written to {}",
-            study.name,
-            report.omega,
-            report.t_end,
-            report.steps,
-            report.rejected,
-            report.seconds,
-            dir.display()
-        );
-        if let (Some(h), Some(hs), Some(f), Some(fs)) = (
-            report.hbar_mean,
-            report.hbar_std,
-            report.fpbar_mean,
-            report.fpbar_std,
-        ) {
-            println!(
-                "  after t = {} s: hbar = {h:.6} +- {hs:.2e}, Fpbar = {f:.6} +- {fs:.2e}",
-                opts.transient
-            );
-        }
-    }
-    Ok(())
+    Ok(Box::new(titled(&study, report)))
 }
 
-fn bisect_command(args: &StudyArgs, lo: f64, hi: f64, precision: f64) -> anyhow::Result<()> {
+/// The bisection's options from the command line (durations in seconds).
+struct BisectOptions {
+    lo: f64,
+    hi: f64,
+    precision: f64,
+    ramp_time: Option<f64>,
+    hold_time: Option<f64>,
+}
+
+fn bisect_command(args: &StudyArgs, o: &BisectOptions) -> Outcome {
     let (study, model) = load(args)?;
-    if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
-        return Err(Error::input(
-            "--lo",
-            format!("need 0 < lo < hi, got lo = {lo}, hi = {hi}"),
-        )
-        .into());
+    for (field, v) in [("--lo", o.lo), ("--hi", o.hi)] {
+        finite(field, v)?;
     }
-    if !(precision > 0.0 && precision < 1.0) {
+    if !(o.precision > 0.0 && o.precision < 1.0) {
         return Err(Error::input(
             "--precision",
-            format!("must lie in (0, 1), got {precision}"),
+            format!("must lie in (0, 1), got {}", o.precision),
         )
         .into());
     }
     model.check_resolution()?;
-    let settings = BisectSettings {
-        precision,
+    let s = model.scales;
+    let mut settings = BisectSettings {
+        precision: o.precision,
+        newton: study.newton.clone(),
         ..BisectSettings::default()
     };
-    let started = std::time::Instant::now();
-    let s = model.scales;
-    let result = bisect(&model, s.omega_to_bar(lo), s.omega_to_bar(hi), &settings)?;
-    let seconds = started.elapsed().as_secs_f64();
-    let (a, b) = (
-        s.omega_from_bar(result.bracket.0),
-        s.omega_from_bar(result.bracket.1),
-    );
-    if args.json {
-        println!(
-            "{}",
-            serde_json::json!({ "omega_b": s.omega_from_bar(result.estimate), "bracket": [a, b], "trials": result.trials.len(), "steps": result.steps, "seconds": seconds, "nodes": model.nodes() })
-        );
-    } else {
-        println!(
-            "bisection of `{}` at N = {}: omega_b in [{a:.6}, {b:.6}] rad/s ({} trials, {} time steps, {seconds:.1} s)",
-            study.name,
-            model.nodes(),
-            result.trials.len(),
-            result.steps
-        );
+    for (field, seconds, target) in [
+        ("--ramp-time", o.ramp_time, &mut settings.ramp_time),
+        ("--hold-time", o.hold_time, &mut settings.hold_time),
+    ] {
+        if let Some(t) = seconds {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(Error::input(
+                    field,
+                    format!("must be a finite number > 0 (s), got {t}"),
+                )
+                .into());
+            }
+            *target = t / s.time;
+        }
     }
-    Ok(())
+    let started = std::time::Instant::now();
+    let result = bisect(
+        &model,
+        s.omega_to_bar(o.lo),
+        s.omega_to_bar(o.hi),
+        &settings,
+    )?;
+    Ok(Box::new(BisectReport::new(
+        &study.name,
+        model.nodes(),
+        &result,
+        |w| s.omega_from_bar(w),
+        started.elapsed().as_secs_f64(),
+    )))
+}
+
+/// Prints a report on stdout. A closed pipe (`helixbif ... | head -1`) ends the output quietly.
+fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
+    let text = if json {
+        report.to_json().to_string()
+    } else {
+        report.to_string()
+    };
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{text}")?;
+    out.flush()
 }
 
 fn main() -> ExitCode {
@@ -576,29 +503,30 @@ fn main() -> ExitCode {
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
     // costs more than it gains; parallelism is over independent solves instead.
     faer::set_global_parallelism(faer::Par::Seq);
-    let result = match &cli.command {
+    let (result, json) = match &cli.command {
         Command::Solve {
             study,
             omega,
             shape,
-        } => solve(study, *omega, shape.as_deref()),
+        } => (solve(study, *omega, shape.as_deref()), study.json),
         Command::Branch {
             study,
             omega_max,
             out,
-        } => branch(study, *omega_max, out.as_deref()),
+        } => (branch(study, *omega_max, out.as_deref()), study.json),
         Command::Locate {
             study,
             tol,
             extrapolate,
             nodes,
-        } => locate_command(study, *tol, *extrapolate, nodes),
-        Command::Run { study, out } => run_command(study, out.as_deref()),
-        Command::Sweep { study, shard, out } => {
-            sweep_command(study, shard.as_deref(), out.as_deref())
-        }
-        Command::Merge { study, out } => merge_command(study, out.as_deref()),
-        Command::Fit { csv, x, y, json } => fit_command(csv, x, y, *json),
+        } => (locate_command(study, *tol, *extrapolate, nodes), study.json),
+        Command::Run { study, out } => (run_command(study, out.as_deref()), study.json),
+        Command::Sweep { study, shard, out } => (
+            sweep_command(study, shard.as_deref(), out.as_deref()),
+            study.json,
+        ),
+        Command::Merge { study, out } => (merge_command(study, out.as_deref()), study.json),
+        Command::Fit { csv, x, y, json } => (fit_command(csv, x, y), *json),
         Command::Simulate {
             study,
             omega,
@@ -609,28 +537,53 @@ fn main() -> ExitCode {
             transient,
             shape_every,
             out,
-        } => simulate_command(
-            study,
-            SimulateOptions {
-                omega: *omega,
-                t_end: *t_end,
-                from_steady: *from_steady,
-                perturb: *perturb,
-                ramp_time: *ramp_time,
-                transient: *transient,
-                shape_every: *shape_every,
-            },
-            out.as_deref(),
+        } => (
+            simulate_command(
+                study,
+                SimulateOptions {
+                    omega: *omega,
+                    t_end: *t_end,
+                    from_steady: *from_steady,
+                    perturb: *perturb,
+                    ramp_time: *ramp_time,
+                    transient: *transient,
+                    shape_every: *shape_every,
+                    newton: Default::default(),
+                },
+                out.as_deref(),
+            ),
+            study.json,
         ),
         Command::Bisect {
             study,
             lo,
             hi,
             precision,
-        } => bisect_command(study, *lo, *hi, *precision),
+            ramp_time,
+            hold_time,
+        } => (
+            bisect_command(
+                study,
+                &BisectOptions {
+                    lo: *lo,
+                    hi: *hi,
+                    precision: *precision,
+                    ramp_time: *ramp_time,
+                    hold_time: *hold_time,
+                },
+            ),
+            study.json,
+        ),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(report) => match print(report.as_ref(), json) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("helixbif: error: writing the report: {e}");
+                ExitCode::from(1)
+            }
+        },
         Err(e) => {
             let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
             eprintln!("helixbif: error: {e}");

@@ -74,22 +74,28 @@ impl Model {
             .collect()
     }
 
-    /// Checks that the mobility matrix of the natural shape is positive definite at this node
-    /// count; if not, the error (an input error: the node count is out of range) gives the
-    /// admissible range and the reason.
+    /// Checks that the node count lies in the admissible range (docs/model.md section 3) and
+    /// that the mobility matrix of the natural shape is positive definite there; if not, the
+    /// error (an input error: the node count is out of range) gives the range and the reason.
+    /// A count above the range is refused without factorizing at that size.
     pub fn check_resolution(&self) -> Result<()> {
-        if natural_mobility_is_definite(&self.physical, self.nodes()) {
+        let max = admissible_max_nodes(&self.physical);
+        let n = self.nodes();
+        if n <= max && natural_mobility_is_definite(&self.physical, n) {
             return Ok(());
         }
-        let max = admissible_max_nodes(&self.physical);
         let spacing = self.rod.rest_lengths[0] / self.fluid.delta;
+        let range = if max >= 5 {
+            format!("the admissible range 5..={max}")
+        } else {
+            "the admissible range, which is empty".to_owned()
+        };
         Err(Error::input(
             "discretization.nodes",
             format!(
-                "N = {} is outside the admissible range 5..={max} for this rod: the node spacing \
-                 ({spacing:.2} delta) is too close to the Lighthill cut-off delta = r0 sqrt(e)/2, where \
-                 the discrete Lighthill operator is not positive definite (MODEL.md section 3)",
-                self.nodes()
+                "N = {n} is outside {range} for this rod: the node spacing ({spacing:.2} delta) \
+                 is too close to the Lighthill cut-off delta = r0 sqrt(e)/2, where the discrete \
+                 Lighthill operator is not positive definite (docs/model.md section 3)"
             ),
         ))
     }
@@ -110,23 +116,56 @@ fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
     fluid.resistance(&x, "").is_ok()
 }
 
-/// The largest node count for which the natural shape's mobility matrix is positive definite,
-/// searched by single steps from the estimate `ds = 4 delta` (MODEL.md section 3: the discrete
-/// operator turns indefinite once the spacing falls to about 3.9 delta).
+/// The largest node count for which the natural shape's mobility matrix is positive definite
+/// (4 when not even 5 nodes are). The discrete operator turns indefinite once the spacing falls
+/// to about 3.9 delta (docs/model.md section 3), so the search starts from the estimate
+/// `ds = 4 delta`, brackets the limit by steps that double, and bisects: a handful of
+/// factorizations of the size of the limit, whatever node count is asked for. A model whose
+/// matrix never fails (the original quadrature, factorized by LU) is capped at four times the
+/// estimate. The natural mobility is positive definite for every `N` below the limit on the
+/// shapes tested (`tests/fluid.rs`); [`Model::check_resolution`] still checks the `N` in use.
 pub fn admissible_max_nodes(physical: &Physical) -> usize {
     let delta = lighthill_cutoff(physical.rod.r0);
     let contour = physical.shape.contour_length();
     let estimate = ((contour / (4.0 * delta)).floor() as usize + 1).max(5);
+    let cap = (4 * estimate).max(64);
     let ok = |n: usize| natural_mobility_is_definite(physical, n);
-    let mut n = estimate;
-    if ok(n) {
-        while n < 5000 && ok(n + 1) {
-            n += 1;
+    let mut step = (estimate / 8).max(1);
+    // The bracket: `ok(good)` and `!ok(bad)`.
+    let (mut good, mut bad) = if ok(estimate) {
+        let mut good = estimate;
+        loop {
+            let next = (good + step).min(cap);
+            if !ok(next) {
+                break (good, next);
+            }
+            if next == cap {
+                return cap;
+            }
+            good = next;
+            step *= 2;
         }
     } else {
-        while n > 5 && !ok(n) {
-            n -= 1;
+        let mut bad = estimate;
+        loop {
+            let next = bad.saturating_sub(step).max(5);
+            if ok(next) {
+                break (next, bad);
+            }
+            if next == 5 {
+                return 4;
+            }
+            bad = next;
+            step *= 2;
+        }
+    };
+    while bad - good > 1 {
+        let mid = good + (bad - good) / 2;
+        if ok(mid) {
+            good = mid;
+        } else {
+            bad = mid;
         }
     }
-    n
+    good
 }

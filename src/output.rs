@@ -121,4 +121,73 @@ impl Table {
     pub fn number(&self, r: usize, c: usize) -> Option<f64> {
         self.text(r, c).trim().parse().ok()
     }
+
+    /// The rows that carry a finite number in both columns `x` and `y` (and, where the table
+    /// has a `status` column, the status `ok`; where `positive`, values > 0), and every other
+    /// row with the reason it was left out: a fit never drops a row silently.
+    pub fn usable(
+        &self,
+        x: usize,
+        y: usize,
+        positive: bool,
+    ) -> (Vec<(usize, f64, f64)>, Vec<LeftOut>) {
+        let status = self.header.iter().position(|h| h == "status");
+        let kind = self.header.iter().position(|h| h == "kind");
+        let id = self
+            .header
+            .iter()
+            .position(|h| h == "point")
+            .unwrap_or(usize::MAX);
+        let mut kept = Vec::new();
+        let mut left_out = Vec::new();
+        for r in 0..self.rows.len() {
+            let status_text = status.map(|c| self.text(r, c)).unwrap_or("ok");
+            let column = |c: usize| match self.number(r, c) {
+                None => Some(format!("`{}` is empty or not a number", self.header[c])),
+                Some(v) if !v.is_finite() => Some(format!("`{}` is not finite", self.header[c])),
+                Some(v) if positive && v <= 0.0 => Some(format!(
+                    "`{}` = {v} is not positive (a power law needs x, y > 0)",
+                    self.header[c]
+                )),
+                Some(_) => None,
+            };
+            let reason = if status_text != "ok" {
+                Some(format!("status: {status_text}"))
+            } else {
+                column(x).or_else(|| column(y)).map(|why| match kind {
+                    Some(k) if !self.text(r, k).is_empty() => {
+                        format!("{why} (kind: {})", self.text(r, k))
+                    }
+                    _ => why,
+                })
+            };
+            match (reason, self.number(r, x), self.number(r, y)) {
+                (None, Some(vx), Some(vy)) => kept.push((r, vx, vy)),
+                (reason, _, _) => left_out.push(LeftOut {
+                    row: r + 1,
+                    point: (id != usize::MAX).then(|| self.text(r, id).to_string()),
+                    reason: reason.unwrap_or_else(|| "no number".into()),
+                }),
+            }
+        }
+        (kept, left_out)
+    }
+}
+
+/// A row a fit left out, and why (`row` counts data rows from 1).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LeftOut {
+    pub row: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point: Option<String>,
+    pub reason: String,
+}
+
+impl std::fmt::Display for LeftOut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.point {
+            Some(p) => write!(f, "row {} (point {p}): {}", self.row, self.reason),
+            None => write!(f, "row {}: {}", self.row, self.reason),
+        }
+    }
 }

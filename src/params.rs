@@ -69,7 +69,7 @@ impl Handedness {
     }
 }
 
-/// How a helix is clamped to the motor (MODEL.md section 8).
+/// How a helix is clamped to the motor (docs/model.md section 8).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HelixClamp {
@@ -197,7 +197,7 @@ fn non_negative(field: &str, value: f64) -> Result<()> {
 }
 
 impl Physical {
-    /// The representative helix of MODEL.md section 7 (a macroscopic flagellum in glycerin),
+    /// The representative helix of docs/model.md section 7 (a macroscopic flagellum in glycerin),
     /// right-handed: with `omega > 0` (counter-clockwise seen from above) its propulsive force is
     /// positive (the left-handed helix pushes the other way and buckles early).
     pub fn representative() -> Self {

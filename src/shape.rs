@@ -1,6 +1,6 @@
 //! Natural (stress-free) shapes and their discretization.
 //!
-//! Conventions of MODEL.md section 2: helix nodes at equal steps of the helix angle `phi` (all
+//! Conventions of docs/model.md section 2: helix nodes at equal steps of the helix angle `phi` (all
 //! natural edges are equal chords), arc and straight nodes at equal steps of arclength. Node 0 is
 //! the clamp; the rotation axis is the `z` axis through the origin.
 

@@ -1,4 +1,4 @@
-//! The co-rotating steady problem (MODEL.md section 4): residual, analytic Jacobian, and the
+//! The co-rotating steady problem (docs/model.md section 4): residual, analytic Jacobian, and the
 //! observables of a steady state (section 6).
 //!
 //! In the frame turning with the motor, a rigidly rotating state is an equilibrium of
@@ -323,7 +323,7 @@ impl Steady<'_> {
             .collect()
     }
 
-    /// The stability pair of MODEL.md section 5 at the free unknowns `u`: `K`, the Jacobian of
+    /// The stability pair of docs/model.md section 5 at the free unknowns `u`: `K`, the Jacobian of
     /// the position residual with the quasi-static twist eliminated,
     /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`.
     pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
@@ -404,7 +404,7 @@ pub fn solve(
     })
 }
 
-/// Observables of a steady state (MODEL.md section 6), SI and normalized.
+/// Observables of a steady state (docs/model.md section 6), SI and normalized.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Observables {
     /// Rotation rate (rad/s) and `omegabar = omega mu ell^4 / EI`.

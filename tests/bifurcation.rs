@@ -22,6 +22,7 @@ fn greenhill(nodes: usize) -> f64 {
     let problem = RodProblem {
         model: &model,
         parameter: Parameter::Weight,
+        parameter_scale: helixbif::branch::WEIGHT_SCALE,
     };
     let u0 = problem.steady(0.0).free_vector(&model.natural_config());
     let settings = ContinuationSettings {
@@ -236,7 +237,7 @@ fn a_branch_with_two_folds_is_followed_around_both() {
 
 #[test]
 fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
-    // MODEL.md section 8: the lab clamp (first edge on the axis, radial connector) against the
+    // docs/model.md section 8: the lab clamp (first edge on the axis, radial connector) against the
     // reference clamp (the helix's own end). Both lose stability at a Hopf point; the connector
     // lets the helix's top swing about the axis, which lowers omega_b by a few percent.
     let omega_b = |clamp: &str| {

@@ -314,7 +314,7 @@ fn helix_mobility_symmetric_and_positive_definite_up_to_spacing_four_delta() {
     assert_eq!(first_failing, Some(88));
     assert!(pd.iter().all(|&(n, ok)| ok == (n < 88)));
     match Resistance::new(&model.mobility(&helix(90)), "natural helix, N = 90") {
-        Err(Error::NotPositiveDefinite { context }) => {
+        Err(Error::NotPositiveDefinite { context, .. }) => {
             assert_eq!(context, "natural helix, N = 90")
         }
         other => panic!("expected NotPositiveDefinite, got {other:?}"),

@@ -30,7 +30,7 @@ fn rigid_helix_thrust_is_linear_in_omega_and_flips_with_handedness() {
     // rotation the other way, so its thrust is exactly opposite.
     let fl = left.rigid_thrust(10.0).unwrap();
     assert!((fl + f1).abs() < 1e-10 * f1.abs(), "right {f1}, left {fl}");
-    // The convention of MODEL.md section 6: the default (right-handed) helix pushes, F_p > 0.
+    // The convention of docs/model.md section 6: the default (right-handed) helix pushes, F_p > 0.
     assert!(f1 > 0.0);
 }
 

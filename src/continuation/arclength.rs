@@ -28,16 +28,21 @@
 //!
 //! At every accepted point the leading eigenvalues of `K v = s M v` are computed
 //! ([`super::stability`]). A change of the unstable count between two points is an event, pinned
-//! down by [`super::events::locate`]. A step across which the count changes in a way one event
-//! cannot explain (two real eigenvalues, or more than one pair) is halved, down to a sixteenth,
-//! so that two events are not jumped over unnoticed; an exactly double crossing (a symmetric
-//! problem, e.g. Greenhill's column) survives the halvings and is reported once with its
-//! multiplicity.
+//! down by [`super::events::locate_crossings`] (every change in the step, each typed by the
+//! eigenvalue that crossed); a turn of the parameter is a fold ([`super::events::locate_fold`]).
+//! A step across which the count changes in a way one event cannot explain (two real
+//! eigenvalues, or more than one pair), or across which two modes exchange stability with no
+//! change of the count, is halved, down to a sixteenth, so that the events separate; an exactly
+//! double crossing (a symmetric problem, e.g. Greenhill's column) survives the halvings and is
+//! reported once with its multiplicity. A corrector point is accepted only at `tol` (or when
+//! its Newton correction is at round-off size), so an event's precision rests on converged
+//! points. With [`Limits::stop_at_first_instability`] the run ends at the first loss of
+//! stability, or at once when the starting point is already unstable.
 
 use faer::Mat;
 use faer::prelude::Solve;
 
-use super::events::{self, Event, Target, crossing_eigenvalue};
+use super::events::{self, Event, EventKind, modes_exchanged};
 use super::newton::{self, NewtonSettings, System, norm};
 use super::stability::{Spectrum, is_complex, spectrum};
 use super::{ContinuationSettings, Linearization, Problem};
@@ -46,9 +51,10 @@ use crate::{Error, Result};
 /// Relative size of a Newton correction at round-off level.
 const ROUND_OFF: f64 = 1e-13;
 
-/// A corrector whose residual stops falling below this many times `tol` has reached its
-/// round-off floor.
-const STAGNATION: f64 = 1e3;
+/// A corrector that has used all its iterations with the residual within this many times `tol`
+/// (its round-off floor, next to a singular point where Newton converges only linearly)
+/// accepts the point with the size of its last correction as its stated uncertainty.
+const FLOOR: f64 = 1e3;
 
 /// Smallest cosine between successive unit tangents (a turn of at most about 30 degrees).
 const MIN_TANGENT_COSINE: f64 = 0.85;
@@ -66,6 +72,8 @@ pub struct Point {
     pub spectrum: Spectrum,
     /// Corrector iterations spent on this point.
     pub iterations: usize,
+    /// How far the point may lie from the branch in `p` (see [`Corrected::uncertainty`]).
+    pub uncertainty: f64,
 }
 
 /// Why a continuation ended.
@@ -77,7 +85,11 @@ pub enum Stop {
     MaxPoints,
     /// The first loss of stability was found (with [`Limits::stop_at_first_instability`]).
     FirstInstability,
-    /// The corrector failed down to the smallest step; the reason of the last failure.
+    /// The starting point is already unstable (with [`Limits::stop_at_first_instability`]):
+    /// there is no loss of stability to find.
+    UnstableAtStart,
+    /// The corrector failed down to the smallest step; the reason of the last failure (a
+    /// mobility that is not positive definite, when any attempt met one: it names the state).
     StepTooSmall(String),
 }
 
@@ -172,6 +184,10 @@ pub struct Corrected {
     pub p: f64,
     pub iterations: usize,
     pub lin: Linearization,
+    /// The size of the last Newton correction not applied, in units of `p` (0 when the
+    /// residual met `tol`): the precision of the point, which the precision of an event located
+    /// from it never claims to beat.
+    pub uncertainty: f64,
 }
 
 /// Newton's method on the bordered system (2), from the predicted point `(u, p)` on the
@@ -188,7 +204,6 @@ pub fn correct(
     let ru: Vec<f64> = t_u.iter().map(|v| metric.wu * v).collect();
     let rp = metric.wp * t_p;
     let (u_predicted, p_predicted) = (u.clone(), p);
-    let mut previous = f64::INFINITY;
     for iterations in 0..=settings.max_corrector {
         let lin = problem.linearize(&u, p)?;
         let g_norm = norm(&lin.g);
@@ -197,20 +212,17 @@ pub fn correct(
                 "non-finite residual in the corrector".into(),
             ));
         }
-        // Converged, or stagnating at a round-off floor a little above `tol` (a stiff, fine
-        // rod whose Jacobian is nearly singular, next to a branch point, amplifies the floor's
-        // noise).
-        if g_norm <= settings.tol
-            || (g_norm <= STAGNATION * settings.tol && g_norm > 0.5 * previous)
-        {
+        // Converged to `tol`, or (below) the Newton correction is negligible against the
+        // precision of events.
+        if g_norm <= settings.tol {
             return Ok(Corrected {
                 u,
                 p,
                 iterations,
                 lin,
+                uncertainty: 0.0,
             });
         }
-        previous = g_norm;
         // The hyperplane row: bring the iterate back onto the hyperplane through the predicted
         // point (the nonlinear update leaves it at second order).
         let drift: f64 = ru
@@ -223,20 +235,29 @@ pub fn correct(
         rhs.push(-drift);
         let z = bordered_solve(&lin, &ru, rp, &rhs)
             .ok_or_else(|| Error::Numerical("singular bordered matrix in the corrector".into()))?;
-        // A correction at round-off size: the residual is at its floor (stiff stretching makes
-        // that floor exceed `tol` on fine, thin rods).
-        if norm(&z) <= ROUND_OFF * (1.0 + norm(&u) + p.abs()) {
+        // A correction far below the precision asked of events: the point is known to a
+        // hundredth of `event_tol` in `p` (and to as much, in the metric's units, in `u`),
+        // and Newton's error after this correction is of the order of its square. This is
+        // what ends the iteration where the residual's round-off floor lies above `tol`
+        // (stiff stretching on fine, thin rods, amplified next to a branch point); a floor
+        // that noise holds above this is a failure, not a point.
+        let n = u.len();
+        let p_unit = 1.0 / metric.wp.sqrt();
+        let moved = metric.dot(&z[..n], z[n], &z[..n], z[n]).sqrt() * p_unit;
+        let precise = 1e-2 * settings.event_tol * p.abs().max(1e-6 * p_unit);
+        let at_floor = iterations == settings.max_corrector && g_norm <= FLOOR * settings.tol;
+        if moved <= precise || norm(&z) <= ROUND_OFF * (1.0 + norm(&u) + p.abs()) || at_floor {
             return Ok(Corrected {
                 u,
                 p,
                 iterations,
                 lin,
+                uncertainty: moved,
             });
         }
         if iterations == settings.max_corrector {
             break;
         }
-        let n = u.len();
         u = problem.retract(&u, &z[..n]);
         p += z[n];
     }
@@ -331,15 +352,31 @@ pub fn follow<P: Problem>(
         tangent_u: tu,
         tangent_p: tp,
         iterations: report.iterations,
+        uncertainty: 0.0,
     };
     observer.point(&first);
+    let unstable_at_start = first.spectrum.unstable > 0;
     let mut branch = Branch {
         points: vec![first],
         events: Vec::new(),
         stop: Stop::MaxPoints,
     };
+    if unstable_at_start && limits.stop_at_first_instability {
+        branch.stop = Stop::UnstableAtStart;
+        return Ok(branch);
+    }
     let mut ds = settings.ds;
     let mut halvings = 0;
+    // The first failure since the last accepted point that names a mobility that is not
+    // positive definite: when the step runs out, it is the reason given.
+    let mut indefinite: Option<String> = None;
+    let shrink = |ds: &mut f64, e: Error, indefinite: &mut Option<String>| {
+        if matches!(e, Error::NotPositiveDefinite { .. }) && indefinite.is_none() {
+            *indefinite = Some(e.to_string());
+        }
+        *ds *= 0.5;
+        (*ds < settings.ds_min).then(|| indefinite.clone().unwrap_or_else(|| e.to_string()))
+    };
     while branch.points.len() < settings.max_points {
         let last = branch.points.last().expect("the branch has a first point");
         // No step moves the parameter by more than a fraction of the range followed, so that a
@@ -390,69 +427,71 @@ pub fn follow<P: Problem>(
                 tangent_p: tp,
                 spectrum,
                 iterations: c.iterations,
+                uncertainty: c.uncertainty,
             })
         });
         let next = match attempt {
             Ok(next) => next,
             Err(e) => {
-                ds *= 0.5;
-                if ds < settings.ds_min {
-                    branch.stop = Stop::StepTooSmall(e.to_string());
+                if let Some(reason) = shrink(&mut ds, e, &mut indefinite) {
+                    branch.stop = Stop::StepTooSmall(reason);
                     return Ok(branch);
                 }
                 continue;
             }
         };
-        let count_change = match crossing(&last.spectrum, &next.spectrum) {
-            Err(_) if halvings < 4 && ds * 0.5 >= settings.ds_min => {
-                halvings += 1;
-                ds *= 0.5;
-                continue;
-            }
-            Err(multiplicity) => Some(multiplicity),
-            Ok(true) => Some(1),
-            Ok(false) => None,
-        };
+        // A step across which the count changes in a way one event cannot explain, or two
+        // modes exchange stability, is shortened first so that the events separate.
+        let exchanged = modes_exchanged(&last.spectrum, &next.spectrum);
+        let ambiguous = crossing(&last.spectrum, &next.spectrum).is_err() || exchanged;
+        if ambiguous && halvings < 4 && ds * 0.5 >= settings.ds_min {
+            halvings += 1;
+            ds *= 0.5;
+            continue;
+        }
         halvings = 0;
         // A fold shows as the parameter turning; a change of the unstable count is a branch or
         // Hopf point unless it is the fold's own real eigenvalue.
         let fold = last.tangent_p * next.tangent_p < 0.0;
-        let mut targets = Vec::new();
-        if fold {
-            targets.push((Target::Turning, 1));
-        }
-        if let Some(multiplicity) = count_change {
-            let crossed = crossing_eigenvalue(&last.spectrum, &next.spectrum);
-            let explained = fold && multiplicity == 1 && !is_complex(crossed);
-            if !explained {
-                targets.push((Target::Crossing(crossed), multiplicity));
+        let count_change = last.spectrum.unstable != next.spectrum.unstable;
+        let located = (|| -> Result<Vec<Event>> {
+            let mut found = Vec::new();
+            if fold {
+                found.push(events::locate_fold(
+                    problem, last, &next, &metric, settings,
+                )?);
             }
-        }
-        let located: Result<Vec<Event>> = targets
-            .into_iter()
-            .map(|(target, multiplicity)| {
-                events::locate(
-                    problem,
-                    last,
-                    &next,
-                    target,
-                    multiplicity,
-                    &metric,
-                    settings,
-                )
-            })
-            .collect();
+            if count_change || exchanged {
+                let mut crossings =
+                    events::locate_crossings(problem, last, &next, &metric, settings)?;
+                if fold {
+                    // The real eigenvalue that passes zero at the fold is the fold's own.
+                    if let Some(own) = crossings
+                        .iter()
+                        .position(|e| e.kind == EventKind::BranchPoint && e.multiplicity == 1)
+                    {
+                        crossings.remove(own);
+                    }
+                }
+                found.extend(crossings);
+            }
+            Ok(found)
+        })();
         let mut found = match located {
             Ok(found) => found,
             Err(e) => {
-                ds *= 0.5;
-                if ds < settings.ds_min {
-                    branch.stop = Stop::StepTooSmall(format!("locating an event: {e}"));
+                let e = match e {
+                    e @ Error::NotPositiveDefinite { .. } => e,
+                    e => Error::Numerical(format!("locating an event: {e}")),
+                };
+                if let Some(reason) = shrink(&mut ds, e, &mut indefinite) {
+                    branch.stop = Stop::StepTooSmall(reason);
                     return Ok(branch);
                 }
                 continue;
             }
         };
+        indefinite = None;
         found.sort_by(|x, y| x.s.total_cmp(&y.s));
         for located in found {
             observer.event(&located);

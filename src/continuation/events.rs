@@ -3,16 +3,31 @@
 //! * **fold**: the branch turns back in the parameter (the `p` part of the tangent changes
 //!   sign); a real eigenvalue crosses zero there;
 //! * **branch point**: a real eigenvalue crosses zero while the parameter goes on;
-//! * **Hopf point**: a complex pair crosses the imaginary axis.
+//! * **Hopf point**: a complex pair crosses the imaginary axis;
+//! * **mode exchange**: one mode gains stability while another loses it at the same place (to
+//!   the precision asked), so the unstable count does not change: noticed and reported, never
+//!   typed by a guess.
 //!
 //! Between the points `a` and `b` the branch is sampled at arclength `sigma` from `a` (predictor
-//! along `a`'s tangent, corrector on the hyperplane) and the root of a scalar function is found by
-//! the Illinois variant of regula falsi: the `p` part of the tangent for a fold, the real part of
-//! the crossing eigenvalue (followed from sample to sample as the nearest one) otherwise. The
-//! search stops when the bracket in the parameter is narrower than `event_tol * max(|p|, P)` (`P`
-//! the parameter scale) and the bracket in arclength narrower than `sqrt(event_tol)` times the
-//! step (near a fold `p` is quadratic in the arclength, so a narrow bracket in `p` alone says
-//! nothing); the event is the point at the final regula falsi estimate of the root.
+//! along `a`'s tangent, corrector on the hyperplane). The bracket of an event is kept by a robust
+//! test, not by the sign of an interpolated function: a sample lies beyond the event when its
+//! unstable count differs from the count at the bracket's lower end (a crossing), or when its
+//! tangent has turned (a fold). The Illinois variant of regula falsi on a scalar function (the
+//! real part of the crossing eigenvalue, followed from sample to sample as the nearest one, or
+//! the `p` part of the tangent) only proposes where to sample next; bisection takes over where
+//! that function disagrees with the sides. So the final bracket always contains the change of
+//! the count, even where the nearest-eigenvalue tracking jumps between two pairs.
+//!
+//! The search stops when the bracket in the parameter is narrower than
+//! `event_tol * max(|p|, 1e-6 P)` (relative, `P` the parameter scale only guarding `p = 0`) and
+//! the bracket in arclength narrower than `sqrt(event_tol)` times the step (near a fold `p` is
+//! quadratic in the arclength, so a narrow bracket in `p` alone says nothing).
+//!
+//! A crossing event is typed by the eigenvalue that crossed inside its final bracket (the one
+//! unstable on one side whose nearest eigenvalue on the other side is stable), never by
+//! whichever eigenvalue lies nearest the axis elsewhere. Several crossings in one step (a branch
+//! point and a Hopf point close together) are located one after the other, each from the far
+//! side of the one before, and all are reported.
 
 use faer::c64;
 
@@ -27,6 +42,8 @@ pub enum EventKind {
     Fold,
     BranchPoint,
     Hopf,
+    /// Two modes crossed the axis in opposite directions within the event tolerance.
+    ModeExchange,
 }
 
 impl EventKind {
@@ -36,6 +53,7 @@ impl EventKind {
             EventKind::Fold => "fold",
             EventKind::BranchPoint => "branch_point",
             EventKind::Hopf => "hopf",
+            EventKind::ModeExchange => "mode_exchange",
         }
     }
 }
@@ -52,213 +70,355 @@ pub struct Event {
     /// The critical eigenvalue there (real part near zero; imaginary part the Hopf frequency,
     /// counted positive).
     pub eigenvalue: c64,
-    /// The final bracket of the parameter, and its width relative to `max(|p|, P)`.
+    /// The final bracket of the parameter, and its width relative to `|p|` (or the relative
+    /// uncertainty of the points that bound it, where that is larger).
     pub bracket: (f64, f64),
     pub precision: f64,
     /// Number of eigenvalues that crossed together (a Hopf pair counts once).
     pub multiplicity: usize,
-    /// Unstable counts at the two points around the event.
+    /// Unstable counts on the two sides of the event's final bracket.
     pub unstable_before: usize,
     pub unstable_after: usize,
     /// The leading spectrum at the event.
     pub spectrum: Spectrum,
 }
 
-/// What vanishes at the event.
-#[derive(Clone, Copy, Debug)]
-pub enum Target {
-    /// The `p` part of the tangent (a fold).
-    Turning,
-    /// The real part of the eigenvalue that crossed (given at `b`).
-    Crossing(c64),
+impl Event {
+    /// True for the event at which a stable branch becomes unstable.
+    pub fn loses_stability(&self) -> bool {
+        self.unstable_before == 0 && self.unstable_after > 0
+    }
 }
 
 /// The eigenvalue that crossed between spectra `a` and `b`: an unstable eigenvalue of the side
 /// with more of them whose nearest eigenvalue on the other side is stable (the one closest to
-/// the axis if several; the member with `Im >= 0` of a pair).
+/// the axis if several; the member with `Im >= 0` of a pair). With equal counts (an exchange of
+/// modes), the newly unstable eigenvalue of `b`.
 pub fn crossing_eigenvalue(a: &Spectrum, b: &Spectrum) -> c64 {
-    let (more, less) = if b.unstable > a.unstable {
+    let (more, less) = if b.unstable >= a.unstable {
         (b, a)
     } else {
         (a, b)
     };
-    let unstable = &more.leading[..more.unstable];
+    let unstable = &more.leading[..more.unstable.min(more.leading.len())];
     let crossed = unstable
         .iter()
         .filter(|s| less.nearest(**s).re <= 0.0)
         .min_by(|x, y| x.re.total_cmp(&y.re))
         .or_else(|| unstable.last())
-        .expect("the side with more unstable eigenvalues has one");
+        .or_else(|| more.leading.first())
+        .copied()
+        .unwrap_or(c64::new(0.0, 0.0));
     c64::new(crossed.re, crossed.im.abs())
 }
 
+/// True when the unstable counts of `a` and `b` agree but a mode has exchanged stability with
+/// another: an eigenvalue unstable at `b` whose nearest at `a` is stable, and one unstable at
+/// `a` whose nearest at `b` is stable (each crossing's identity followed as the nearest
+/// eigenvalue).
+pub fn modes_exchanged(a: &Spectrum, b: &Spectrum) -> bool {
+    let newly = |from: &Spectrum, to: &Spectrum| {
+        to.leading[..to.unstable.min(to.leading.len())]
+            .iter()
+            .any(|s| from.nearest(*s).re <= 0.0)
+    };
+    a.unstable == b.unstable && a.unstable > 0 && newly(a, b) && newly(b, a)
+}
+
 /// One evaluation inside the bracket.
+#[derive(Clone)]
 struct Sample {
     sigma: f64,
     u: Vec<f64>,
     p: f64,
-    /// The tracked eigenvalue (imaginary part made non-negative).
-    value: c64,
     tangent_p: f64,
     spectrum: Spectrum,
+    /// The corrector's uncertainty of `p` at this sample.
+    uncertainty: f64,
 }
 
-/// Pins down the event of kind `target` between the consecutive points `a` and `b`.
-///
-/// The bracket is kept by a robust test, not by the sign of the interpolated function: a sample
-/// belongs to `b`'s side when its unstable count differs from `a`'s (a crossing) or when its
-/// tangent has turned (a fold). Regula falsi on the tracked eigenvalue's real part (or on the
-/// tangent's `p` part) only proposes where to sample next, and bisection takes over whenever
-/// its values disagree with the sides. So the final bracket always contains the change of the
-/// count, even where the nearest-eigenvalue tracking jumps between two pairs.
-pub fn locate(
-    problem: &impl Problem,
-    a: &Point,
-    b: &Point,
-    target: Target,
-    multiplicity: usize,
-    metric: &Metric,
-    settings: &ContinuationSettings,
-) -> Result<Event> {
-    let p_scale = problem.scales().1;
-    let tracked_start = match target {
-        Target::Crossing(value) => value,
-        Target::Turning => c64::new(0.0, 0.0),
-    };
-    let sample_at = |sigma: f64, tracked: c64| -> Result<Sample> {
+/// Samples the branch between two consecutive points `a` and `b` at arclength `sigma` from `a`.
+struct Sampler<'a, P: Problem> {
+    problem: &'a P,
+    a: &'a Point,
+    metric: &'a Metric,
+    settings: &'a ContinuationSettings,
+    /// The step `|s_b - s_a|`.
+    step: f64,
+    /// The parameter scale (guards the relative tolerance at `p = 0`).
+    p_scale: f64,
+    /// Whether samples need the tangent (a fold; next to a branch point it is ill-defined).
+    with_tangent: bool,
+}
+
+impl<P: Problem> Sampler<'_, P> {
+    fn at(&self, sigma: f64) -> Result<Sample> {
+        let a = self.a;
         let step: Vec<f64> = a.tangent_u.iter().map(|t| sigma * t).collect();
-        let predicted = problem.retract(&a.u, &step);
+        let predicted = self.problem.retract(&a.u, &step);
         let c = correct(
-            problem,
+            self.problem,
             predicted,
             a.p + sigma * a.tangent_p,
             &a.tangent_u,
             a.tangent_p,
-            metric,
-            settings,
+            self.metric,
+            self.settings,
         )?;
-        // Only a fold needs the tangent (next to a branch point it is ill-defined).
-        let tangent_p = match target {
-            Target::Turning => tangent(&c.lin, metric, &a.tangent_u, a.tangent_p)?.1,
-            Target::Crossing(_) => a.tangent_p,
+        let tangent_p = if self.with_tangent {
+            tangent(&c.lin, self.metric, &a.tangent_u, a.tangent_p)?.1
+        } else {
+            a.tangent_p
         };
-        let spectrum = stability(problem, &c.u, c.p, &c.lin, settings.eigenvalues)?;
-        let value = spectrum.nearest(tracked);
+        let spectrum = stability(self.problem, &c.u, c.p, &c.lin, self.settings.eigenvalues)?;
         Ok(Sample {
             sigma,
             u: c.u,
             p: c.p,
-            value: c64::new(value.re, value.im.abs()),
             tangent_p,
             spectrum,
+            uncertainty: c.uncertainty,
         })
-    };
-    let from_point = |point: &Point, sigma: f64, tracked: c64| {
-        let value = point.spectrum.nearest(tracked);
+    }
+
+    fn sample_of(&self, point: &Point) -> Sample {
         Sample {
-            sigma,
+            sigma: point.s - self.a.s,
             u: point.u.clone(),
             p: point.p,
-            value: c64::new(value.re, value.im.abs()),
             tangent_p: point.tangent_p,
             spectrum: point.spectrum.clone(),
-        }
-    };
-    // Which side of the event a sample lies on (true: `b`'s).
-    let beyond = |s: &Sample| match target {
-        Target::Turning => s.tangent_p * a.tangent_p < 0.0,
-        Target::Crossing(_) => s.spectrum.unstable != a.spectrum.unstable,
-    };
-    // The function whose root is sought, negative on `a`'s side when the tracking is sound.
-    let growing = b.spectrum.unstable >= a.spectrum.unstable;
-    let f = |s: &Sample| match target {
-        Target::Turning => -s.tangent_p * a.tangent_p.signum(),
-        Target::Crossing(_) if growing => s.value.re,
-        Target::Crossing(_) => -s.value.re,
-    };
-    let mut lo = from_point(a, 0.0, tracked_start);
-    let mut hi = from_point(b, b.s - a.s, tracked_start);
-    let step = (b.s - a.s).abs();
-    let converged = |lo: &Sample, hi: &Sample| {
-        (hi.p - lo.p).abs() <= settings.event_tol * lo.p.abs().max(p_scale)
-            && (hi.sigma - lo.sigma).abs() <= settings.event_tol.sqrt() * step
-    };
-    // Regula falsi between the sides when the function agrees with them, else bisection.
-    let next_sigma = |lo: &Sample, hi: &Sample, weight_lo: f64, weight_hi: f64| {
-        let (f_lo, f_hi) = (f(lo) * weight_lo, f(hi) * weight_hi);
-        let sigma = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
-        let inside = |x: f64| (x - lo.sigma) * (x - hi.sigma) < 0.0;
-        if f_lo < 0.0 && f_hi > 0.0 && sigma.is_finite() && inside(sigma) {
-            sigma
-        } else {
-            0.5 * (lo.sigma + hi.sigma)
-        }
-    };
-    let tracked = |sigma: f64, lo: &Sample, hi: &Sample| {
-        if (sigma - lo.sigma).abs() < (sigma - hi.sigma).abs() {
-            lo.value
-        } else {
-            hi.value
-        }
-    };
-    // Illinois weights: halve the function value of a side kept twice in a row.
-    let (mut w_lo, mut w_hi) = (1.0, 1.0);
-    let mut last_side = 0i8;
-    let mut iterations = 0;
-    while !converged(&lo, &hi) {
-        iterations += 1;
-        if iterations > 200 {
-            return Err(crate::Error::Numerical(format!(
-                "event not resolved to {:e} within 200 samples (bracket p in [{}, {}])",
-                settings.event_tol, lo.p, hi.p
-            )));
-        }
-        let sigma = next_sigma(&lo, &hi, w_lo, w_hi);
-        let s = sample_at(sigma, tracked(sigma, &lo, &hi))?;
-        if beyond(&s) {
-            hi = s;
-            w_hi = 1.0;
-            if last_side == 1 {
-                w_lo *= 0.5;
-            }
-            last_side = 1;
-        } else {
-            lo = s;
-            w_lo = 1.0;
-            if last_side == -1 {
-                w_hi *= 0.5;
-            }
-            last_side = -1;
+            uncertainty: point.uncertainty,
         }
     }
-    let width = (hi.p - lo.p).abs() / lo.p.abs().max(p_scale);
-    let bracket = (lo.p.min(hi.p), lo.p.max(hi.p));
-    // The event at the final estimate of the root, inside the bracket.
-    let sigma = next_sigma(&lo, &hi, 1.0, 1.0);
-    let best = sample_at(sigma, tracked(sigma, &lo, &hi))?;
-    // The eigenvalue nearest the imaginary axis (the one crossing there).
-    let critical = *best
-        .spectrum
-        .leading
-        .iter()
-        .min_by(|x, y| x.re.abs().total_cmp(&y.re.abs()))
-        .expect("a spectrum has eigenvalues");
-    let kind = match target {
-        Target::Turning => EventKind::Fold,
-        Target::Crossing(_) if is_complex(critical) => EventKind::Hopf,
-        Target::Crossing(_) => EventKind::BranchPoint,
+
+    /// The tolerance on the width of a bracket in `p` around `p`.
+    fn p_tol(&self, p: f64) -> f64 {
+        self.settings.event_tol * p.abs().max(1e-6 * self.p_scale)
+    }
+
+    fn converged(&self, lo: &Sample, hi: &Sample) -> bool {
+        (hi.p - lo.p).abs() <= self.p_tol(lo.p)
+            && (hi.sigma - lo.sigma).abs() <= self.settings.event_tol.sqrt() * self.step
+    }
+
+    /// Narrows `[lo, hi]` (with `beyond(lo)` false and `beyond(hi)` true) until it converges.
+    /// `f` is negative on `lo`'s side when the tracking is sound; its Illinois-weighted secant
+    /// proposes the next sample, bisection is the fallback.
+    fn bracket(
+        &self,
+        mut lo: Sample,
+        mut hi: Sample,
+        beyond: impl Fn(&Sample) -> bool,
+        f: impl Fn(&Sample, &Sample, &Sample) -> f64,
+    ) -> Result<(Sample, Sample)> {
+        let (mut w_lo, mut w_hi) = (1.0, 1.0);
+        let mut last_side = 0i8;
+        let mut iterations = 0;
+        while !self.converged(&lo, &hi) {
+            iterations += 1;
+            if iterations > 200 {
+                return Err(crate::Error::Numerical(format!(
+                    "event not resolved to {:e} within 200 samples (bracket p in [{}, {}])",
+                    self.settings.event_tol, lo.p, hi.p
+                )));
+            }
+            let sigma = secant(&lo, &hi, f(&lo, &lo, &hi) * w_lo, f(&hi, &lo, &hi) * w_hi);
+            let s = self.at(sigma)?;
+            if beyond(&s) {
+                hi = s;
+                w_hi = 1.0;
+                if last_side == 1 {
+                    w_lo *= 0.5;
+                }
+                last_side = 1;
+            } else {
+                lo = s;
+                w_lo = 1.0;
+                if last_side == -1 {
+                    w_hi *= 0.5;
+                }
+                last_side = -1;
+            }
+        }
+        Ok((lo, hi))
+    }
+
+    /// Pins down the first change of the unstable count between `lo` and `hi` (whose counts
+    /// differ); returns the event and the sample just beyond it.
+    fn crossing(&self, lo: Sample, hi: Sample) -> Result<(Event, Sample)> {
+        let base = lo.spectrum.unstable;
+        let tracked = crossing_eigenvalue(&lo.spectrum, &hi.spectrum);
+        let growing = hi.spectrum.unstable > base;
+        // The tracked eigenvalue is re-identified from the nearer end of the bracket.
+        let f = |s: &Sample, l: &Sample, h: &Sample| {
+            let from = if (s.sigma - l.sigma).abs() <= (s.sigma - h.sigma).abs() {
+                l
+            } else {
+                h
+            };
+            let near = from.spectrum.nearest(tracked);
+            crossing_function(s, c64::new(near.re, near.im.abs()), growing)
+        };
+        let beyond = |s: &Sample| s.spectrum.unstable != base;
+        let (l, h) = self.bracket(lo, hi, beyond, f)?;
+        // Typed by what crossed inside the final bracket.
+        let crossed = crossing_eigenvalue(&l.spectrum, &h.spectrum);
+        let d = l.spectrum.unstable.abs_diff(h.spectrum.unstable);
+        let (kind, multiplicity) = if is_complex(crossed) {
+            (EventKind::Hopf, d.div_ceil(2))
+        } else {
+            (EventKind::BranchPoint, d)
+        };
+        let growing = h.spectrum.unstable > l.spectrum.unstable;
+        let f_final = |s: &Sample, _: &Sample, _: &Sample| crossing_function(s, crossed, growing);
+        let event = self.event(&l, &h, f_final, kind, crossed, multiplicity)?;
+        Ok((event, h))
+    }
+
+    /// The event at the final secant estimate of the root inside `[lo, hi]`.
+    fn event(
+        &self,
+        lo: &Sample,
+        hi: &Sample,
+        f: impl Fn(&Sample, &Sample, &Sample) -> f64,
+        kind: EventKind,
+        near: c64,
+        multiplicity: usize,
+    ) -> Result<Event> {
+        let sigma = secant(lo, hi, f(lo, lo, hi), f(hi, lo, hi));
+        let best = self.at(sigma)?;
+        let critical = best.spectrum.nearest(near);
+        Ok(Event {
+            kind,
+            s: self.a.s + best.sigma,
+            eigenvalue: c64::new(critical.re, critical.im.abs()),
+            bracket: (lo.p.min(hi.p), lo.p.max(hi.p)),
+            // The bracket's width, or the points' own uncertainty where that is larger.
+            precision: (hi.p - lo.p)
+                .abs()
+                .max(lo.uncertainty)
+                .max(hi.uncertainty)
+                .max(best.uncertainty)
+                / lo.p.abs().max(1e-6 * self.p_scale),
+            multiplicity,
+            unstable_before: lo.spectrum.unstable,
+            unstable_after: hi.spectrum.unstable,
+            u: best.u,
+            p: best.p,
+            spectrum: best.spectrum,
+        })
+    }
+}
+
+/// The secant root of `f` between `lo` and `hi` when `f` changes sign from negative to positive
+/// there, else the midpoint.
+fn secant(lo: &Sample, hi: &Sample, f_lo: f64, f_hi: f64) -> f64 {
+    let sigma = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
+    let inside = (sigma - lo.sigma) * (sigma - hi.sigma) < 0.0;
+    if f_lo < 0.0 && f_hi > 0.0 && sigma.is_finite() && inside {
+        sigma
+    } else {
+        0.5 * (lo.sigma + hi.sigma)
+    }
+}
+
+/// The signed real part of the eigenvalue nearest `tracked` in `s` (negative on the stable side
+/// of a crossing that raises the count `from -> to`).
+fn crossing_function(s: &Sample, tracked: c64, growing: bool) -> f64 {
+    let re = s.spectrum.nearest(tracked).re;
+    if growing { re } else { -re }
+}
+
+/// Pins down the fold between the consecutive points `a` and `b` (the `p` part of the tangent
+/// changes sign).
+pub fn locate_fold(
+    problem: &impl Problem,
+    a: &Point,
+    b: &Point,
+    metric: &Metric,
+    settings: &ContinuationSettings,
+) -> Result<Event> {
+    let sampler = Sampler {
+        problem,
+        a,
+        metric,
+        settings,
+        step: (b.s - a.s).abs(),
+        p_scale: problem.scales().1,
+        with_tangent: true,
     };
-    Ok(Event {
-        kind,
-        u: best.u,
-        p: best.p,
-        s: a.s + best.sigma,
-        eigenvalue: c64::new(critical.re, critical.im.abs()),
-        bracket,
-        precision: width,
-        multiplicity,
-        unstable_before: a.spectrum.unstable,
-        unstable_after: b.spectrum.unstable,
-        spectrum: best.spectrum,
-    })
+    let sign = a.tangent_p.signum();
+    let beyond = |s: &Sample| s.tangent_p * sign < 0.0;
+    let f = |s: &Sample, _: &Sample, _: &Sample| -s.tangent_p * sign;
+    let (lo, hi) = sampler.bracket(sampler.sample_of(a), sampler.sample_of(b), beyond, f)?;
+    sampler.event(&lo, &hi, f, EventKind::Fold, c64::new(0.0, 0.0), 1)
+}
+
+/// Pins down every change of the unstable count between the consecutive points `a` and `b`,
+/// in order along the branch: each from the far side of the one before, typed by the
+/// eigenvalue that crossed inside its final bracket. Where the counts agree but two modes
+/// exchanged stability ([`modes_exchanged`]), the step is searched for the two crossings; if
+/// they cannot be separated to the tolerance, one [`EventKind::ModeExchange`] is reported.
+pub fn locate_crossings(
+    problem: &impl Problem,
+    a: &Point,
+    b: &Point,
+    metric: &Metric,
+    settings: &ContinuationSettings,
+) -> Result<Vec<Event>> {
+    let sampler = Sampler {
+        problem,
+        a,
+        metric,
+        settings,
+        step: (b.s - a.s).abs(),
+        p_scale: problem.scales().1,
+        with_tangent: false,
+    };
+    let end = sampler.sample_of(b);
+    let mut lo = sampler.sample_of(a);
+    let mut events = Vec::new();
+    // Each pass locates one change of the count (or one exchange); a step holds only a few.
+    for _ in 0..16 {
+        if lo.spectrum.unstable != end.spectrum.unstable {
+            let (event, beyond) = sampler.crossing(lo, end.clone())?;
+            events.push(event);
+            lo = beyond;
+            continue;
+        }
+        if !modes_exchanged(&lo.spectrum, &end.spectrum) {
+            return Ok(events);
+        }
+        // Find a sample whose count differs (two ordinary crossings), or narrow the exchange
+        // down to the tolerance.
+        let mut hi = end.clone();
+        loop {
+            if sampler.converged(&lo, &hi) {
+                let near = crossing_eigenvalue(&lo.spectrum, &hi.spectrum);
+                let f = |_: &Sample, _: &Sample, _: &Sample| 0.0;
+                events.push(sampler.event(&lo, &hi, f, EventKind::ModeExchange, near, 1)?);
+                lo = hi;
+                break;
+            }
+            let mid = sampler.at(0.5 * (lo.sigma + hi.sigma))?;
+            if mid.spectrum.unstable != lo.spectrum.unstable {
+                // The first of two ordinary crossings lies between lo and mid; the next pass
+                // takes the rest of the step.
+                let (event, beyond) = sampler.crossing(lo, mid)?;
+                events.push(event);
+                lo = beyond;
+                break;
+            }
+            if modes_exchanged(&lo.spectrum, &mid.spectrum) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+    }
+    Err(crate::Error::Numerical(format!(
+        "more than 16 changes of stability between p = {} and p = {}",
+        a.p, b.p
+    )))
 }

@@ -170,19 +170,29 @@ pub fn solve(
             ));
         }
         let mut damping = 1.0;
+        // Why the last trial point could not be evaluated, if it could not.
+        let mut refused = None;
         loop {
             let step: Vec<f64> = du.iter().map(|d| damping * d).collect();
             let trial = system.retract(&u, &step);
-            let trial_norm = system
-                .residual(&trial)
-                .map(|gt| norm(&gt))
-                .unwrap_or(f64::NAN);
+            let trial_norm = match system.residual(&trial) {
+                Ok(gt) => norm(&gt),
+                Err(e) => {
+                    refused = Some(e);
+                    f64::NAN
+                }
+            };
             if trial_norm <= settings.max_growth * g_norm {
                 u = trial;
                 break;
             }
             damping *= 0.5;
             if damping < settings.min_damping {
+                // A model that cannot be evaluated along the whole search (a mobility that is
+                // not positive definite) is the reason, not the line search.
+                if let Some(e @ Error::NotPositiveDefinite { .. }) = refused {
+                    return Err(e);
+                }
                 return Err(fail(
                     format!(
                         "the line search found no admissible point down to damping {}",

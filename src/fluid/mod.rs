@@ -114,9 +114,46 @@ impl Lighthill {
     pub fn resistance(&self, x: &[Vector3<f64>], context: &str) -> crate::Result<Resistance> {
         let a = self.mobility(x);
         match self.quadrature {
-            Quadrature::Reference => Resistance::new(&a, context),
+            Quadrature::Reference => Resistance::new(&a, context).map_err(|e| match e {
+                crate::Error::NotPositiveDefinite { context, .. } => {
+                    crate::Error::NotPositiveDefinite {
+                        context,
+                        geometry: self.diagnose(x),
+                    }
+                }
+                e => e,
+            }),
             Quadrature::Original => Resistance::general(&a, context),
         }
+    }
+
+    /// Why a configuration may defeat the positivity of the discrete operator (docs/model.md
+    /// section 3): its smallest node spacing and the closest approach of two nodes at least
+    /// three apart along the rod, both in units of the cut-off `delta`.
+    pub fn diagnose(&self, x: &[Vector3<f64>]) -> String {
+        let d = self.delta;
+        let spacing = x
+            .windows(2)
+            .enumerate()
+            .map(|(i, w)| (i, (w[1] - w[0]).norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let approach = (0..x.len())
+            .flat_map(|i| (i + 3..x.len()).map(move |j| (i, j)))
+            .map(|(i, j)| (i, j, (x[i] - x[j]).norm()))
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let mut text = match spacing {
+            Some((i, h)) => format!("smallest node spacing {:.2} delta (edge {i})", h / d),
+            None => "no edges".to_owned(),
+        };
+        if let Some((i, j, r)) = approach {
+            text += &format!(
+                ", closest approach of non-adjacent nodes {:.2} delta (nodes {i} and {j})",
+                r / d
+            );
+        }
+        text + "; the discrete Lighthill operator stays positive only while the spacing exceeds \
+                about 4 delta and parts of the rod stay several delta apart (docs/model.md \
+                section 3): use fewer nodes, or a configuration farther from contact"
     }
 }
 

@@ -51,6 +51,7 @@ impl Resistance {
         check_finite(a, context)?;
         let llt = a.llt(Side::Lower).map_err(|_| Error::NotPositiveDefinite {
             context: context.to_owned(),
+            geometry: "a non-positive pivot in the Cholesky factorization".to_owned(),
         })?;
         Ok(Self {
             factor: Factor::Cholesky(llt),

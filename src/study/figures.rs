@@ -138,20 +138,24 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
         return Ok(serde_json::Value::Null);
     };
     let table = Table::read(&dir.join("sweep.csv"))?;
-    let status = table.index("status")?;
+    table.index("status")?;
     let mut fits = Vec::new();
     for (k, spec) in figures.iter().enumerate() {
         let (xc, yc) = (table.index(&spec.x)?, table.index(&spec.y)?);
         let sc = table.index(spec.series.as_deref().unwrap_or("case"))?;
+        let positive = spec.log_x
+            || spec.log_y
+            || matches!(spec.fit, Some(FitKind::PowerLaw | FitKind::CommonPowerLaw));
+        let (kept, left_out) = table.usable(xc, yc, positive);
+        for l in &left_out {
+            eprintln!(
+                "helixbif: figure {k} ({} against {}) leaves out {l}",
+                spec.y, spec.x
+            );
+        }
         // Groups in order of first appearance.
         let mut groups: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
-        for r in 0..table.rows.len() {
-            let (Some(x), Some(y)) = (table.number(r, xc), table.number(r, yc)) else {
-                continue;
-            };
-            if table.text(r, status) != "ok" {
-                continue;
-            }
+        for (r, x, y) in kept {
             let g = table.text(r, sc).to_string();
             match groups.iter_mut().find(|e| e.0 == g) {
                 Some(e) => {
@@ -210,6 +214,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
             (xs, ys)
         };
         let mut annotation = None;
+        let mut fit = None;
         match spec.fit {
             Some(FitKind::ThroughOrigin) => {
                 let s = through_origin(&all_x, &all_y)?;
@@ -219,7 +224,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "slope = {:.4e}\n95% CI [{:.4e}, {:.4e}]",
                     s.slope, s.slope_ci[0], s.slope_ci[1]
                 ));
-                fits.push(json!({ "figure": k, "through_origin": s }));
+                fit = Some(json!({ "figure": k, "through_origin": s }));
             }
             Some(FitKind::PowerLaw) => {
                 let f = power_law(&all_x, &all_y)?;
@@ -229,7 +234,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "p = {:.4} [{:.4}, {:.4}] (95%)",
                     f.p, f.p_ci[0], f.p_ci[1]
                 ));
-                fits.push(json!({ "figure": k, "power_law": f }));
+                fit = Some(json!({ "figure": k, "power_law": f }));
             }
             Some(FitKind::CommonPowerLaw) => {
                 let f = common_power_law(&groups)?;
@@ -252,6 +257,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "n": f.n,
                     "r2": f.r2,
                     "prefactors": f.prefactors,
+                    "left_out": left_out,
                     "per_series_m": f.per_group.iter().map(|(g, p, ci)| json!({"series": g, "m": -p, "m_ci": [-ci[1], -ci[0]]})).collect::<Vec<_>>(),
                 });
                 let path = dir.join("fit.json");
@@ -291,9 +297,13 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     },
                     &dir.join(format!("collapse_{k}.svg")),
                 )?;
-                fits.push(json!({ "figure": k, "common_power_law": record }));
+                fit = Some(json!({ "figure": k, "common_power_law": record }));
             }
             None => {}
+        }
+        if let Some(mut fit) = fit {
+            fit["left_out"] = json!(left_out);
+            fits.push(fit);
         }
         write_figure(
             &Figure {

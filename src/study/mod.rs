@@ -53,7 +53,8 @@ fn default_name() -> String {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BranchRange {
-    /// Largest rotation rate followed (rad/s).
+    /// Largest rotation rate followed (rad/s); negative to follow the branch towards negative
+    /// rates (the motor turning clockwise seen from above).
     pub omega_max: f64,
 }
 
@@ -64,7 +65,7 @@ impl Default for BranchRange {
 }
 
 impl Study {
-    /// The built-in default: the representative helix of MODEL.md section 7.
+    /// The built-in default: the representative helix of docs/model.md section 7.
     pub fn representative() -> Self {
         let p = Physical::representative();
         Study {
@@ -129,11 +130,12 @@ impl Study {
         study.resolve_per_turn()?;
         study.newton.validate()?;
         study.continuation.validate()?;
-        if !(study.branch.omega_max.is_finite() && study.branch.omega_max > 0.0) {
+        if !(study.branch.omega_max.is_finite() && study.branch.omega_max != 0.0) {
             return Err(Error::input(
                 "branch.omega_max",
                 format!(
-                    "must be a finite number > 0 (rad/s), got {}",
+                    "must be a finite nonzero number (rad/s; negative: the motor turning \
+                     clockwise seen from above), got {}",
                     study.branch.omega_max
                 ),
             ));
@@ -175,7 +177,21 @@ impl Study {
                 let text = std::fs::read_to_string(p).map_err(|e| {
                     Error::input("study file", format!("cannot read {}: {e}", p.display()))
                 })?;
-                Study::load(Some(&text), overrides)
+                let mut study = Study::load(Some(&text), overrides)?;
+                study.resolve_paths(p.parent().unwrap_or(std::path::Path::new("")));
+                Ok(study)
+            }
+        }
+    }
+
+    /// Makes the relative paths a study names (data files, other studies) relative to `base`,
+    /// the folder of the study file, so that a study means the same from any working directory.
+    pub fn resolve_paths(&mut self, base: &std::path::Path) {
+        if let Some(plan) = &mut self.study {
+            for path in plan.paths_mut() {
+                if std::path::Path::new(path.as_str()).is_relative() {
+                    *path = base.join(path.as_str()).display().to_string();
+                }
             }
         }
     }
@@ -192,7 +208,33 @@ fn apply_override(table: &mut toml::Table, item: &str) -> Result<()> {
         .ok()
         .and_then(|mut t| t.remove("v"))
         .unwrap_or_else(|| toml::Value::String(raw.trim().to_string()));
-    set_path(table, key.trim(), value)
+    let key = key.trim();
+    if [LAMBDA_OVER_L, R_OVER_LAMBDA].contains(&key) {
+        let x = value
+            .as_float()
+            .or_else(|| value.as_integer().map(|i| i as f64))
+            .ok_or_else(|| Error::input(key, format!("must be a number, got `{}`", raw.trim())))?;
+        return set_ratio(table, key, x);
+    }
+    set_path(table, key, value)
+}
+
+/// The dimensionless helix ratios that can be set or swept: `shape.lambda_over_l` sets the
+/// pitch to the value times `l` (with `l` and `R` fixed), `shape.R_over_lambda` the radius to
+/// the value times the pitch.
+pub const LAMBDA_OVER_L: &str = "shape.lambda_over_l";
+pub const R_OVER_LAMBDA: &str = "shape.R_over_lambda";
+
+/// Sets one of the ratios [`LAMBDA_OVER_L`], [`R_OVER_LAMBDA`] to `x` on a helix study table.
+pub fn set_ratio(table: &mut toml::Table, key: &str, x: f64) -> Result<()> {
+    let (target, from) = match key {
+        LAMBDA_OVER_L => ("shape.lambda", "shape.l"),
+        R_OVER_LAMBDA => ("shape.R", "shape.lambda"),
+        _ => return Err(Error::input(key, "not a helix ratio")),
+    };
+    let reference = get_number(table, from)
+        .ok_or_else(|| Error::input(key, format!("needs a helix with a numeric `{from}`")))?;
+    set_path(table, target, toml::Value::Float(x * reference))
 }
 
 /// Sets the value at a dotted path of a TOML table, creating intermediate tables.
@@ -214,18 +256,55 @@ pub fn set_path(table: &mut toml::Table, key: &str, value: toml::Value) -> Resul
     Ok(())
 }
 
-/// The number at a dotted path of a TOML table (integers read as floats).
-pub fn get_number(table: &toml::Table, key: &str) -> Option<f64> {
+/// The value at a dotted path of a TOML table.
+pub fn get_value<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
     let mut parts = key.split('.').peekable();
     let mut current = table;
     while let Some(part) = parts.next() {
         let value = current.get(part)?;
         if parts.peek().is_none() {
-            return value
-                .as_float()
-                .or_else(|| value.as_integer().map(|i| i as f64));
+            return Some(value);
         }
         current = value.as_table()?;
     }
     None
+}
+
+/// The number at a dotted path of a TOML table (integers read as floats).
+pub fn get_number(table: &toml::Table, key: &str) -> Option<f64> {
+    let value = get_value(table, key)?;
+    value
+        .as_float()
+        .or_else(|| value.as_integer().map(|i| i as f64))
+}
+
+/// The default output folder of a study run: `output/<name>/`, or, when `--set` overrides
+/// change the study, `output/<name>.set-<overrides>/` (so that a variant never overwrites the
+/// committed results of the study itself). Long override lists are shortened, with a hash of
+/// the whole list so that different lists give different folders.
+pub fn default_output(name: &str, overrides: &[String]) -> std::path::PathBuf {
+    let root = std::path::Path::new("output");
+    if overrides.is_empty() {
+        return root.join(name);
+    }
+    let joined = overrides.join(" ");
+    let mut slug: String = joined
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if slug.len() > 60 {
+        // FNV-1a: stable across runs and platforms (unlike the standard hasher).
+        let hash = joined.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        });
+        slug.truncate(40);
+        slug = format!("{slug}-{:08x}", hash as u32);
+    }
+    root.join(format!("{name}.set-{slug}"))
 }

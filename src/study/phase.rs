@@ -116,18 +116,35 @@ fn interpolate(points: &[(f64, f64, bool)], omegabar: f64) -> f64 {
         })
 }
 
-/// The exponent `m`: from the plan, or from `output/exponent_m/fit.json`.
-fn exponent(m: Option<f64>) -> Result<f64> {
+/// The exponent `m`: from the plan, else from the `fit.json` of the exponent study beside the
+/// output folder `dir` (`dir/../<name>/fit.json`), else by running that study into
+/// `dir/<name>/` (nothing is written outside `dir`).
+fn exponent(m: Option<f64>, exponent_study: &str, dir: &Path) -> Result<f64> {
     if let Some(m) = m {
         return Ok(m);
     }
-    let path = Path::new("output/exponent_m/fit.json");
-    let text = std::fs::read_to_string(path).map_err(|_| {
+    let source = Study::from_path(Some(Path::new(exponent_study)), &[]).map_err(|e| {
         Error::input(
-            "study.m",
-            "give m, or run studies/exponent_m.toml first (output/exponent_m/fit.json)",
+            "study.exponent_study",
+            format!("give m, or a readable exponent study: {e}"),
         )
     })?;
+    let beside = dir.parent().map(|p| p.join(&source.name).join("fit.json"));
+    let path = match beside.filter(|p| p.is_file()) {
+        Some(path) => path,
+        None => {
+            let own = dir.join(&source.name);
+            eprintln!(
+                "helixbif: no fit.json of `{}` beside {}: running {exponent_study} into {}",
+                source.name,
+                dir.display(),
+                own.display()
+            );
+            super::run::run(&source, &own)?;
+            own.join("fit.json")
+        }
+    };
+    let text = std::fs::read_to_string(&path).map_err(crate::output::io_error(&path))?;
     let v: Value = serde_json::from_str(&text)
         .map_err(|e| Error::input("study.m", format!("{}: {e}", path.display())))?;
     v["m"]
@@ -189,13 +206,14 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
         lambda_over_l,
         r_over_lambda,
         m,
+        exponent_study,
         rows,
         bacteria,
     }) = &study.study
     else {
         return Err(Error::input("study.kind", "expected a phase study"));
     };
-    let m = exponent(*m)?;
+    let m = exponent(*m, exponent_study, dir)?;
     let mut values = lambda_over_l.clone();
     values.sort_by(f64::total_cmp);
     let columns = values

@@ -130,13 +130,19 @@ pub enum Plan {
         /// Keep `R/lambda` at this value (the radius follows the pitch); absent: `R` fixed.
         #[serde(default, rename = "R_over_lambda")]
         r_over_lambda: Option<f64>,
-        /// The exponent `m`; when absent, read from `output/exponent_m/fit.json`.
+        /// The exponent `m`; when absent, read from the `fit.json` of `exponent_study`.
         #[serde(default)]
         m: Option<f64>,
+        /// The study that fits `m` (a path relative to this study file). Its `fit.json` is read
+        /// from beside the output folder (`<out>/../<its name>/fit.json`, the layout of
+        /// `output/`); when it is not there, the exponent study is run into `<out>/<its name>/`.
+        #[serde(default = "default_exponent_study")]
+        exponent_study: String,
         /// Rows of the vertical axis of the map.
         #[serde(default = "default_rows")]
         rows: usize,
-        /// Natural flagella (CSV: pitch_um, helix_radius_um, length_um, organism, ...).
+        /// Natural flagella (CSV: pitch_um, helix_radius_um, length_um, organism, ...), a path
+        /// relative to this study file.
         #[serde(default)]
         bacteria: Option<String>,
     },
@@ -162,6 +168,10 @@ fn default_rows() -> usize {
     40
 }
 
+fn default_exponent_study() -> String {
+    "exponent_m.toml".into()
+}
+
 impl Plan {
     /// The kind's name.
     pub fn kind(&self) -> &'static str {
@@ -172,6 +182,20 @@ impl Plan {
             Plan::Phase { .. } => "phase",
             Plan::Shapes { .. } => "shapes",
             Plan::Dynamics { .. } => "dynamics",
+        }
+    }
+
+    /// The file paths the plan names (relative ones resolve against the study file's folder).
+    pub fn paths_mut(&mut self) -> Vec<&mut String> {
+        match self {
+            Plan::Phase {
+                exponent_study,
+                bacteria,
+                ..
+            } => std::iter::once(exponent_study)
+                .chain(bacteria.as_mut())
+                .collect(),
+            _ => Vec::new(),
         }
     }
 

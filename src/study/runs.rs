@@ -40,7 +40,7 @@ pub struct BranchRow {
 }
 
 /// One row of `events.csv`: the eigenvalue in SI (1/s) and normalized.
-#[derive(Serialize)]
+#[derive(Clone, Serialize)]
 pub struct EventRow {
     pub kind: &'static str,
     pub omega: f64,
@@ -152,8 +152,11 @@ impl Observer for BranchWriter<'_> {
 pub struct BranchReport {
     /// True when the continuation stalled before `omega_max`.
     pub stalled: bool,
+    pub nodes: usize,
     pub points: usize,
-    pub events: usize,
+    /// The rate of the last point (rad/s).
+    pub omega_reached: f64,
+    pub events: Vec<EventRow>,
     pub stop: String,
     pub seconds: f64,
     pub omega_max: f64,
@@ -209,12 +212,15 @@ pub fn run_branch(
         Stop::ParameterLimit => "omega_max reached".to_string(),
         Stop::MaxPoints => "max_points reached".to_string(),
         Stop::FirstInstability => "first instability".to_string(),
+        Stop::UnstableAtStart => "unstable at rest".to_string(),
         Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
     };
     let report = BranchReport {
         stalled: matches!(branch.stop, Stop::StepTooSmall(_)),
+        nodes: model.nodes(),
         points: branch.points.len(),
-        events: branch.events.len(),
+        omega_reached: writer.rows.last().map_or(0.0, |r| r.omega),
+        events: writer.event_rows.clone(),
         stop,
         seconds: start.elapsed().as_secs_f64(),
         omega_max,
@@ -285,7 +291,7 @@ pub struct Ladder {
     pub omega_b_error: f64,
     pub omegabar_b_extrapolated: f64,
     pub order: f64,
-    /// Largest admissible node count of the study (MODEL.md section 3).
+    /// Largest admissible node count of the study (docs/model.md section 3).
     pub nodes_max: usize,
 }
 

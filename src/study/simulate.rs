@@ -16,6 +16,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::branch::rest_state;
+use crate::continuation::newton::NewtonSettings;
 use crate::dofs::Layout;
 use crate::dynamics::{
     DynamicsSettings, Rate, Sample, integrate, least_stable_mode, natural_chart_unknowns, perturb,
@@ -135,6 +136,8 @@ pub struct SimulateOptions {
     pub transient: f64,
     /// Write the shape every this many accepted steps (0: never).
     pub shape_every: usize,
+    /// Newton's method for the rest state and the steady state (the study's `[newton]`).
+    pub newton: NewtonSettings,
 }
 
 /// What a simulation reports.
@@ -151,7 +154,11 @@ pub struct SimulateReport {
     pub fpbar_mean: Option<f64>,
     #[serde(rename = "Fpbar_std")]
     pub fpbar_std: Option<f64>,
+    /// Start of the statistics (s).
+    pub transient: f64,
     pub seconds: f64,
+    /// The output folder.
+    pub out: String,
 }
 
 /// Runs one simulation, writing `timeseries.csv`, `shapes.csv` (when asked) and `timeseries.svg`
@@ -163,8 +170,13 @@ pub fn run_simulate(
     dir: &Path,
 ) -> Result<SimulateReport> {
     let start = std::time::Instant::now();
+    if !opts.omega.is_finite() {
+        return Err(Error::input(
+            "--omega",
+            format!("must be a finite number (rad/s), got {}", opts.omega),
+        ));
+    }
     for (field, v) in [
-        ("--omega", opts.omega),
         ("--t-end", opts.t_end),
         ("--transient", opts.transient),
         ("--ramp-time", opts.ramp_time),
@@ -183,18 +195,11 @@ pub fn run_simulate(
     crate::output::create_dir(dir)?;
     let scales = model.scales;
     let omegabar = scales.omega_to_bar(opts.omega);
-    let rest = rest_state(
-        model,
-        &crate::continuation::newton::NewtonSettings::default(),
-    )?;
+    let rest = rest_state(model, &opts.newton)?;
     let h0 = height(&rest.config.x);
     let steady = Steady::new(model, 0.0);
     let (u0, rate) = if opts.from_steady {
-        let solution = solve_at(
-            model,
-            omegabar,
-            &crate::continuation::newton::NewtonSettings::default(),
-        )?;
+        let solution = solve_at(model, omegabar, &opts.newton)?;
         let mut u = natural_chart_unknowns(model, &solution.state.config, &solution.state.chart)?;
         if let Some(eps) = opts.perturb {
             let mode = least_stable_mode(model, omegabar, &u)?;
@@ -312,7 +317,9 @@ pub fn run_simulate(
         hbar_std: hbar.map(|s| s.1),
         fpbar_mean: fpbar.map(|s| s.0),
         fpbar_std: fpbar.map(|s| s.1),
+        transient: opts.transient,
         seconds: start.elapsed().as_secs_f64(),
+        out: dir.display().to_string(),
     })
 }
 
@@ -384,6 +391,7 @@ pub fn run_dynamics(study: &crate::study::Study, dir: &Path) -> Result<(serde_js
                 ramp_time: *ramp_time,
                 transient: *transient,
                 shape_every: 0,
+                newton: study.newton.clone(),
             };
             let sub = dir.join(format!("omega_{omega}"));
             match run_simulate(&model, &settings, &opts, &sub) {

@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use super::plan::{Case, Plan, Vary};
 use super::runs::locate_study;
-use super::{Study, get_number, set_path};
+use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
 use crate::continuation::arclength::Silent;
 use crate::model::Model;
 use crate::output::{create_dir, io_error};
@@ -73,9 +73,24 @@ pub fn grid(case_count: usize, vary: &[Vary]) -> Vec<SweepPoint> {
         .collect()
 }
 
-const LAMBDA_OVER_L: &str = "shape.lambda_over_l";
-const R_OVER_LAMBDA: &str = "shape.R_over_lambda";
 const FACTOR: &str = "factor";
+
+/// The TOML value of a swept `x` for the field `key`: an integer where the field holds one
+/// (`discretization.nodes`, `continuation.max_points`), refused unless `x` is a whole number.
+fn swept_value(table: &toml::Table, key: &str, x: f64) -> Result<toml::Value> {
+    let integer = get_value(table, key).is_some_and(|v| v.is_integer());
+    if !integer {
+        return Ok(toml::Value::Float(x));
+    }
+    if x.fract() == 0.0 && x.abs() < 9.0e15 {
+        Ok(toml::Value::Integer(x as i64))
+    } else {
+        Err(Error::input(
+            format!("study.vary.{key}"),
+            format!("`{key}` takes whole numbers, got {x}"),
+        ))
+    }
+}
 
 /// The study of one point: the base with the case's overrides and the swept values (plain keys
 /// first, then `lambda/l`, then `R/lambda`).
@@ -91,7 +106,8 @@ pub fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Resu
         .zip(values)
         .filter(|(v, _)| !derived.contains(&v.key.as_str()))
     {
-        set_path(&mut table, &v.key, toml::Value::Float(*x))?;
+        let value = swept_value(&table, &v.key, *x)?;
+        set_path(&mut table, &v.key, value)?;
     }
     if let Some((_, x)) = vary.iter().zip(values).find(|(v, _)| v.key == FACTOR) {
         let key = case.scale.as_deref().ok_or_else(|| {
@@ -104,15 +120,9 @@ pub fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Resu
             .ok_or_else(|| Error::input(key, "the scaled field must be a number of the model"))?;
         set_path(&mut table, key, toml::Value::Float(x * base_value))?;
     }
-    for (target, from, key) in [
-        ("shape.lambda", "shape.l", LAMBDA_OVER_L),
-        ("shape.R", "shape.lambda", R_OVER_LAMBDA),
-    ] {
+    for key in [LAMBDA_OVER_L, R_OVER_LAMBDA] {
         if let Some((_, x)) = vary.iter().zip(values).find(|(v, _)| v.key == key) {
-            let reference = get_number(&table, from).ok_or_else(|| {
-                Error::input(key, format!("needs a helix with a numeric `{from}`"))
-            })?;
-            set_path(&mut table, target, toml::Value::Float(x * reference))?;
+            set_ratio(&mut table, key, *x)?;
         }
     }
     Study::from_table(table)
@@ -147,6 +157,15 @@ pub fn header(vary: &[Vary]) -> Vec<String> {
         .chain(vary.iter().map(|v| v.key.clone()))
         .chain(RESULT_COLUMNS.iter().map(|s| s.to_string()))
         .collect()
+}
+
+/// The prefix of the status of a point that failed (it runs again on a re-run); any other
+/// status (`ok`, `unstable_at_rest (...)`) is a finished result.
+const ERROR: &str = "error: ";
+
+/// True for the status of a failed point.
+fn failed(status: &str) -> bool {
+    status.starts_with(ERROR)
 }
 
 fn number(v: Option<f64>) -> String {
@@ -193,7 +212,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
                 number(located.hbar),
                 located.nodes.to_string(),
                 format!("{:.3}", start.elapsed().as_secs_f64()),
-                "ok".into(),
+                located.status(),
             ]);
         }
         Err(e) => {
@@ -202,7 +221,10 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
             row.extend((0..5).map(|_| String::new()));
             row.push(base.discretization.nodes.to_string());
             row.push(format!("{:.3}", start.elapsed().as_secs_f64()));
-            row.push(e.to_string().replace(['\n', ','], " "));
+            row.push(format!(
+                "{ERROR}{}",
+                e.to_string().replace(['\n', ','], " ")
+            ));
         }
     }
     row
@@ -360,7 +382,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     } else {
         BTreeMap::new()
     };
-    done.retain(|_, row| row.last().is_some_and(|s| s == "ok"));
+    done.retain(|_, row| row.last().is_some_and(|s| !failed(s)));
     // Rewrite what was kept (dropping any row cut short), then append as points finish.
     write_rows(&path, &header, &done)?;
     let todo: Vec<&SweepPoint> = mine
@@ -384,7 +406,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .par_iter()
         .map(|point| {
             let row = run_point(study, &cases, vary, point);
-            if row.last().is_some_and(|s| s != "ok") {
+            if row.last().is_some_and(|s| failed(s)) {
                 *failures.lock().expect("no panic while counting") += 1;
             }
             let mut w = writer.lock().expect("no panic while writing");
@@ -415,8 +437,8 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
 }
 
 /// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
-/// shard counts, and missing or repeated points.
-pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
+/// shard counts, and missing or repeated points. Returns the number of points and of shards.
+pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
     let (plan_cases, vary) = sweep_plan(study, "merge")?;
     let header = header(vary);
     let total = grid(cases(plan_cases).len(), vary).len();
@@ -486,5 +508,5 @@ pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
     std::fs::write(plan_path(&path), mine).map_err(io_error(&path))?;
-    Ok(rows.len())
+    Ok((rows.len(), n))
 }

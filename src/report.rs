@@ -1,0 +1,340 @@
+//! What each command reports: one value per command, `Serialize` (for `--json`) and `Display`
+//! (for people), printed in one place by the front end so that `--json` can never be forgotten.
+
+use std::fmt::{self, Display, Formatter};
+
+use serde::Serialize;
+
+use crate::branch::Located;
+use crate::dynamics::Bisection;
+use crate::fit::PowerLaw;
+use crate::output::LeftOut;
+use crate::solve::SolutionSummary;
+use crate::study::runs::{BranchReport, Ladder};
+use crate::study::simulate::SimulateReport;
+use crate::study::sweep::SweepSummary;
+
+/// A command's result, shown as text or as one JSON value.
+pub trait Report: Display {
+    fn to_json(&self) -> serde_json::Value;
+}
+
+impl<T: Serialize + Display> Report for T {
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() }))
+    }
+}
+
+/// A result about one study: the study's name beside the result's own fields.
+#[derive(Serialize)]
+pub struct Titled<T> {
+    pub study: String,
+    #[serde(flatten)]
+    pub result: T,
+}
+
+/// The text of a result about the study `study`.
+pub trait Section {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result;
+}
+
+impl<T: Section> Display for Titled<T> {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        self.result.show(&self.study, f)
+    }
+}
+
+/// `x` with `digits` significant digits, or `-` when absent.
+fn maybe(x: Option<f64>, digits: usize) -> String {
+    x.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+impl Section for SolutionSummary {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        let o = &self.observables;
+        writeln!(f, "steady state of `{study}` at N = {} nodes", self.nodes)?;
+        writeln!(
+            f,
+            "  omega    = {:.6e} rad/s   (omegabar = {:.6e})",
+            o.omega, o.omegabar
+        )?;
+        writeln!(
+            f,
+            "  Fp       = {:.6e} N       (Fpbar = {:.6e}; rigid helix {:.6e})",
+            o.fp, o.fpbar, self.fpbar_rigid
+        )?;
+        writeln!(f, "  Tp       = {:.6e} N m", o.tp)?;
+        match o.eta {
+            Some(eta) => writeln!(f, "  eta      = {eta:.6e}")?,
+            None => writeln!(f, "  eta      = undefined at rest")?,
+        }
+        writeln!(
+            f,
+            "  h        = {:.6e} m       (h0 = {:.6e} m, hbar = {:.6})",
+            o.h, o.h0, o.hbar
+        )?;
+        write!(
+            f,
+            "  Newton   : {} iterations, residual {:.3e}; history {}",
+            self.newton_iterations,
+            self.residual_norm,
+            self.residual_history
+                .iter()
+                .map(|r| format!("{r:.1e}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        )
+    }
+}
+
+impl Section for BranchReport {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "branch of `{study}` at N = {}: {} points up to omega = {:.4} rad/s ({}), {} events, \
+             {:.2} s; written to {}",
+            self.nodes,
+            self.points,
+            self.omega_reached,
+            self.stop,
+            self.events.len(),
+            self.seconds,
+            self.out
+        )?;
+        for e in &self.events {
+            write!(
+                f,
+                "\n  {:<13} omega = {:.8} rad/s (omegabar = {:.6e}), eigenvalue {:+.3e} {:+.4e} i /s",
+                e.kind, e.omega, e.omegabar, e.re, e.im
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl Section for Located {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        match (self.kind.as_str(), self.omega_b, self.omegabar_b) {
+            ("unstable_at_rest", _, _) => write!(
+                f,
+                "the rest state of `{study}` at N = {} is already unstable ({} eigenvalues with \
+                 Re s > 0 at omega = 0): there is no loss of stability to locate \
+                 (kind: unstable_at_rest)",
+                self.nodes, self.unstable_at_rest
+            ),
+            (_, Some(w), Some(wb)) => {
+                writeln!(
+                    f,
+                    "critical rate of `{study}` at N = {}: {}",
+                    self.nodes, self.kind
+                )?;
+                writeln!(
+                    f,
+                    "  omega_b    = {w:.10} rad/s   (omegabar_b = {wb:.8e}, relative precision {:.1e})",
+                    self.precision.unwrap_or(f64::NAN)
+                )?;
+                if let Some(im) = self.im {
+                    writeln!(
+                        f,
+                        "  frequency  = {im:.8} rad/s     (Im(s) of the critical mode, co-rotating frame)"
+                    )?;
+                }
+                writeln!(
+                    f,
+                    "  Fp         = {} N     (Fpbar = {})",
+                    self.fp.map_or("-".into(), |v| format!("{v:.6e}")),
+                    maybe(self.fpbar, 6)
+                )?;
+                writeln!(f, "  hbar       = {}", maybe(self.hbar, 6))?;
+                write!(
+                    f,
+                    "  ({} continuation points, {} corrector iterations)",
+                    self.points, self.corrector_iterations
+                )
+            }
+            _ => write!(
+                f,
+                "the branch of `{study}` at N = {} stays stable up to omega_max = {} rad/s \
+                 (kind: none)",
+                self.nodes, self.omega_max
+            ),
+        }
+    }
+}
+
+impl Section for Ladder {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        writeln!(f, "omega_b of `{study}` over a ladder of node counts:")?;
+        for ((n, w), k) in self.nodes.iter().zip(&self.omega_b).zip(&self.kinds) {
+            writeln!(f, "  N = {n:3}: omega_b = {w:.8} rad/s ({k})")?;
+        }
+        write!(
+            f,
+            "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; admissible N <= {})",
+            self.omega_b_extrapolated, self.omega_b_error, self.order, self.nodes_max
+        )
+    }
+}
+
+impl Section for SweepSummary {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "sweep `{study}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
+            self.points, self.already_done, self.computed, self.failed, self.seconds, self.file
+        )
+    }
+}
+
+impl Section for SimulateReport {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "simulated `{study}` at omega = {} rad/s for {} s: {} steps ({} rejected), {:.1} s; \
+             written to {}",
+            self.omega, self.t_end, self.steps, self.rejected, self.seconds, self.out
+        )?;
+        if let (Some(h), Some(hs), Some(fp), Some(fs)) = (
+            self.hbar_mean,
+            self.hbar_std,
+            self.fpbar_mean,
+            self.fpbar_std,
+        ) {
+            write!(
+                f,
+                "\n  after t = {} s: hbar = {h:.6} +- {hs:.2e}, Fpbar = {fp:.6} +- {fs:.2e}",
+                self.transient
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// What `helixbif run` reports: the study's kind, where it wrote, and the kind's own summary.
+#[derive(Serialize)]
+pub struct RunReport {
+    pub study: String,
+    pub kind: String,
+    pub seconds: f64,
+    pub out: String,
+    pub result: serde_json::Value,
+}
+
+impl Display for RunReport {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "study `{}` ({}) done in {:.1} s; results in {}",
+            self.study, self.kind, self.seconds, self.out
+        )?;
+        write!(f, "{:#}", self.result)
+    }
+}
+
+/// What `helixbif merge` reports.
+#[derive(Serialize)]
+pub struct MergeReport {
+    pub study: String,
+    pub points: usize,
+    pub shards: usize,
+    pub file: String,
+}
+
+impl Display for MergeReport {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "merged {} shards of `{}`: {} points into {}",
+            self.shards, self.study, self.points, self.file
+        )
+    }
+}
+
+/// What `helixbif fit` reports: the fit, and every row it left out with the reason.
+#[derive(Serialize)]
+pub struct FitReport {
+    pub csv: String,
+    pub x: String,
+    pub y: String,
+    #[serde(flatten)]
+    pub fit: PowerLaw,
+    pub left_out: Vec<LeftOut>,
+}
+
+impl Display for FitReport {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        let (fit, x, y) = (&self.fit, &self.x, &self.y);
+        writeln!(f, "{y} = C {x}^p over {} rows of {}:", fit.n, self.csv)?;
+        writeln!(
+            f,
+            "  p = {:.6}   95% CI [{:.6}, {:.6}]",
+            fit.p, fit.p_ci[0], fit.p_ci[1]
+        )?;
+        writeln!(
+            f,
+            "  C = {:.6e}   95% CI [{:.6e}, {:.6e}]",
+            fit.c, fit.c_ci[0], fit.c_ci[1]
+        )?;
+        write!(f, "  r2 = {:.6}", fit.r2)?;
+        if !self.left_out.is_empty() {
+            write!(f, "\n  left out {} rows:", self.left_out.len())?;
+            for l in &self.left_out {
+                write!(f, "\n    {l}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What `helixbif bisect` reports (rates in rad/s).
+#[derive(Serialize)]
+pub struct BisectReport {
+    pub study: String,
+    pub nodes: usize,
+    pub omega_b: f64,
+    pub bracket: [f64; 2],
+    pub trials: usize,
+    pub steps: usize,
+    pub seconds: f64,
+}
+
+impl BisectReport {
+    /// The report of a bisection in solver units, converted with `omega_from_bar`.
+    pub fn new(
+        study: &str,
+        nodes: usize,
+        result: &Bisection,
+        omega_from_bar: impl Fn(f64) -> f64,
+        seconds: f64,
+    ) -> Self {
+        BisectReport {
+            study: study.into(),
+            nodes,
+            omega_b: omega_from_bar(result.estimate),
+            bracket: [
+                omega_from_bar(result.bracket.0),
+                omega_from_bar(result.bracket.1),
+            ],
+            trials: result.trials.len(),
+            steps: result.steps,
+            seconds,
+        }
+    }
+}
+
+impl Display for BisectReport {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "bisection of `{}` at N = {}: omega_b in [{:.6}, {:.6}] rad/s ({} trials, {} time \
+             steps, {:.1} s)",
+            self.study,
+            self.nodes,
+            self.bracket[0],
+            self.bracket[1],
+            self.trials,
+            self.steps,
+            self.seconds
+        )
+    }
+}
