@@ -14,6 +14,7 @@ use helixbif::solve::{Solution, solve_at};
 use helixbif::study::run::run;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
 use helixbif::study::simulate::{SimulateOptions, run_simulate};
+use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge, run_sweep};
 use helixbif::study::{Study, figures, sweep_figures};
 
@@ -91,12 +92,35 @@ enum Command {
     Sweep {
         #[command(flatten)]
         study: StudyArgs,
-        /// Run only the points with index = K-1 modulo N.
-        #[arg(long, value_name = "K/N")]
+        /// Run only the points with index = K-1 modulo N; `slurm`: K and N of the Slurm array
+        /// task (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN, SLURM_ARRAY_TASK_COUNT).
+        #[arg(long, value_name = "K/N|slurm")]
         shard: Option<String>,
         /// Output folder; default `output/<study name>/`.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// A sweep as a Slurm array job (one shard per task) and a merge job after it (afterok):
+    /// writes the two sbatch scripts into the output folder and prints the sbatch commands, or
+    /// submits them and records both job ids in slurm.json.
+    Slurm {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Number of array tasks (shards), 1 to the number of points.
+        #[arg(long)]
+        tasks: usize,
+        /// Wall-time limit of each task and of the merge, HH:MM:SS or D-HH:MM:SS.
+        #[arg(long, value_name = "HH:MM:SS")]
+        time: Option<String>,
+        /// Partition of the jobs (default: the cluster's).
+        #[arg(long)]
+        partition: Option<String>,
+        /// Output folder; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Submit both jobs with sbatch instead of printing the commands.
+        #[arg(long)]
+        submit: bool,
     },
     /// Join the shard files of a sweep into sweep.csv.
     Merge {
@@ -419,7 +443,12 @@ fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
 }
 
 fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> anyhow::Result<()> {
-    let shard = shard.map(parse_shard).transpose()?;
+    let shard = shard
+        .map(|s| match s {
+            "slurm" => shard_from_env(|name| std::env::var(name).ok()),
+            _ => parse_shard(s),
+        })
+        .transpose()?;
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(&study, out);
     let summary = run_sweep(&study, &dir, shard)?;
@@ -446,6 +475,63 @@ fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> a
     }
     if shard.is_none() {
         sweep_figures(&study, &dir)?;
+    }
+    Ok(())
+}
+
+/// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
+fn slurm_command(
+    args: &StudyArgs,
+    options: SlurmOptions,
+    out: Option<&Path>,
+    submit_jobs: bool,
+) -> anyhow::Result<()> {
+    let path = args.study.as_deref().ok_or_else(|| {
+        Error::input(
+            "STUDY",
+            "`slurm` needs a sweep study file (the array tasks read it)",
+        )
+    })?;
+    let study = Study::from_path(Some(path), &args.set)?;
+    let absolute = |p: &Path| -> Result<PathBuf, Error> {
+        std::path::absolute(p).map_err(helixbif::output::io_error(p))
+    };
+    let job = SlurmJob {
+        binary: std::env::current_exe()?,
+        study: std::fs::canonicalize(path).map_err(helixbif::output::io_error(path))?,
+        set: args.set.clone(),
+        out: absolute(&output_dir(&study, out))?,
+        workdir: std::env::current_dir()?,
+    };
+    let scripts = write_scripts(&study, &job, &options)?;
+    if submit_jobs {
+        let s = submit(scripts, &job.out)?;
+        if args.json {
+            println!("{}", serde_json::to_string(&s)?);
+        } else {
+            println!(
+                "submitted array job {} ({} tasks over {} points) and merge job {} ({}); ids in {}",
+                s.array_job,
+                s.scripts.tasks,
+                s.scripts.points,
+                s.merge_job,
+                s.dependency,
+                job.out.join("slurm.json").display()
+            );
+        }
+    } else if args.json {
+        println!("{}", serde_json::to_string(&scripts)?);
+    } else {
+        println!(
+            "wrote {} ({} tasks over {} points) and {}; submit with",
+            scripts.array_script.display(),
+            scripts.tasks,
+            scripts.points,
+            scripts.merge_script.display()
+        );
+        for c in &scripts.commands {
+            println!("  {c}");
+        }
     }
     Ok(())
 }
@@ -597,6 +683,23 @@ fn main() -> ExitCode {
         Command::Sweep { study, shard, out } => {
             sweep_command(study, shard.as_deref(), out.as_deref())
         }
+        Command::Slurm {
+            study,
+            tasks,
+            time,
+            partition,
+            out,
+            submit,
+        } => slurm_command(
+            study,
+            SlurmOptions {
+                tasks: *tasks,
+                time: time.clone(),
+                partition: partition.clone(),
+            },
+            out.as_deref(),
+            *submit,
+        ),
         Command::Merge { study, out } => merge_command(study, out.as_deref()),
         Command::Fit { csv, x, y, json } => fit_command(csv, x, y, *json),
         Command::Simulate {

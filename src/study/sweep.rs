@@ -1,14 +1,18 @@
 //! Sweeps: `omega_b` over a grid of model variants, run in parallel, resumable and shardable.
 //!
 //! Every point of the grid (case x values of one or two parameters) has a fixed index. Finished
-//! points are appended to the CSV at once (one flushed row each), so a killed sweep loses only
-//! the points under way; a re-run reads the file and skips the points already there. With
+//! points are appended to the CSV at once, each row in one `write` of a file opened for appending
+//! and synced to disk, so a killed sweep loses only the points under way; a re-run reads the file
+//! keyed by point index (a point recorded twice counts once), drops a final row cut short by the
+//! kill, and skips the points already there. Whole files (the sorted CSV, the fingerprint) are
+//! replaced atomically: written to a temporary file, synced, renamed over the old one. With
 //! `--shard K/N` a run takes the points whose index is `K-1` modulo `N` and writes
 //! `sweep.shard-K-of-N.csv`; `merge` joins the shards into `sweep.csv`, refusing files that come
 //! from another study or that miss or repeat points. Beside each CSV a `.plan.json` records the
 //! fingerprint of the study that produced it.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -263,22 +267,38 @@ fn read_rows(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<Strin
     Ok(rows)
 }
 
-fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
-    let tmp = path.with_extension("csv.tmp");
-    {
-        let mut w = csv::Writer::from_path(&tmp)
-            .map_err(|e| Error::input("sweep", format!("{}: {e}", tmp.display())))?;
-        let io = |e: csv::Error| Error::Io {
-            path: tmp.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        };
-        w.write_record(header).map_err(io)?;
-        for row in rows.values() {
-            w.write_record(row).map_err(io)?;
-        }
-        w.flush().map_err(io_error(&tmp))?;
-    }
+/// One CSV record (with its line end) as bytes, so that it can be written in one call.
+fn record_bytes(path: &Path, row: &[String]) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(row).map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    w.into_inner().map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(e.to_string()),
+    })
+}
+
+/// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
+/// file or the new one, never a mixture or a truncated file.
+pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let mut file = std::fs::File::create(&tmp).map_err(io_error(&tmp))?;
+    file.write_all(bytes).map_err(io_error(&tmp))?;
+    file.sync_all().map_err(io_error(&tmp))?;
+    drop(file);
     std::fs::rename(&tmp, path).map_err(io_error(path))
+}
+
+fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
+    let mut bytes = record_bytes(path, header)?;
+    for row in rows.values() {
+        bytes.extend(record_bytes(path, row)?);
+    }
+    write_atomic(path, &bytes)
 }
 
 /// Checks (or writes) the fingerprint beside a sweep CSV.
@@ -302,7 +322,7 @@ fn check_plan(csv: &Path, study: &Study) -> Result<()> {
                 path.display()
             ),
         )),
-        Err(_) => std::fs::write(&path, mine).map_err(io_error(&path)),
+        Err(_) => write_atomic(&path, mine.as_bytes()),
     }
 }
 
@@ -318,7 +338,7 @@ pub struct SweepSummary {
 }
 
 /// The cases and swept parameters of a sweep study; `command` names the command for the error.
-fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
+pub(super) fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
     match &study.study {
         Some(Plan::Sweep { cases, vary, .. }) => Ok((cases, vary)),
         _ => Err(Error::input(
@@ -360,7 +380,8 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     } else {
         BTreeMap::new()
     };
-    done.retain(|_, row| row.last().is_some_and(|s| s == "ok"));
+    let indices: BTreeSet<usize> = mine.iter().map(|p| p.index).collect();
+    done.retain(|i, row| indices.contains(i) && row.last().is_some_and(|s| s == "ok"));
     // Rewrite what was kept (dropping any row cut short), then append as points finish.
     write_rows(&path, &header, &done)?;
     let todo: Vec<&SweepPoint> = mine
@@ -371,7 +392,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .append(true)
         .open(&path)
         .map_err(io_error(&path))?;
-    let writer = Mutex::new(csv::Writer::from_writer(file));
+    let writer = Mutex::new(file);
     let bar = ProgressBar::new(todo.len() as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -387,13 +408,11 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
             if row.last().is_some_and(|s| s != "ok") {
                 *failures.lock().expect("no panic while counting") += 1;
             }
-            let mut w = writer.lock().expect("no panic while writing");
-            let io = |e: csv::Error| Error::Io {
-                path: path.display().to_string(),
-                source: std::io::Error::other(e.to_string()),
-            };
-            w.write_record(&row).map_err(io)?;
-            w.flush().map_err(io_error(&path))?;
+            // One write of the whole row, then to disk: a kill leaves at most this row cut short.
+            let bytes = record_bytes(&path, &row)?;
+            let mut file = writer.lock().expect("no panic while writing");
+            file.write_all(&bytes).map_err(io_error(&path))?;
+            file.sync_data().map_err(io_error(&path))?;
             bar.inc(1);
             Ok(())
         })
@@ -414,13 +433,8 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     })
 }
 
-/// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
-/// shard counts, and missing or repeated points.
-pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
-    let (plan_cases, vary) = sweep_plan(study, "merge")?;
-    let header = header(vary);
-    let total = grid(cases(plan_cases).len(), vary).len();
-    let mine = fingerprint(study)?;
+/// The shard files `sweep.shard-K-of-N.csv` of `dir` as `(K, N, path)`, sorted.
+pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
     let mut shards: Vec<(usize, usize, PathBuf)> = std::fs::read_dir(dir)
         .map_err(io_error(dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -432,6 +446,17 @@ pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
         })
         .collect();
     shards.sort();
+    Ok(shards)
+}
+
+/// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
+/// shard counts, and missing or repeated points.
+pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
+    let (plan_cases, vary) = sweep_plan(study, "merge")?;
+    let header = header(vary);
+    let total = grid(cases(plan_cases).len(), vary).len();
+    let mine = fingerprint(study)?;
+    let shards = shard_files(dir)?;
     if shards.is_empty() {
         return Err(Error::input(
             "merge",
@@ -485,6 +510,6 @@ pub fn merge(study: &Study, dir: &Path) -> Result<usize> {
     }
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
-    std::fs::write(plan_path(&path), mine).map_err(io_error(&path))?;
+    write_atomic(&plan_path(&path), mine.as_bytes())?;
     Ok(rows.len())
 }
