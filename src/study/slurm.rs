@@ -20,8 +20,9 @@ use super::sweep::{cases, grid, shard_files, sweep_plan, write_atomic};
 use crate::output::{create_dir, io_error};
 use crate::{Error, Result};
 
-/// The variables Slurm sets in every array task that `--shard slurm` reads (the step and the
-/// largest index only to check that the array is a plain range).
+/// The variables of an array task that `--shard slurm` needs (Slurm sets them in every task of
+/// an array job; `SLURM_ARRAY_TASK_STEP` and `SLURM_ARRAY_TASK_MAX`, when present, are only
+/// checked against them).
 pub const ARRAY_VARIABLES: [&str; 3] = [
     "SLURM_ARRAY_TASK_ID",
     "SLURM_ARRAY_TASK_MIN",
@@ -106,7 +107,7 @@ pub struct SlurmJob {
 }
 
 /// Resources of the array tasks and the merge job.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct SlurmOptions {
     /// Number of array tasks (shards).
     pub tasks: usize,
@@ -119,10 +120,15 @@ pub struct SlurmOptions {
 /// The scripts written for a sweep and the two `sbatch` commands that submit them.
 #[derive(Clone, Debug, Serialize)]
 pub struct SlurmScripts {
+    /// Name of the study.
     pub study: String,
+    /// Points of the sweep.
     pub points: usize,
+    /// Array tasks (shards).
     pub tasks: usize,
+    /// `slurm-sweep.sbatch`, the array.
     pub array_script: PathBuf,
+    /// `slurm-merge.sbatch`, the merge.
     pub merge_script: PathBuf,
     /// Shell commands: the first submits the array, the second the merge depending on it.
     pub commands: [String; 2],
@@ -133,8 +139,11 @@ pub struct SlurmScripts {
 pub struct SlurmSubmission {
     #[serde(flatten)]
     pub scripts: SlurmScripts,
+    /// Job id of the array (its tasks are `ARRAY_1 .. ARRAY_N`).
     pub array_job: u64,
+    /// Job id of the merge.
     pub merge_job: u64,
+    /// The merge's dependency, `afterok:ARRAY`.
     pub dependency: String,
 }
 
@@ -435,10 +444,7 @@ pub fn submit(scripts: SlurmScripts, out: &Path) -> Result<SlurmSubmission> {
         &scripts.merge_script,
     );
     let write = |value: &serde_json::Value| -> Result<()> {
-        let text = serde_json::to_string_pretty(value).map_err(|e| Error::Io {
-            path: record.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        })?;
+        let text = serde_json::to_string_pretty(value).map_err(io_json(&record))?;
         write_atomic(&record, format!("{text}\n").as_bytes())
     };
     match merge {
@@ -466,6 +472,7 @@ pub fn submit(scripts: SlurmScripts, out: &Path) -> Result<SlurmSubmission> {
     }
 }
 
+/// A JSON error while writing `path`, as an I/O error on it.
 fn io_json(path: &Path) -> impl FnOnce(serde_json::Error) -> Error + '_ {
     move |e| io_error(path)(std::io::Error::other(e.to_string()))
 }
