@@ -4,6 +4,7 @@
 //! The real cluster is `scripts/slurm-e2e`.
 
 use std::collections::HashMap;
+use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -460,7 +461,7 @@ fn submit_runs_sbatch_twice_with_the_dependency_and_records_the_job_ids() {
         ),
     )
     .unwrap();
-    Command::new("chmod").arg("+x").arg(&fake).status().unwrap();
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
     let out = dir.join("cluster");
     let o = out.to_str().unwrap();
