@@ -269,15 +269,13 @@ fn read_rows(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<Strin
 
 /// One CSV record (with its line end) as bytes, so that it can be written in one call.
 fn record_bytes(path: &Path, row: &[String]) -> Result<Vec<u8>> {
+    let io = |message: String| Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(message),
+    };
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(row).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        source: std::io::Error::other(e.to_string()),
-    })?;
-    w.into_inner().map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        source: std::io::Error::other(e.to_string()),
-    })
+    w.write_record(row).map_err(|e| io(e.to_string()))?;
+    w.into_inner().map_err(|e| io(e.to_string()))
 }
 
 /// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
