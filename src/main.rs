@@ -17,6 +17,7 @@ use helixbif::solve::{Solution, solve_at};
 use helixbif::study::run::run;
 use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
 use helixbif::study::simulate::{SimulateOptions, run_simulate};
+use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge, run_sweep};
 use helixbif::study::{Study, default_output, figures, sweep_figures};
 
@@ -126,12 +127,36 @@ enum Command {
     Sweep {
         #[command(flatten)]
         study: StudyArgs,
-        /// Run only the points with index = K-1 modulo N.
-        #[arg(long, value_name = "K/N")]
+        /// Run only the points with index = K-1 modulo N; `slurm`: K and N of the Slurm array
+        /// task (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN, SLURM_ARRAY_TASK_COUNT).
+        #[arg(long, value_name = "K/N|slurm")]
         shard: Option<String>,
         /// Output folder; default `output/<study name>/`.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// A sweep as a Slurm array job (one shard per task) and a merge job after it (afterok):
+    /// writes the two sbatch scripts into the output folder and prints the sbatch commands, or
+    /// submits them and records both job ids in slurm.json.
+    #[command(after_help = AFTER_HELP)]
+    Slurm {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Number of array tasks (shards), 1 to the number of points.
+        #[arg(long)]
+        tasks: usize,
+        /// Wall-time limit of each task and of the merge, HH:MM:SS or D-HH:MM:SS.
+        #[arg(long, value_name = "HH:MM:SS")]
+        time: Option<String>,
+        /// Partition of the jobs (default: the cluster's).
+        #[arg(long)]
+        partition: Option<String>,
+        /// Output folder; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Submit both jobs with sbatch instead of printing the commands.
+        #[arg(long)]
+        submit: bool,
     },
     /// Join the shard files of a study of kind "sweep" (any other study is refused) into
     /// sweep.csv.
@@ -371,7 +396,12 @@ fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
 }
 
 fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> Outcome {
-    let shard = shard.map(parse_shard).transpose()?;
+    let shard = shard
+        .map(|s| match s {
+            "slurm" => shard_from_env(|name| std::env::var(name).ok()),
+            _ => parse_shard(s),
+        })
+        .transpose()?;
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out);
     let summary = run_sweep(&study, &dir, shard)?;
@@ -386,6 +416,38 @@ fn sweep_command(args: &StudyArgs, shard: Option<&str>, out: Option<&Path>) -> O
         sweep_figures(&study, &dir)?;
     }
     Ok(Box::new(titled(&study, summary)))
+}
+
+/// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
+fn slurm_command(
+    args: &StudyArgs,
+    options: SlurmOptions,
+    out: Option<&Path>,
+    submit_jobs: bool,
+) -> Outcome {
+    let path = args.study.as_deref().ok_or_else(|| {
+        Error::input(
+            "STUDY",
+            "`slurm` needs a sweep study file (the array tasks read it)",
+        )
+    })?;
+    let study = Study::from_path(Some(path), &args.set)?;
+    let absolute = |p: &Path| -> Result<PathBuf, Error> {
+        std::path::absolute(p).map_err(helixbif::output::io_error(p))
+    };
+    let job = SlurmJob {
+        binary: std::env::current_exe()?,
+        study: std::fs::canonicalize(path).map_err(helixbif::output::io_error(path))?,
+        set: args.set.clone(),
+        out: absolute(&output_dir(args, &study, out))?,
+        workdir: std::env::current_dir()?,
+    };
+    let scripts = write_scripts(&study, &job, &options)?;
+    if submit_jobs {
+        Ok(Box::new(submit(scripts, &job.out)?))
+    } else {
+        Ok(Box::new(scripts))
+    }
 }
 
 fn merge_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
@@ -523,6 +585,26 @@ fn main() -> ExitCode {
         Command::Run { study, out } => (run_command(study, out.as_deref()), study.json),
         Command::Sweep { study, shard, out } => (
             sweep_command(study, shard.as_deref(), out.as_deref()),
+            study.json,
+        ),
+        Command::Slurm {
+            study,
+            tasks,
+            time,
+            partition,
+            out,
+            submit,
+        } => (
+            slurm_command(
+                study,
+                SlurmOptions {
+                    tasks: *tasks,
+                    time: time.clone(),
+                    partition: partition.clone(),
+                },
+                out.as_deref(),
+                *submit,
+            ),
             study.json,
         ),
         Command::Merge { study, out } => (merge_command(study, out.as_deref()), study.json),

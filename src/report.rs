@@ -12,6 +12,7 @@ use crate::output::LeftOut;
 use crate::solve::SolutionSummary;
 use crate::study::runs::{BranchReport, Ladder};
 use crate::study::simulate::SimulateReport;
+use crate::study::slurm::{SlurmScripts, SlurmSubmission};
 use crate::study::sweep::SweepSummary;
 
 /// A command's result, shown as text or as one JSON value.
@@ -335,6 +336,41 @@ impl Display for BisectReport {
             self.trials,
             self.steps,
             self.seconds
+        )
+    }
+}
+
+impl Display for SlurmScripts {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "wrote {} ({} tasks over {} points) and {}; submit with",
+            self.array_script.display(),
+            self.tasks,
+            self.points,
+            self.merge_script.display()
+        )?;
+        for c in &self.commands {
+            write!(f, "\n  {c}")?;
+        }
+        Ok(())
+    }
+}
+
+impl Display for SlurmSubmission {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "submitted array job {} ({} tasks over {} points) and merge job {} ({}); ids in {}",
+            self.array_job,
+            self.scripts.tasks,
+            self.scripts.points,
+            self.merge_job,
+            self.dependency,
+            self.scripts
+                .array_script
+                .with_file_name("slurm.json")
+                .display()
         )
     }
 }

@@ -11,6 +11,7 @@ pub mod run;
 pub mod runs;
 pub mod shapes;
 pub mod simulate;
+pub mod slurm;
 pub mod sweep;
 
 pub use figures::sweep_figures;

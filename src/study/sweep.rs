@@ -1,14 +1,18 @@
 //! Sweeps: `omega_b` over a grid of model variants, run in parallel, resumable and shardable.
 //!
 //! Every point of the grid (case x values of one or two parameters) has a fixed index. Finished
-//! points are appended to the CSV at once (one flushed row each), so a killed sweep loses only
-//! the points under way; a re-run reads the file and skips the points already there. With
+//! points are appended to the CSV at once, each row in one `write` of a file opened for appending
+//! and synced to disk, so a killed sweep loses only the points under way; a re-run reads the file
+//! keyed by point index (a point recorded twice counts once), drops a final row cut short by the
+//! kill, and skips the points already there. Whole files (the sorted CSV, the fingerprint) are
+//! replaced atomically: written to a temporary file, synced, renamed over the old one. With
 //! `--shard K/N` a run takes the points whose index is `K-1` modulo `N` and writes
 //! `sweep.shard-K-of-N.csv`; `merge` joins the shards into `sweep.csv`, refusing files that come
 //! from another study or that miss or repeat points. Beside each CSV a `.plan.json` records the
 //! fingerprint of the study that produced it.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -159,13 +163,14 @@ pub fn header(vary: &[Vary]) -> Vec<String> {
         .collect()
 }
 
-/// The prefix of the status of a point that failed (it runs again on a re-run); any other
-/// status (`ok`, `unstable_at_rest (...)`) is a finished result.
+/// The prefix of the status of a point that failed (it runs again on a re-run).
 const ERROR: &str = "error: ";
 
-/// True for the status of a failed point.
-fn failed(status: &str) -> bool {
-    status.starts_with(ERROR)
+/// True for the status of a finished point: `ok`, or the whole `unstable_at_rest (...)` of
+/// [`crate::branch::Located::status`]. Anything else (an error, or a status cut short by a
+/// kill) runs again.
+fn finished(status: &str) -> bool {
+    status == "ok" || (status.starts_with("unstable_at_rest (") && status.ends_with(')'))
 }
 
 fn number(v: Option<f64>) -> String {
@@ -285,22 +290,36 @@ fn read_rows(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<Strin
     Ok(rows)
 }
 
-fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
-    let tmp = path.with_extension("csv.tmp");
-    {
-        let mut w = csv::Writer::from_path(&tmp)
-            .map_err(|e| Error::input("sweep", format!("{}: {e}", tmp.display())))?;
-        let io = |e: csv::Error| Error::Io {
-            path: tmp.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        };
-        w.write_record(header).map_err(io)?;
-        for row in rows.values() {
-            w.write_record(row).map_err(io)?;
-        }
-        w.flush().map_err(io_error(&tmp))?;
-    }
+/// One CSV record (with its line end) as bytes, so that it can be written in one call.
+fn record_bytes(path: &Path, row: &[String]) -> Result<Vec<u8>> {
+    let io = |message: String| Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(message),
+    };
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(row).map_err(|e| io(e.to_string()))?;
+    w.into_inner().map_err(|e| io(e.to_string()))
+}
+
+/// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
+/// file or the new one, never a mixture or a truncated file.
+pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let mut file = std::fs::File::create(&tmp).map_err(io_error(&tmp))?;
+    file.write_all(bytes).map_err(io_error(&tmp))?;
+    file.sync_all().map_err(io_error(&tmp))?;
+    drop(file);
     std::fs::rename(&tmp, path).map_err(io_error(path))
+}
+
+fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
+    let mut bytes = record_bytes(path, header)?;
+    for row in rows.values() {
+        bytes.extend(record_bytes(path, row)?);
+    }
+    write_atomic(path, &bytes)
 }
 
 /// Checks (or writes) the fingerprint beside a sweep CSV.
@@ -324,7 +343,7 @@ fn check_plan(csv: &Path, study: &Study) -> Result<()> {
                 path.display()
             ),
         )),
-        Err(_) => std::fs::write(&path, mine).map_err(io_error(&path)),
+        Err(_) => write_atomic(&path, mine.as_bytes()),
     }
 }
 
@@ -340,7 +359,7 @@ pub struct SweepSummary {
 }
 
 /// The cases and swept parameters of a sweep study; `command` names the command for the error.
-fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
+pub(super) fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
     match &study.study {
         Some(Plan::Sweep { cases, vary, .. }) => Ok((cases, vary)),
         _ => Err(Error::input(
@@ -382,7 +401,8 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     } else {
         BTreeMap::new()
     };
-    done.retain(|_, row| row.last().is_some_and(|s| !failed(s)));
+    let indices: BTreeSet<usize> = mine.iter().map(|p| p.index).collect();
+    done.retain(|i, row| indices.contains(i) && row.last().is_some_and(|s| finished(s)));
     // Rewrite what was kept (dropping any row cut short), then append as points finish.
     write_rows(&path, &header, &done)?;
     let todo: Vec<&SweepPoint> = mine
@@ -393,7 +413,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .append(true)
         .open(&path)
         .map_err(io_error(&path))?;
-    let writer = Mutex::new(csv::Writer::from_writer(file));
+    let writer = Mutex::new(file);
     let bar = ProgressBar::new(todo.len() as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -406,16 +426,14 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .par_iter()
         .map(|point| {
             let row = run_point(study, &cases, vary, point);
-            if row.last().is_some_and(|s| failed(s)) {
+            if row.last().is_some_and(|s| !finished(s)) {
                 *failures.lock().expect("no panic while counting") += 1;
             }
-            let mut w = writer.lock().expect("no panic while writing");
-            let io = |e: csv::Error| Error::Io {
-                path: path.display().to_string(),
-                source: std::io::Error::other(e.to_string()),
-            };
-            w.write_record(&row).map_err(io)?;
-            w.flush().map_err(io_error(&path))?;
+            // One write of the whole row, then to disk: a kill leaves at most this row cut short.
+            let bytes = record_bytes(&path, &row)?;
+            let mut file = writer.lock().expect("no panic while writing");
+            file.write_all(&bytes).map_err(io_error(&path))?;
+            file.sync_data().map_err(io_error(&path))?;
             bar.inc(1);
             Ok(())
         })
@@ -436,13 +454,8 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     })
 }
 
-/// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
-/// shard counts, and missing or repeated points. Returns the number of points and of shards.
-pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
-    let (plan_cases, vary) = sweep_plan(study, "merge")?;
-    let header = header(vary);
-    let total = grid(cases(plan_cases).len(), vary).len();
-    let mine = fingerprint(study)?;
+/// The shard files `sweep.shard-K-of-N.csv` of `dir` as `(K, N, path)`, sorted.
+pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
     let mut shards: Vec<(usize, usize, PathBuf)> = std::fs::read_dir(dir)
         .map_err(io_error(dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -454,6 +467,17 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
         })
         .collect();
     shards.sort();
+    Ok(shards)
+}
+
+/// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
+/// shard counts, and missing or repeated points. Returns the number of points and of shards.
+pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
+    let (plan_cases, vary) = sweep_plan(study, "merge")?;
+    let header = header(vary);
+    let total = grid(cases(plan_cases).len(), vary).len();
+    let mine = fingerprint(study)?;
+    let shards = shard_files(dir)?;
     if shards.is_empty() {
         return Err(Error::input(
             "merge",
@@ -507,6 +531,6 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
     }
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
-    std::fs::write(plan_path(&path), mine).map_err(io_error(&path))?;
+    write_atomic(&plan_path(&path), mine.as_bytes())?;
     Ok((rows.len(), n))
 }
