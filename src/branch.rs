@@ -260,9 +260,7 @@ pub fn locate(
         }
     }
     let event = branch
-        .events
-        .iter()
-        .find(|e| e.loses_stability())
+        .first_loss_of_stability()
         .ok_or_else(|| {
             crate::Error::Numerical(
                 "the branch became unstable but no event was located where it did".into(),

@@ -313,6 +313,11 @@ fn helix_mobility_symmetric_and_positive_definite_up_to_spacing_four_delta() {
     );
     assert_eq!(first_failing, Some(88));
     assert!(pd.iter().all(|&(n, ok)| ok == (n < 88)));
+    // The bracketing search of the admissible range finds the same limit as this scan.
+    assert_eq!(
+        helixbif::model::admissible_max_nodes(&helixbif::params::Physical::representative()),
+        87
+    );
     match Resistance::new(&model.mobility(&helix(90)), "natural helix, N = 90") {
         Err(Error::NotPositiveDefinite { context, .. }) => {
             assert_eq!(context, "natural helix, N = 90")
@@ -603,4 +608,36 @@ fn original_quadrature_symmetric_indefinite_and_not_converging() {
     assert!(transverse.last().unwrap() / equivalent > 1.1);
     // Axial drag is not monotone in N.
     assert!(axial.windows(2).any(|p| p[1] > p[0]) && axial.windows(2).any(|p| p[1] < p[0]));
+}
+
+/// The admissible node range found by bracketing and bisection (a few factorizations) equals
+/// the one a scan over every node count finds, on the short rods of figure 2.
+#[test]
+fn admissible_range_by_bisection_equals_a_full_scan() {
+    use helixbif::model::admissible_max_nodes;
+    use helixbif::shape::natural_nodes;
+    for shape in [
+        "shape={kind=\"straight\",L=0.12,alpha_deg=15}",
+        "shape={kind=\"arc\",L=0.12,R=0.0348}",
+    ] {
+        let study = helixbif::study::Study::load(
+            Some(&std::fs::read_to_string("studies/fig2_straight_and_curved.toml").unwrap()),
+            &[shape.to_string()],
+        )
+        .unwrap();
+        let physical = study.physical();
+        let ell = physical.shape.reference_length();
+        let fluid = Lighthill::from_radius(1.0, physical.rod.r0 / ell, Quadrature::Reference);
+        let scan = (5..=80)
+            .take_while(|&n| {
+                let x: Vec<_> = natural_nodes(&physical.shape, n)
+                    .into_iter()
+                    .map(|p| p / ell)
+                    .collect();
+                Resistance::new(&fluid.mobility(&x), "scan").is_ok()
+            })
+            .last()
+            .unwrap();
+        assert_eq!(admissible_max_nodes(&physical), scan, "{shape}");
+    }
 }

@@ -88,3 +88,53 @@ fn jacobian_matches_finite_differences_with_rotation() {
         );
     }
 }
+
+/// `G_p = dG/dp` of the rod problem (the parameter column of the bordered system) against
+/// central differences of the residual in `p`, at random non-equilibrium states: in the rate
+/// `omegabar` (at rest, where the drag is assembled on purpose, and turning) and in the weight.
+#[test]
+fn parameter_derivatives_match_finite_differences() {
+    use helixbif::branch::{Parameter, RodProblem, WEIGHT_SCALE, omega_scale};
+    use helixbif::continuation::Problem;
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = 24;
+    let model = Model::new(&physical).unwrap();
+    let mut rng = Rng::new(7);
+    let ds = model.rod.rest_lengths[0];
+    let cases = [
+        (Parameter::Omega, omega_scale(800.0), 0.0, 1e-3),
+        (Parameter::Omega, omega_scale(800.0), 150.0, 1e-3),
+        // G is linear in the weight: a wide step has no truncation error.
+        (Parameter::Weight, WEIGHT_SCALE, 2.0, 0.1),
+    ];
+    for (parameter, parameter_scale, p, h) in cases {
+        let problem = RodProblem {
+            model: &model,
+            parameter,
+            parameter_scale,
+        };
+        let u: Vec<f64> = problem
+            .steady(0.0)
+            .free_vector(&model.natural_config())
+            .iter()
+            .map(|v| v + 0.1 * ds * rng.uniform())
+            .collect();
+        let analytic = problem.linearize(&u, p).unwrap().g_p;
+        let (gp, gm) = (
+            problem.residual(&u, p + h).unwrap(),
+            problem.residual(&u, p - h).unwrap(),
+        );
+        let numeric: Vec<f64> = gp
+            .iter()
+            .zip(&gm)
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect();
+        let err = relative_max_error(&analytic, &numeric);
+        assert!(
+            err < 1e-7,
+            "{parameter:?} at p = {p}: relative error {err:e}"
+        );
+        // The derivative is not trivially zero.
+        assert!(analytic.iter().any(|v| v.abs() > 1e-6), "{parameter:?}");
+    }
+}

@@ -79,8 +79,6 @@ fn every_study_parses_and_a_reduced_version_runs() {
         .collect();
     names.sort();
     assert!(names.len() >= 8, "{names:?}");
-    // Relative paths in studies (the flagella table) are relative to the repository root.
-    std::env::set_current_dir(env!("CARGO_MANIFEST_DIR")).unwrap();
     for path in names {
         let study = Study::from_path(Some(&path), &[])
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -107,6 +105,39 @@ fn every_study_parses_and_a_reduced_version_runs() {
         }
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+#[test]
+fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_the_output() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // From any working directory the phase study finds the data of the repository.
+    let study = Study::from_path(Some(&root.join("studies/fig4d_phase.toml")), &[]).unwrap();
+    let Some(Plan::Phase {
+        bacteria,
+        exponent_study,
+        ..
+    }) = &study.study
+    else {
+        panic!("fig4d_phase is a phase study")
+    };
+    let bacteria = PathBuf::from(bacteria.as_ref().unwrap());
+    assert!(bacteria.is_file(), "{}", bacteria.display());
+    assert_eq!(
+        std::fs::read_to_string(&bacteria).unwrap(),
+        std::fs::read_to_string(root.join("data/bacteria.csv")).unwrap()
+    );
+    assert!(Path::new(exponent_study).is_file(), "{exponent_study}");
+    // A reduced phase study without m reads it from `<out>/../exponent_m/fit.json`.
+    let dir = temp_dir("phase-exponent");
+    std::fs::create_dir_all(dir.join("exponent_m")).unwrap();
+    std::fs::write(dir.join("exponent_m/fit.json"), "{\"m\": 2.5}").unwrap();
+    let mut small = reduced(study);
+    if let Some(Plan::Phase { m, .. }) = &mut small.study {
+        *m = None;
+    }
+    let report = run(&small, &dir.join("phase")).unwrap();
+    assert_eq!(report["m"], 2.5, "{report}");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A small sweep study file: 8 points, 16 nodes.

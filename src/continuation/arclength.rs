@@ -110,6 +110,13 @@ pub struct Branch {
     pub stop: Stop,
 }
 
+impl Branch {
+    /// The first event along the branch at which a stable state becomes unstable.
+    pub fn first_loss_of_stability(&self) -> Option<&Event> {
+        self.events.iter().find(|e| e.loses_stability())
+    }
+}
+
 /// Receives the points and events as they are found (for writers and progress bars).
 pub trait Observer {
     fn point(&mut self, _point: &Point) {}

@@ -1,0 +1,426 @@
+//! The command-line contract: verdicts that are never guesses (a branch unstable at rest, the
+//! reason a branch stops), what `--set` does to the output folder, JSON from every command,
+//! integer and negative values, a closed pipe, the help texts, and the study's `[newton]`
+//! table honoured by every command.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+mod common;
+
+use common::helixbif;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("helixbif-cli-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The standing rod of Greenhill's problem, heavier than its critical weight
+/// (`q L^3/EI = 28 > 7.84`): unstable before it turns.
+const STANDING: [&str; 6] = [
+    "--set",
+    "shape={kind=\"straight\",L=0.12,alpha_deg=180}",
+    "--set",
+    "fluid.rho=0",
+    "--set",
+    "discretization.nodes=20",
+];
+
+#[test]
+fn a_rest_state_that_is_already_unstable_is_reported_as_such() {
+    let mut args = vec!["locate", "--json"];
+    args.extend(STANDING);
+    let (code, stdout, stderr) = helixbif(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["kind"], "unstable_at_rest", "{v}");
+    // Both bending planes of the round rod are unstable (Greenhill's double eigenvalue).
+    assert_eq!(v["unstable_at_rest"], 2, "{v}");
+    assert!(v["omega_b"].is_null());
+    let mut args = vec!["locate"];
+    args.extend(STANDING);
+    let (_, text, _) = helixbif(&args);
+    assert!(text.contains("already unstable"), "{text}");
+}
+
+#[test]
+fn a_sweep_row_carries_the_unstable_rest_state_and_fit_lists_what_it_left_out() {
+    let dir = temp_dir("unstable-sweep");
+    let study = dir.join("standing.toml");
+    std::fs::write(
+        &study,
+        r#"name = "standing"
+[rod]
+E = 1255e3
+r0 = 1.58e-3
+rho = 1306.0
+[fluid]
+mu = 1.32
+rho = 0.0
+[shape]
+kind = "straight"
+L = 0.12
+alpha_deg = 15.0
+[discretization]
+nodes = 20
+[branch]
+omega_max = 3.5
+[study]
+kind = "sweep"
+vary = [{ key = "shape.alpha_deg", values = [15.0, 180.0] }]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = helixbif(&[
+        "sweep",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        code, 0,
+        "an unstable rest state is a result, not a failure: {stderr}"
+    );
+    let table = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let rows: Vec<&str> = table.lines().skip(1).collect();
+    assert!(rows[0].ends_with(",ok"), "{table}");
+    assert!(
+        rows[1].contains(",unstable_at_rest,") && rows[1].ends_with("at omega = 0)"),
+        "{table}"
+    );
+    // A re-run keeps it (a finished point) instead of computing it again.
+    let (_, stdout, _) = helixbif(&[
+        "sweep",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(
+        (v["already_done"].as_u64(), v["computed"].as_u64()),
+        (Some(2), Some(0))
+    );
+
+    // fit leaves out the rows without a result, each with its reason.
+    let csv = dir.join("points.csv");
+    std::fs::write(
+        &csv,
+        "point,x,y,kind,status\n0,1,2,hopf,ok\n1,2,8,hopf,ok\n2,3,18,hopf,ok\n3,4,32,hopf,ok\n\
+         4,5,,unstable_at_rest,unstable_at_rest (2 unstable eigenvalues at omega = 0)\n\
+         5,6,,none,ok\n6,7,3,hopf,error: Newton failed\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = helixbif(&[
+        "fit",
+        csv.to_str().unwrap(),
+        "--x",
+        "x",
+        "--y",
+        "y",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["n"], 4);
+    assert!((v["p"].as_f64().unwrap() - 2.0).abs() < 1e-9, "{v}");
+    let left: Vec<(String, String)> = v["left_out"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| {
+            (
+                l["point"].as_str().unwrap().to_string(),
+                l["reason"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(left.len(), 3, "{left:?}");
+    assert_eq!(left[0].0, "4");
+    assert!(left[0].1.contains("unstable_at_rest"), "{left:?}");
+    assert!(
+        left[1].1.contains("`y` is empty") && left[1].1.contains("none"),
+        "{left:?}"
+    );
+    assert!(left[2].1.contains("error: Newton failed"), "{left:?}");
+    let (_, text, _) = helixbif(&["fit", csv.to_str().unwrap(), "--x", "x", "--y", "y"]);
+    assert!(text.contains("left out 3 rows"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_branch_that_approaches_itself_names_the_loss_of_positive_definiteness() {
+    // The tight arc of figure 2 curls up until its free end nears its base (about 0.94 rad/s).
+    let dir = temp_dir("arc-contact");
+    let (code, _, stderr) = helixbif(&[
+        "branch",
+        "studies/fig2_straight_and_curved.toml",
+        "--set",
+        "shape={kind=\"arc\",L=0.12,R=0.0348}",
+        "--omega-max",
+        "1.5",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("not positive definite")
+            && stderr.contains("closest approach of non-adjacent nodes")
+            && stderr.contains("smallest node spacing"),
+        "{stderr}"
+    );
+    // What was found before is on disk.
+    let rows = std::fs::read_to_string(dir.join("branch.csv")).unwrap();
+    assert!(rows.lines().count() > 10);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_node_count_far_outside_the_range_is_refused_before_any_work() {
+    let (code, _, stderr) = helixbif(&["locate", "--set", "discretization.nodes=5000"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("admissible range 5..=87"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_thin_tight_helix_buckling_at_a_high_rate_is_located_within_the_default_budget() {
+    // R/lambda = 0.05 on the exponent study's rod: omegabar_b near 3.5e4, a hundred and fifty
+    // times the representative helix's.
+    let (code, stdout, stderr) = helixbif(&[
+        "locate",
+        "studies/exponent_m.toml",
+        "--set",
+        "shape.R_over_lambda=0.05",
+        "--set",
+        "branch.omega_max=10",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["kind"], "hopf", "{v}");
+    assert!(v["points"].as_u64().unwrap() < 100, "{v}");
+    // The ratio was applied: R = 0.05 lambda.
+    assert!(v["omegabar_b"].as_f64().unwrap() > 1e4, "{v}");
+}
+
+#[test]
+fn set_overrides_write_to_their_own_folder_never_over_the_study_results() {
+    let dir = temp_dir("set-folder");
+    let status = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .current_dir(&dir)
+        .args([
+            "branch",
+            "--set",
+            "discretization.nodes=20",
+            "--omega-max",
+            "0.05",
+        ])
+        .output()
+        .unwrap();
+    assert!(status.status.success(), "{status:?}");
+    let own = dir.join("output/representative.set-discretization.nodes_20");
+    assert!(
+        own.join("branch.csv").exists(),
+        "{:?}",
+        std::fs::read_dir(dir.join("output"))
+    );
+    assert!(!dir.join("output/representative").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A small sweep study over the node count (an integer field) in `dir`.
+fn node_sweep(dir: &Path) -> PathBuf {
+    let study = dir.join("nodes.toml");
+    let base = std::fs::read_to_string("studies/representative.toml").unwrap();
+    std::fs::write(
+        &study,
+        format!(
+            "{}\n[study]\nkind = \"sweep\"\nvary = [{{ key = \"discretization.nodes\", values = [16, 20] }}]\n",
+            base.replace("name = \"representative\"", "name = \"nodes\"")
+        ),
+    )
+    .unwrap();
+    study
+}
+
+#[test]
+fn an_integer_field_is_swept_and_merge_prints_json() {
+    let dir = temp_dir("nodes");
+    let study = node_sweep(&dir);
+    let s = study.to_str().unwrap();
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    for shard in ["1/2", "2/2"] {
+        let (code, _, stderr) = helixbif(&["sweep", s, "--shard", shard, "--out", o]);
+        assert_eq!(code, 0, "{stderr}");
+    }
+    let (code, stdout, stderr) = helixbif(&["merge", s, "--out", o, "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value =
+        serde_json::from_str(stdout.trim()).expect("merge --json prints JSON");
+    assert_eq!(
+        (v["points"].as_u64(), v["shards"].as_u64()),
+        (Some(2), Some(2)),
+        "{v}"
+    );
+    let table = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let nodes = header.iter().position(|h| *h == "nodes").unwrap();
+    let counts: Vec<&str> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(nodes).unwrap())
+        .collect();
+    assert_eq!(counts, ["16", "20"], "{table}");
+    // A fractional node count is refused, naming the field.
+    let bad = std::fs::read_to_string(&study)
+        .unwrap()
+        .replace("[16, 20]", "[16.5]");
+    std::fs::write(&study, bad).unwrap();
+    let (code, _, stderr) = helixbif(&["sweep", s, "--out", dir.join("bad").to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("discretization.nodes") && stderr.contains("whole numbers"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
+    let solve = |omega: &str| {
+        let (code, stdout, stderr) = helixbif(&[
+            "solve",
+            "--omega",
+            omega,
+            "--set",
+            "discretization.nodes=20",
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        v["Fp_rigid"].as_f64().unwrap()
+    };
+    // The rigid thrust is odd in omega.
+    let (forward, backward) = (solve("0.1"), solve("-0.1"));
+    assert!(
+        (forward + backward).abs() <= 1e-12 * forward.abs(),
+        "{forward} {backward}"
+    );
+    let dir = temp_dir("negative");
+    let (code, stdout, stderr) = helixbif(&[
+        "simulate",
+        "--omega",
+        "-0.1",
+        "--t-end",
+        "2",
+        "--from-steady",
+        "--shape-every",
+        "0",
+        "--set",
+        "discretization.nodes=16",
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["omega"], -0.1);
+    // A bracket of one sign is accepted by the parser and checked by the command.
+    let (code, _, stderr) = helixbif(&["bisect", "--lo", "-0.6", "--hi", "-0.3"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("--lo") && stderr.contains("|lo| < |hi|"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_closed_pipe_ends_the_output_quietly() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args([
+            "solve",
+            "--omega",
+            "0.05",
+            "--set",
+            "discretization.nodes=20",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader goes away before the report is written (`| head -0`).
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(out.status.success(), "{:?} {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn help_lists_the_study_kinds_the_exit_codes_and_the_set_syntax() {
+    let (_, top, _) = helixbif(&["--help"]);
+    assert!(
+        top.contains("Exit codes") && top.contains("inline table"),
+        "{top}"
+    );
+    let (_, run, _) = helixbif(&["run", "--help"]);
+    for kind in ["locate", "branch", "sweep", "phase", "shapes", "dynamics"] {
+        assert!(
+            run.contains(&format!("`{kind}`")),
+            "run --help lacks {kind}: {run}"
+        );
+    }
+    for command in ["sweep", "merge"] {
+        let (_, text, _) = helixbif(&[command, "--help"]);
+        assert!(text.contains("kind \"sweep\""), "{command}: {text}");
+    }
+    let (_, bisect, _) = helixbif(&["bisect", "--help"]);
+    assert!(
+        bisect.contains("--ramp-time") && bisect.contains("--hold-time"),
+        "{bisect}"
+    );
+}
+
+#[test]
+fn simulate_and_bisect_use_the_study_newton_settings() {
+    // One Newton iteration cannot reach a rotating state from rest: the study's setting is the
+    // one used (the defaults would converge).
+    let (code, _, stderr) = helixbif(&[
+        "simulate",
+        "--omega",
+        "0.3",
+        "--t-end",
+        "1",
+        "--from-steady",
+        "--set",
+        "discretization.nodes=16",
+        "--set",
+        "newton.max_iter=1",
+        "--out",
+        temp_dir("newton-sim").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("Newton failed") && stderr.contains("within 1 iterations"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = helixbif(&[
+        "bisect",
+        "--lo",
+        "0.3",
+        "--hi",
+        "0.7",
+        "--set",
+        "discretization.nodes=16",
+        "--set",
+        "newton.max_iter=1",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("within 1 iterations"), "{stderr}");
+    let (code, _, stderr) = helixbif(&["bisect", "--lo", "0.3", "--hi", "0.7", "--ramp-time", "0"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--ramp-time"), "{stderr}");
+}

@@ -1,0 +1,397 @@
+//! The event logic of the continuation engine on small problems whose events are known exactly:
+//! two events in one step, an exchange of unstable modes, the relative precision of `--tol`,
+//! honest precision when the residual has a floor, and the reason a run stops where the model
+//! cannot be evaluated.
+
+use faer::Mat;
+use helixbif::continuation::arclength::{Branch, Limits, Silent, Stop, follow};
+use helixbif::continuation::events::EventKind;
+use helixbif::continuation::newton::{self, NewtonSettings, System};
+use helixbif::continuation::reference::{Analytic, Jacobian, Reference, Residual};
+use helixbif::continuation::{ContinuationSettings, Linearization, Problem};
+use helixbif::{Error, Result};
+
+fn settings() -> ContinuationSettings {
+    ContinuationSettings {
+        ds: 0.1,
+        ds_max: 0.5,
+        ..ContinuationSettings::default()
+    }
+}
+
+fn run(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_max: f64, first: bool) -> Branch {
+    let limits = Limits {
+        p_min: p0 - 1.0,
+        p_max,
+        stop_at_first_instability: first,
+    };
+    follow(problem, u0, p0, 1.0, &settings(), &limits, &mut Silent).unwrap()
+}
+
+/// A pitchfork `u0' = (p - b) u0 - u0^3` beside a Hopf normal form whose pair has real part
+/// `p - h`: a branch point at `p = b` and a Hopf point at `p = h` on the trivial branch.
+fn branch_and_hopf(b: f64, h: f64) -> Reference {
+    Analytic {
+        dim: 3,
+        g: Box::new(move |u: &[f64], p: f64| {
+            let r2 = u[1] * u[1] + u[2] * u[2];
+            vec![
+                (p - b) * u[0] - u[0].powi(3),
+                (p - h) * u[1] - u[2] - u[1] * r2,
+                u[1] + (p - h) * u[2] - u[2] * r2,
+            ]
+        }) as Residual,
+        g_u: Box::new(move |u: &[f64], p: f64| {
+            let (x, y) = (u[1], u[2]);
+            vec![
+                vec![p - b - 3.0 * u[0] * u[0], 0.0, 0.0],
+                vec![0.0, p - h - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
+                vec![0.0, 1.0 - 2.0 * x * y, p - h - x * x - 3.0 * y * y],
+            ]
+        }) as Jacobian,
+        g_p: Box::new(|u: &[f64], _: f64| vec![u[0], u[1], u[2]]) as Residual,
+    }
+}
+
+#[test]
+fn a_branch_point_and_a_hopf_point_in_one_step_are_both_located_and_typed() {
+    // 1e-3 apart: closer than a sixteenth of any step, so one step holds both.
+    let problem = branch_and_hopf(0.0, 1e-3);
+    let branch = run(&problem, vec![0.0; 3], -1.0, 1.0, false);
+    let kinds: Vec<(EventKind, f64)> = branch.events.iter().map(|e| (e.kind, e.p)).collect();
+    assert_eq!(kinds.len(), 2, "{kinds:?}");
+    assert_eq!(kinds[0].0, EventKind::BranchPoint, "{kinds:?}");
+    assert_eq!(kinds[1].0, EventKind::Hopf, "{kinds:?}");
+    assert!(kinds[0].1.abs() <= 1e-10, "{kinds:?}");
+    assert!((kinds[1].1 - 1e-3).abs() <= 1e-8 * 1e-3, "{kinds:?}");
+    let hopf = &branch.events[1];
+    assert!((hopf.eigenvalue.im - 1.0).abs() < 1e-6);
+    assert_eq!((hopf.unstable_before, hopf.unstable_after), (1, 3));
+    assert_eq!(branch.events[0].multiplicity, 1);
+    assert_eq!(hopf.multiplicity, 1);
+}
+
+#[test]
+fn the_first_loss_of_stability_is_the_first_event_not_the_last() {
+    // The Hopf point comes first (p = 0), the branch point right after (p = 1e-3): the
+    // instability is the Hopf point, with its frequency.
+    let problem = branch_and_hopf(1e-3, 0.0);
+    // Steps of a fixed length (no halving), so that one step holds both events.
+    let fixed = ContinuationSettings {
+        ds: 0.1,
+        ds_min: 0.1,
+        ds_max: 0.1,
+        ..ContinuationSettings::default()
+    };
+    let limits = Limits {
+        p_min: -2.0,
+        p_max: 1.0,
+        stop_at_first_instability: true,
+    };
+    let branch = follow(
+        &problem,
+        vec![0.0; 3],
+        -0.95,
+        1.0,
+        &fixed,
+        &limits,
+        &mut Silent,
+    )
+    .unwrap();
+    assert_eq!(branch.events.len(), 2, "{:?}", branch.events);
+    assert_eq!(branch.stop, Stop::FirstInstability);
+    let first = branch.first_loss_of_stability().expect("an instability");
+    assert_eq!(first.kind, EventKind::Hopf);
+    assert!(first.p.abs() <= 1e-10, "{}", first.p);
+    assert!((first.eigenvalue.im - 1.0).abs() < 1e-6);
+    assert_eq!(branch.events.last().unwrap().kind, EventKind::BranchPoint);
+}
+
+/// Two Hopf normal forms: pair A with real part `p` (frequency 1), pair B with real part
+/// `e - p` (frequency 2). From `p = -1` pair B is unstable; A gains instability at `p = 0`
+/// and B loses it at `p = e`: the unstable count is 2 on both sides of the pair of events.
+fn exchange(e: f64) -> Reference {
+    fn block(re: f64, w: f64, x: f64, y: f64) -> [f64; 2] {
+        let r2 = x * x + y * y;
+        [re * x - w * y - x * r2, w * x + re * y - y * r2]
+    }
+    fn jac(re: f64, w: f64, x: f64, y: f64) -> [[f64; 2]; 2] {
+        [
+            [re - 3.0 * x * x - y * y, -w - 2.0 * x * y],
+            [w - 2.0 * x * y, re - x * x - 3.0 * y * y],
+        ]
+    }
+    Analytic {
+        dim: 4,
+        g: Box::new(move |u: &[f64], p: f64| {
+            let a = block(p, 1.0, u[0], u[1]);
+            // Pair B is subcritical-free and unstable for p < e: a linear block suffices.
+            let (x, y) = (u[2], u[3]);
+            let b = [(e - p) * x - 2.0 * y, 2.0 * x + (e - p) * y];
+            vec![a[0], a[1], b[0], b[1]]
+        }) as Residual,
+        g_u: Box::new(move |u: &[f64], p: f64| {
+            let a = jac(p, 1.0, u[0], u[1]);
+            vec![
+                vec![a[0][0], a[0][1], 0.0, 0.0],
+                vec![a[1][0], a[1][1], 0.0, 0.0],
+                vec![0.0, 0.0, e - p, -2.0],
+                vec![0.0, 0.0, 2.0, e - p],
+            ]
+        }) as Jacobian,
+        g_p: Box::new(|u: &[f64], _: f64| vec![u[0], u[1], -u[2], -u[3]]) as Residual,
+    }
+}
+
+#[test]
+fn two_modes_exchanging_stability_in_one_step_give_two_hopf_points() {
+    let problem = exchange(1e-3);
+    let branch = run(&problem, vec![0.0; 4], -1.0, 1.0, false);
+    let events: Vec<(EventKind, f64, usize, usize, f64)> = branch
+        .events
+        .iter()
+        .map(|e| {
+            (
+                e.kind,
+                e.p,
+                e.unstable_before,
+                e.unstable_after,
+                e.eigenvalue.im,
+            )
+        })
+        .collect();
+    assert_eq!(events.len(), 2, "{events:?}");
+    let (a, b) = (events[0], events[1]);
+    assert_eq!((a.0, a.2, a.3), (EventKind::Hopf, 2, 4), "{events:?}");
+    assert_eq!((b.0, b.2, b.3), (EventKind::Hopf, 4, 2), "{events:?}");
+    assert!(
+        a.1.abs() <= 1e-10 && (b.1 - 1e-3).abs() <= 1e-11,
+        "{events:?}"
+    );
+    // Each is typed by its own mode: frequency 1 gains stability, frequency 2 loses it.
+    assert!(
+        (a.4 - 1.0).abs() < 1e-6 && (b.4 - 2.0).abs() < 1e-6,
+        "{events:?}"
+    );
+}
+
+#[test]
+fn a_simultaneous_exchange_is_reported_as_such_not_missed() {
+    let problem = exchange(0.0);
+    let branch = run(&problem, vec![0.0; 4], -1.0, 1.0, false);
+    assert_eq!(branch.events.len(), 1, "{:?}", branch.events);
+    let e = &branch.events[0];
+    assert_eq!(e.kind, EventKind::ModeExchange);
+    assert!(e.p.abs() <= 1e-8, "{}", e.p);
+    assert_eq!((e.unstable_before, e.unstable_after), (2, 2));
+}
+
+#[test]
+fn event_tolerance_is_relative_also_at_small_parameters() {
+    // A Hopf point at p = 0.01 whose critical real part is nonlinear (and monotone) in p.
+    let c = 0.01;
+    let problem = Analytic {
+        dim: 2,
+        g: Box::new(move |u: &[f64], p: f64| {
+            let re = (p - c) + 30.0 * (p - c).powi(3);
+            vec![re * u[0] - u[1], u[0] + re * u[1]]
+        }) as Residual,
+        g_u: Box::new(move |_: &[f64], p: f64| {
+            let re = (p - c) + 30.0 * (p - c).powi(3);
+            vec![vec![re, -1.0], vec![1.0, re]]
+        }) as Jacobian,
+        g_p: Box::new(move |u: &[f64], p: f64| {
+            let d = 1.0 + 90.0 * (p - c).powi(2);
+            vec![d * u[0], d * u[1]]
+        }) as Residual,
+    };
+    let tol = 1e-4;
+    let s = ContinuationSettings {
+        event_tol: tol,
+        ..settings()
+    };
+    let limits = Limits {
+        p_min: -1.0,
+        p_max: 1.0,
+        stop_at_first_instability: true,
+    };
+    let branch = follow(
+        &problem,
+        vec![0.0, 0.0],
+        -0.5,
+        1.0,
+        &s,
+        &limits,
+        &mut Silent,
+    )
+    .unwrap();
+    let e = branch.first_loss_of_stability().unwrap();
+    assert_eq!(e.kind, EventKind::Hopf);
+    let width = e.bracket.1 - e.bracket.0;
+    assert!(
+        width <= tol * c,
+        "bracket {:?} wider than {tol} relative",
+        e.bracket
+    );
+    assert!(e.precision <= tol, "{}", e.precision);
+    assert!((e.p - c).abs() <= tol * c, "{} vs {c}", e.p);
+}
+
+#[test]
+fn a_residual_floor_above_tol_shows_in_the_stated_precision() {
+    // The Brusselator's Hopf point at b = 1 + a^2, with a deterministic noise of size 1e-7 on
+    // the residual (ten times the round-off floor that `continuation.tol = 1e-9` assumes):
+    // points cannot be known better than ~1e-7, and the event must not claim more.
+    let a = 2.0;
+    let noise = 1e-7;
+    let wiggle = move |u: &[f64], b: f64| noise * (1e7 * (u[0] + 2.0 * u[1] + 3.0 * b)).sin();
+    let problem = Analytic {
+        dim: 2,
+        g: Box::new(move |u: &[f64], b: f64| {
+            let (x, y) = (u[0], u[1]);
+            let n = wiggle(u, b);
+            vec![a - (b + 1.0) * x + x * x * y + n, b * x - x * x * y - n]
+        }) as Residual,
+        g_u: Box::new(|u: &[f64], b: f64| {
+            let (x, y) = (u[0], u[1]);
+            vec![
+                vec![-(b + 1.0) + 2.0 * x * y, x * x],
+                vec![b - 2.0 * x * y, -x * x],
+            ]
+        }) as Jacobian,
+        g_p: Box::new(|u: &[f64], _| vec![-u[0], u[0]]) as Residual,
+    };
+    let limits = Limits {
+        p_min: 0.0,
+        p_max: 8.0,
+        stop_at_first_instability: true,
+    };
+    let result = follow(
+        &problem,
+        vec![a, 1.0 / a],
+        1.0,
+        1.0,
+        &settings(),
+        &limits,
+        &mut Silent,
+    )
+    .unwrap();
+    let exact = 1.0 + a * a;
+    match result.first_loss_of_stability() {
+        Some(e) => {
+            let error = (e.p - exact).abs() / exact;
+            assert!(
+                e.precision >= 1e-9,
+                "precision {:e} claimed on points known to ~1e-7",
+                e.precision
+            );
+            assert!(
+                error <= 10.0 * e.precision,
+                "error {error:e} against a stated precision {:e}",
+                e.precision
+            );
+        }
+        None => assert!(
+            matches!(result.stop, Stop::StepTooSmall(_)),
+            "{:?}",
+            result.stop
+        ),
+    }
+}
+
+/// A problem that cannot be evaluated beyond `p = 0.5`, as a mobility that loses positive
+/// definiteness.
+struct Indefinite;
+
+fn indefinite(p: f64) -> Result<()> {
+    if p > 0.5 {
+        Err(Error::NotPositiveDefinite {
+            context: format!("p = {p}"),
+            geometry: "closest approach 0.5 delta".into(),
+        })
+    } else {
+        Ok(())
+    }
+}
+
+impl Problem for Indefinite {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
+        indefinite(p)?;
+        Ok(vec![-u[0] + p])
+    }
+    fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
+        Ok(Linearization {
+            g: self.residual(u, p)?,
+            g_u: Mat::from_fn(1, 1, |_, _| -1.0),
+            g_p: vec![1.0],
+        })
+    }
+    fn stability_pair(
+        &self,
+        _u: &[f64],
+        _p: f64,
+        lin: &Linearization,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
+        Ok((lin.g_u.clone(), Mat::identity(1, 1)))
+    }
+}
+
+#[test]
+fn a_continuation_that_meets_an_indefinite_mobility_says_so() {
+    let limits = Limits {
+        p_min: -1.0,
+        p_max: 2.0,
+        stop_at_first_instability: false,
+    };
+    let branch = follow(
+        &Indefinite,
+        vec![0.0],
+        0.0,
+        1.0,
+        &settings(),
+        &limits,
+        &mut Silent,
+    )
+    .unwrap();
+    let Stop::StepTooSmall(reason) = &branch.stop else {
+        panic!("{:?}", branch.stop)
+    };
+    assert!(
+        reason.contains("not positive definite") && reason.contains("closest approach"),
+        "{reason}"
+    );
+    assert!(branch.points.last().unwrap().p <= 0.5);
+}
+
+/// `G(u) = u - 10`, whose model cannot be evaluated at `u > 1e-4`: every trial of the line
+/// search fails there.
+struct Cornered;
+
+impl System for Cornered {
+    fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
+        if u[0] > 1e-4 {
+            return Err(Error::NotPositiveDefinite {
+                context: format!("u = {}", u[0]),
+                geometry: "smallest node spacing 3.1 delta".into(),
+            });
+        }
+        Ok(vec![u[0] - 10.0])
+    }
+    fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        Ok((self.residual(u)?, Mat::from_fn(1, 1, |_, _| 1.0)))
+    }
+}
+
+#[test]
+fn newton_reports_the_indefinite_mobility_not_a_bare_line_search_failure() {
+    let result = newton::solve(&Cornered, vec![0.0], &NewtonSettings::default(), "test");
+    match result {
+        Err(Error::NotPositiveDefinite { geometry, .. }) => {
+            assert!(geometry.contains("node spacing"), "{geometry}")
+        }
+        other => panic!("expected the mobility's error, got {other:?}"),
+    }
+}
