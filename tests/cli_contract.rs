@@ -8,14 +8,7 @@ use std::process::{Command, Stdio};
 
 mod common;
 
-use common::helixbif;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("helixbif-cli-{name}-{}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::{helixbif, temp_dir};
 
 /// The standing rod of Greenhill's problem, heavier than its critical weight
 /// (`q L^3/EI = 28 > 7.84`): unstable before it turns.
@@ -47,7 +40,7 @@ fn a_rest_state_that_is_already_unstable_is_reported_as_such() {
 
 #[test]
 fn a_sweep_row_carries_the_unstable_rest_state_and_fit_lists_what_it_left_out() {
-    let dir = temp_dir("unstable-sweep");
+    let dir = temp_dir("cli-unstable-sweep");
     let study = dir.join("standing.toml");
     std::fs::write(
         &study,
@@ -154,7 +147,7 @@ vary = [{ key = "shape.alpha_deg", values = [15.0, 180.0] }]
 #[test]
 fn a_branch_that_approaches_itself_names_the_loss_of_positive_definiteness() {
     // The tight arc of figure 2 curls up until its free end nears its base (about 0.94 rad/s).
-    let dir = temp_dir("arc-contact");
+    let dir = temp_dir("cli-arc-contact");
     let (code, _, stderr) = helixbif(&[
         "branch",
         "studies/fig2_straight_and_curved.toml",
@@ -209,7 +202,7 @@ fn a_thin_tight_helix_buckling_at_a_high_rate_is_located_within_the_default_budg
 
 #[test]
 fn set_overrides_write_to_their_own_folder_never_over_the_study_results() {
-    let dir = temp_dir("set-folder");
+    let dir = temp_dir("cli-set-folder");
     let status = Command::new(env!("CARGO_BIN_EXE_helixbif"))
         .current_dir(&dir)
         .args([
@@ -249,7 +242,7 @@ fn node_sweep(dir: &Path) -> PathBuf {
 
 #[test]
 fn an_integer_field_is_swept_and_merge_prints_json() {
-    let dir = temp_dir("nodes");
+    let dir = temp_dir("cli-nodes");
     let study = node_sweep(&dir);
     let s = study.to_str().unwrap();
     let out = dir.join("out");
@@ -308,7 +301,7 @@ fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
         (forward + backward).abs() <= 1e-12 * forward.abs(),
         "{forward} {backward}"
     );
-    let dir = temp_dir("negative");
+    let dir = temp_dir("cli-negative");
     let (code, stdout, stderr) = helixbif(&[
         "simulate",
         "--omega",
@@ -400,7 +393,7 @@ fn simulate_and_bisect_use_the_study_newton_settings() {
         "--set",
         "newton.max_iter=1",
         "--out",
-        temp_dir("newton-sim").to_str().unwrap(),
+        temp_dir("cli-newton-sim").to_str().unwrap(),
     ]);
     assert_eq!(code, 1, "{stderr}");
     assert!(

@@ -5,37 +5,13 @@
 
 use std::collections::HashMap;
 use std::os::unix::fs::PermissionsExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 mod common;
 
-use common::helixbif;
+use common::{helixbif, small_sweep, temp_dir};
 use helixbif::study::slurm::{ARRAY_VARIABLES, check_time, shard_from_env};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("helixbif-slurm-{name}-{}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// A small sweep study file: 8 points (`lambda/l` from 0.2 to 0.34), 16 nodes.
-fn small_sweep(dir: &Path) -> PathBuf {
-    let path = dir.join("small.toml");
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/fig4b_pitch.toml"),
-    )
-    .unwrap()
-    .replace("per_turn = 15.0", "")
-    .replace("nodes = 60", "nodes = 16")
-    .replace(
-        "values = [0.15, 0.2, 0.25, 0.3, 0.35]",
-        "values = [0.2, 0.22, 0.24, 0.26, 0.28, 0.3, 0.32, 0.34]",
-    );
-    std::fs::write(&path, text).unwrap();
-    path
-}
 
 /// The rows of a sweep CSV without the timing column, in file order.
 fn rows(path: &Path) -> Vec<String> {
@@ -171,7 +147,7 @@ fn helixbif_env(args: &[&str], set: &[(&str, &str)]) -> (i32, String, String) {
 
 #[test]
 fn sweep_shard_slurm_runs_the_array_tasks_shard_or_says_what_is_missing() {
-    let dir = temp_dir("env");
+    let dir = temp_dir("slurm-env");
     let study = small_sweep(&dir);
     let s = study.to_str().unwrap();
     let out = dir.join("out");
@@ -210,7 +186,7 @@ fn sweep_shard_slurm_runs_the_array_tasks_shard_or_says_what_is_missing() {
 
 #[test]
 fn a_shard_cut_short_by_a_kill_resumes_without_repeating_or_losing_a_point() {
-    let dir = temp_dir("resume");
+    let dir = temp_dir("slurm-resume");
     let study = small_sweep(&dir);
     let s = study.to_str().unwrap();
     let whole = dir.join("whole");
@@ -307,7 +283,7 @@ fn line<'a>(script: &'a str, prefix: &str) -> &'a str {
 
 #[test]
 fn slurm_writes_an_array_and_a_merge_that_run_the_sweep() {
-    let dir = temp_dir("scripts");
+    let dir = temp_dir("slurm-scripts");
     let study = small_sweep(&dir);
     let s = study.to_str().unwrap();
     let out = dir.join("cluster");
@@ -444,7 +420,7 @@ fn slurm_writes_an_array_and_a_merge_that_run_the_sweep() {
 
 #[test]
 fn submit_runs_sbatch_twice_with_the_dependency_and_records_the_job_ids() {
-    let dir = temp_dir("submit");
+    let dir = temp_dir("slurm-submit");
     let study = small_sweep(&dir);
     let s = study.to_str().unwrap();
     // A stand-in sbatch: logs its arguments, prints job ids the way `sbatch --parsable` does.

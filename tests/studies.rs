@@ -6,17 +6,10 @@ use std::process::Command;
 
 mod common;
 
-use common::helixbif;
+use common::{helixbif, small_sweep, temp_dir};
 use helixbif::study::Study;
 use helixbif::study::plan::Plan;
 use helixbif::study::run::run;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("helixbif-{name}-{}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A reduced version of a study: few nodes, the first two values of every list, a short range.
 fn reduced(mut study: Study) -> Study {
@@ -138,23 +131,6 @@ fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_th
     let report = run(&small, &dir.join("phase")).unwrap();
     assert_eq!(report["m"], 2.5, "{report}");
     std::fs::remove_dir_all(&dir).ok();
-}
-
-/// A small sweep study file: 8 points, 16 nodes.
-fn small_sweep(dir: &Path) -> PathBuf {
-    let path = dir.join("small.toml");
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/fig4b_pitch.toml"),
-    )
-    .unwrap()
-    .replace("per_turn = 15.0", "")
-    .replace("nodes = 60", "nodes = 16")
-    .replace(
-        "values = [0.15, 0.2, 0.25, 0.3, 0.35]",
-        "values = [0.2, 0.22, 0.24, 0.26, 0.28, 0.3, 0.32, 0.34]",
-    );
-    std::fs::write(&path, text).unwrap();
-    path
 }
 
 /// The rows of a sweep CSV without the timing column, sorted by point.

@@ -151,7 +151,27 @@ struct Sampler<'a, P: Problem> {
     with_tangent: bool,
 }
 
-impl<P: Problem> Sampler<'_, P> {
+impl<'a, P: Problem> Sampler<'a, P> {
+    /// The sampler of the step from `a` to `b`.
+    fn new(
+        problem: &'a P,
+        a: &'a Point,
+        b: &Point,
+        metric: &'a Metric,
+        settings: &'a ContinuationSettings,
+        with_tangent: bool,
+    ) -> Self {
+        Sampler {
+            problem,
+            a,
+            metric,
+            settings,
+            step: (b.s - a.s).abs(),
+            p_scale: problem.scales().1,
+            with_tangent,
+        }
+    }
+
     fn at(&self, sigma: f64) -> Result<Sample> {
         let a = self.a;
         let step: Vec<f64> = a.tangent_u.iter().map(|t| sigma * t).collect();
@@ -339,15 +359,7 @@ pub fn locate_fold(
     metric: &Metric,
     settings: &ContinuationSettings,
 ) -> Result<Event> {
-    let sampler = Sampler {
-        problem,
-        a,
-        metric,
-        settings,
-        step: (b.s - a.s).abs(),
-        p_scale: problem.scales().1,
-        with_tangent: true,
-    };
+    let sampler = Sampler::new(problem, a, b, metric, settings, true);
     let sign = a.tangent_p.signum();
     let beyond = |s: &Sample| s.tangent_p * sign < 0.0;
     let f = |s: &Sample, _: &Sample, _: &Sample| -s.tangent_p * sign;
@@ -367,15 +379,7 @@ pub fn locate_crossings(
     metric: &Metric,
     settings: &ContinuationSettings,
 ) -> Result<Vec<Event>> {
-    let sampler = Sampler {
-        problem,
-        a,
-        metric,
-        settings,
-        step: (b.s - a.s).abs(),
-        p_scale: problem.scales().1,
-        with_tangent: false,
-    };
+    let sampler = Sampler::new(problem, a, b, metric, settings, false);
     let end = sampler.sample_of(b);
     let mut lo = sampler.sample_of(a);
     let mut events = Vec::new();

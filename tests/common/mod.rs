@@ -87,3 +87,28 @@ pub fn relative_max_error(value: &[f64], reference: &[f64]) -> f64 {
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     err / scale
 }
+
+/// An empty temporary folder for one test (`helixbif-<name>-<pid>`), made anew.
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("helixbif-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A small sweep study file in `dir`: 8 points (`lambda/l` from 0.2 to 0.34), 16 nodes.
+pub fn small_sweep(dir: &std::path::Path) -> std::path::PathBuf {
+    let path = dir.join("small.toml");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/fig4b_pitch.toml"),
+    )
+    .unwrap()
+    .replace("per_turn = 15.0", "")
+    .replace("nodes = 60", "nodes = 16")
+    .replace(
+        "values = [0.15, 0.2, 0.25, 0.3, 0.35]",
+        "values = [0.2, 0.22, 0.24, 0.26, 0.28, 0.3, 0.32, 0.34]",
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
