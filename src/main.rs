@@ -332,9 +332,13 @@ fn locate_command(
             for ((n, w), k) in result.nodes.iter().zip(&result.omega_b).zip(&result.kinds) {
                 println!("  N = {n:3}: omega_b = {w:.8} rad/s ({k})");
             }
+            let range = match result.nodes_max {
+                Some(max) => format!("admissible N <= {max}"),
+                None => "no admissible-N limit".to_owned(),
+            };
             println!(
-                "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; admissible N <= {})",
-                result.omega_b_extrapolated, result.omega_b_error, result.order, result.nodes_max
+                "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; {range})",
+                result.omega_b_extrapolated, result.omega_b_error, result.order
             );
         }
         return Ok(());

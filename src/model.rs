@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::fluid::{Lighthill, lighthill_cutoff};
+use crate::fluid::{Fluid, lighthill_cutoff};
 use crate::params::{Physical, Scales};
 use crate::rod::frame::Chart;
 use crate::rod::{Rod, Stiffness};
@@ -23,7 +23,7 @@ pub struct Model {
     pub chart: Chart,
     /// Net weight per unit length `q ell^3 / EI`.
     pub weight: f64,
-    pub fluid: Lighthill,
+    pub fluid: Fluid,
 }
 
 impl Model {
@@ -47,15 +47,11 @@ impl Model {
         Ok(Model {
             physical: physical.clone(),
             scales,
-            natural,
             rod,
             chart,
             weight: physical.weight_per_length() * ell.powi(3) / ei,
-            fluid: Lighthill {
-                mu: 1.0,
-                delta: lighthill_cutoff(physical.rod.r0) / ell,
-                quadrature: physical.fluid.quadrature,
-            },
+            fluid: Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &natural),
+            natural,
         })
     }
 
@@ -76,13 +72,17 @@ impl Model {
 
     /// Checks that the mobility matrix of the natural shape is positive definite at this node
     /// count; if not, the error (an input error: the node count is out of range) gives the
-    /// admissible range and the reason.
+    /// admissible range and the reason. Nothing to check for a fluid model that is positive
+    /// definite at every resolution (RPY).
     pub fn check_resolution(&self) -> Result<()> {
+        let Some(delta) = self.fluid.resolution_cutoff() else {
+            return Ok(());
+        };
         if natural_mobility_is_definite(&self.physical, self.nodes()) {
             return Ok(());
         }
-        let max = admissible_max_nodes(&self.physical);
-        let spacing = self.rod.rest_lengths[0] / self.fluid.delta;
+        let max = admissible_max_nodes(&self.physical).unwrap_or(self.nodes());
+        let spacing = self.rod.rest_lengths[0] / delta;
         Err(Error::input(
             "discretization.nodes",
             format!(
@@ -102,18 +102,19 @@ fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
         .into_iter()
         .map(|p| p / ell)
         .collect();
-    let fluid = Lighthill {
-        mu: 1.0,
-        delta: lighthill_cutoff(physical.rod.r0) / ell,
-        quadrature: physical.fluid.quadrature,
-    };
-    fluid.resistance(&x, "").is_ok()
+    Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &x)
+        .resistance(&x, "")
+        .is_ok()
 }
 
 /// The largest node count for which the natural shape's mobility matrix is positive definite,
 /// searched by single steps from the estimate `ds = 4 delta` (MODEL.md section 3: the discrete
-/// operator turns indefinite once the spacing falls to about 3.9 delta).
-pub fn admissible_max_nodes(physical: &Physical) -> usize {
+/// operator turns indefinite once the spacing falls to about 3.9 delta). `None` when the fluid
+/// model is positive definite at every resolution (RPY): no cap beyond the validated 5000.
+pub fn admissible_max_nodes(physical: &Physical) -> Option<usize> {
+    if !physical.fluid.model.limits_resolution() {
+        return None;
+    }
     let delta = lighthill_cutoff(physical.rod.r0);
     let contour = physical.shape.contour_length();
     let estimate = ((contour / (4.0 * delta)).floor() as usize + 1).max(5);
@@ -128,5 +129,5 @@ pub fn admissible_max_nodes(physical: &Physical) -> usize {
             n -= 1;
         }
     }
-    n
+    Some(n)
 }
