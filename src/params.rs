@@ -357,7 +357,9 @@ impl Physical {
                 if let Some(a) = fluid.blob_radius {
                     return Err(Error::input(
                         "fluid.blob_radius",
-                        format!("applies to fluid.model = \"rpy\" only, got {a} with \"lighthill\""),
+                        format!(
+                            "applies to fluid.model = \"rpy\" only, got {a} with \"lighthill\""
+                        ),
                     ));
                 }
             }

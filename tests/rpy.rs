@@ -3,12 +3,14 @@
 //! Run with `cargo test --release --test rpy -- --nocapture` to see the measured numbers.
 
 use faer::{Mat, Side};
+use helixbif::Error;
 use helixbif::fluid::{
-    Fluid, FluidModel, Lighthill, Quadrature, Resistance, Rpy, lighthill_cutoff, rpy_blob_radius,
-    stack_vectors,
+    Fluid, FluidModel, Lighthill, Quadrature, Resistance, Rpy, rpy_blob_radius, stack_vectors,
 };
+use helixbif::model::{Model, admissible_max_nodes};
 use helixbif::params::Physical;
 use helixbif::shape::natural_nodes;
+use helixbif::study::Study;
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
@@ -88,38 +90,68 @@ fn smallest_eigenvalue(a: &Mat<f64>) -> f64 {
     a.self_adjoint_eigenvalues(Side::Lower).unwrap()[0]
 }
 
-/// Test 1: `A` symmetric positive definite.
+/// `max |A - A^T|` (zero: `A` is symmetrised exactly).
+fn asymmetry(a: &Mat<f64>) -> f64 {
+    let mut out: f64 = 0.0;
+    for c in 0..a.ncols() {
+        for r in 0..c {
+            out = out.max((a[(r, c)] - a[(c, r)]).abs());
+        }
+    }
+    out
+}
+
+/// Test 1: `A` is symmetric positive definite (Cholesky succeeds, smallest eigenvalue > 0) for
+/// the representative helix at N = 100, 200, 400, 800 (default quadrature, `Q = 21, 11, 6, 3`),
+/// a hairpin whose legs are 0.5 r0 apart (closer than r0 and than 2a = 2.24 r0: the blobs
+/// overlap) and a rod folded onto itself with its legs 0.05 r0 apart, the return leg's nodes
+/// shifted by 0.3 of a spacing (overlapping segments).
+///
+/// Scaling of the smallest eigenvalue: the line operator is of order -2 (the `|r|` cone of `M`
+/// at `r = 0`), so the nodal quadratic form of a force alternating at the node spacing `h` is
+/// `~ h / (mu a^2)` per unit `|F|^2`: `lambda_min` falls like `h` once `h < a`, and
+/// `lambda_min mu a^2 / h` is the quantity bounded below. Measured
+/// (`lambda_min mu L`, `lambda_min mu a^2 / h`, `h / a`): N = 100: 0.6063, 9.46e-4, 2.54;
+/// N = 200: 0.1872, 5.85e-4, 1.27; N = 400: 0.1028, 6.44e-4, 0.63; N = 800: printed below.
+/// Asserted: `lambda_min mu a^2 / h > 3e-4` (half the measured minimum). Hairpin 0.5 r0:
+/// `lambda_min mu L = 0.0861`; folded 0.05 r0: 0.0091 (asserted > 0, with Cholesky success).
+/// Symmetry is exact (asserted `A = A^T` bitwise).
 #[test]
 fn mobility_is_symmetric_positive_definite_at_every_resolution() {
-    for n in [100, 200, 400] {
+    for n in [100, 200, 400, 800] {
         let (x, r0) = helix(n);
         let a_blob = rpy_blob_radius(r0);
         let model = Rpy::for_polygon(1.0, a_blob, &x);
         let a = model.mobility(&x);
+        assert_eq!(asymmetry(&a), 0.0);
         Resistance::new(&a, "helix").unwrap();
         let lambda = smallest_eigenvalue(&a);
         let length = arc_length(&x);
         let h = length / (n - 1) as f64;
+        let scaled = lambda * a_blob * a_blob / h;
         println!(
-            "helix N = {n}, Q = {}: lambda_min mu L = {:.4e}, lambda_min mu a^2 / h = {:.4e}, h/a = {:.3}",
+            "helix N = {n}, Q = {}: lambda_min mu L = {:.4e}, lambda_min mu a^2 / h = {scaled:.4e}, h/a = {:.3}",
             model.points_per_edge(),
             lambda * length,
-            lambda * a_blob * a_blob / h,
             h / a_blob
         );
+        assert!(scaled > 3e-4, "N = {n}: {scaled:e}");
     }
     let r0 = 0.005;
     for (gap, shift) in [(0.5 * r0, 0.0), (0.05 * r0, 0.3 / 40.0)] {
         let x = hairpin(41, gap, 3, shift);
         let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &x);
         let a = model.mobility(&x);
-        Resistance::new(&a, "hairpin").unwrap();
+        assert_eq!(asymmetry(&a), 0.0);
+        model.resistance(&x, "hairpin").unwrap();
+        let lambda = smallest_eigenvalue(&a);
         println!(
             "hairpin gap {:.3} r0: Q = {}, lambda_min mu L = {:.4e}",
             gap / r0,
             model.points_per_edge(),
-            smallest_eigenvalue(&a) * arc_length(&x)
+            lambda * arc_length(&x)
         );
+        assert!(lambda > 0.0);
     }
 }
 
@@ -148,6 +180,14 @@ fn finite_difference_derivative(
     b
 }
 
+/// Test 2: analytic `B = d(A y)/dX` against central finite differences (step 1e-7, every
+/// coordinate) at randomly perturbed configurations (perturbation up to 0.1 spacing or 0.1 r0)
+/// with random `y`: the representative helix at N = 16, a single edge (N = 2), hairpins with
+/// legs 0.5 r0 and 1.5 r0 apart (point pairs on both sides of `r = 2a`) and a rod folded onto
+/// itself 0.05 r0 apart.
+///
+/// Tolerance 1e-6 relative to `max |B|`: truncation `~ (h/a)^2 ~ 1e-9`, round-off
+/// `~ eps |A y| / h ~ 1e-9`; measured 4e-10 .. 2e-9, while a wrong term is O(1).
 #[test]
 fn derivative_matches_finite_differences() {
     let mut rng = SplitMix64(20261201);
@@ -155,14 +195,13 @@ fn derivative_matches_finite_differences() {
     let (hx, hr0) = helix(16);
     let cases: Vec<(&str, Vec<Vector3<f64>>, f64)> = vec![
         ("helix", hx, hr0),
-        ("two nodes", straight_rod(2, 0.1), r0),
+        ("one edge", straight_rod(2, 0.1), r0),
         ("hairpin gap 0.5 r0", hairpin(8, 0.5 * r0, 2, 0.0), r0),
         ("hairpin gap 1.5 r0", hairpin(8, 1.5 * r0, 2, 0.05), r0),
         ("folded gap 0.05 r0", hairpin(8, 0.05 * r0, 1, 0.07), r0),
     ];
     for (name, x0, r0) in cases {
-        let amplitude = 0.1 * arc_length(&x0) / (x0.len() - 1) as f64;
-        let amplitude = amplitude.min(0.1 * r0);
+        let amplitude = (0.1 * arc_length(&x0) / (x0.len() - 1) as f64).min(0.1 * r0);
         let x: Vec<Vector3<f64>> = x0.iter().map(|p| p + amplitude * rng.vector()).collect();
         let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &x);
         let y: Vec<Vector3<f64>> = (0..x.len()).map(|_| rng.vector()).collect();
@@ -178,114 +217,270 @@ fn derivative_matches_finite_differences() {
     }
 }
 
+/// Uniform-density velocity integral of the continuous RPY line, `2 ∫_0^L (L - r) g(r) dr`, for
+/// `g = alpha + beta` (axial) or `alpha` (transverse), unit viscosity, `L > 2a`, in closed form:
+/// near part `g = k0 (1 - c1 r)` (`k0 = 1/(6 pi a)`, `c1 = 3/(16a)` axial, `9/(32a)` transverse),
+/// far part `g = k (A1/r + A3/r^3)` (`k = 1/(8 pi)`, `(A1, A3) = (2, -4a^2/3)` axial,
+/// `(1, 2a^2/3)` transverse), with
+/// `∫_{2a}^L (L - r)/r dr = L ln(L/(2a)) - L + 2a` and
+/// `∫_{2a}^L (L - r)/r^3 dr = L/(8a^2) - 1/(2a) + 1/(2L)`.
+fn rpy_uniform_integral(l: f64, a: f64, axial: bool) -> f64 {
+    let (k0, k) = (1.0 / (6.0 * PI * a), 1.0 / (8.0 * PI));
+    let (c1, a1, a3) = if axial {
+        (3.0 / (16.0 * a), 2.0, -4.0 * a * a / 3.0)
+    } else {
+        (9.0 / (32.0 * a), 1.0, 2.0 * a * a / 3.0)
+    };
+    let near = 2.0 * a * l - 2.0 * a * a - c1 * (2.0 * a * a * l - 8.0 * a.powi(3) / 3.0);
+    let inv1 = l * (l / (2.0 * a)).ln() - l + 2.0 * a;
+    let inv3 = l / (8.0 * a * a) - 0.5 / a + 0.5 / l;
+    2.0 * (k0 * near + k * (a1 * inv1 + a3 * inv3))
+}
+
+/// Total force `sum_j F_j` on the fluid when every node moves with velocity `u`.
 fn total_drag(z: &Resistance, n: usize, u: Vector3<f64>) -> Vector3<f64> {
     z.solve_vectors(&vec![u; n]).iter().sum()
 }
 
+/// `(axial, transverse)` drag of the discrete RPY rod, and its uniform-density (Rayleigh) value
+/// `L^2 / (v^T A v)`, `v = (w_j d)_j`, a lower bound by Cauchy–Schwarz.
+fn rpy_rod_drag(l: f64, r0: f64, n: usize) -> ([f64; 2], [f64; 2], usize) {
+    let x = straight_rod(n, l);
+    let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &x);
+    let a = model.mobility(&x);
+    let z = Resistance::new(&a, "straight rod").unwrap();
+    let h = l / (n - 1) as f64;
+    let w: Vec<f64> = (0..n)
+        .map(|j| if j == 0 || j == n - 1 { h / 2.0 } else { h })
+        .collect();
+    let uniform = |d: Vector3<f64>| {
+        let v = stack_vectors(&w.iter().map(|&wj| wj * d).collect::<Vec<_>>());
+        l * l / (v.transpose() * &a * &v)[(0, 0)]
+    };
+    (
+        [
+            total_drag(&z, n, Vector3::z()).z,
+            total_drag(&z, n, Vector3::x()).x,
+        ],
+        [uniform(Vector3::z()), uniform(Vector3::x())],
+        model.points_per_edge(),
+    )
+}
+
+/// Test 3: drag of a straight rod (length L = 1, unit speed and viscosity) at aspect ratios
+/// L/(2 r0) = 100 and 1000, against
+///
+/// (b) the slender-body cylinder formulas `2 pi L / (ln(L/r0) + ln 2 - 3/2)` (axial),
+///     `4 pi L / (ln(L/r0) + ln 2 - 1/2)` (transverse): Lighthill's continuous theory with a
+///     uniform force density, averaged over the rod (the same values as Keller–Rubinow's and
+///     Batchelor's cylinder to the two orders in `1/Lambda`, `Lambda = ln(L/r0) + ln 2 - 3/2`
+///     resp. `- 1/2`, that these theories share; the error is `O(1/Lambda^2)` relative);
+/// (u) the continuous RPY line with uniform density in closed form ([`rpy_uniform_integral`]),
+///     which differs from (b) only by end corrections `O(a/L)` (the blob radius is chosen so
+///     that the local integrals agree exactly, see `helixbif::fluid::rpy`).
+///
+/// Hat functions reproduce a uniform density exactly, so the discrete uniform-density drag
+/// differs from (u) only by the quadrature: asserted within 1e-3 (measured below). The discrete
+/// drag exceeds it (Cauchy–Schwarz: the solution's density is not uniform, it concentrates at the
+/// ends), by `O(1/Lambda^2)`: asserted `0 < drag/(u) - 1 < 1/Lambda^2`, and
+/// `|drag/(b) - 1| < 1/Lambda^2`.
+///
+/// Convergence in N at fixed r0 (N - 1 doubling; `Q` keeps the point spacing below `a/8`):
+/// the drag grows monotonically (nested Galerkin spaces, up to the quadrature error). Once the
+/// node spacing `h` is below `a` the changes halve with `h` (first order: the end concentration
+/// of the density is resolved at the scale `h`); before, they stay roughly constant per
+/// doubling. Measured (axial; transverse):
+///
+/// * aspect 100 (`a = 0.0056`), N = 26, 51, 101, 201, 401, 801: drag 1.42395 .. 1.43397;
+///   2.31567 .. 2.33027; changes 3.85e-3, 3.60e-3, 1.57e-3, 7.82e-4, 3.08e-4;
+///   4.09e-3, 5.23e-3, 3.20e-3, 1.30e-3, 5.46e-4; observed orders 0.10, 1.20, 1.00, 1.34;
+///   -0.35, 0.71, 1.30, 1.25 (asserted > 0.8 on the last two, where `h <= a`). At N = 801:
+///   drag/(b) = 1.0251; 1.0183, drag/(u) = 1.0268; 1.0184, uniform/(u) = 0.99997; 0.99993.
+/// * aspect 1000 (`a = 5.6e-4`), N = 51, 101, 201, 401 (`h` = 36a .. 4.5a, pre-asymptotic):
+///   drag 0.930828 .. 0.931701; 1.619634 .. 1.620528; changes about 3e-4 per doubling (0.03%),
+///   asserted positive and below 5e-4 relative. drag/(b) = 1.0075; 1.0051 at N = 401.
+///
+/// The excess over (b) is the non-uniform density (drag/(u) - 1 = 2.7%, 1.8% at aspect 100,
+/// 0.8%, 0.5% at aspect 1000, against `1/Lambda^2` = 6.9%, 4.4% and 2.2%, 1.7%); (u) and (b)
+/// differ by 0.17% (axial, aspect 100) or less.
 #[test]
-fn straight_rod_drag() {
+fn straight_rod_drag_against_slender_body_and_convergence() {
     let l: f64 = 1.0;
-    for aspect in [100.0, 1000.0] {
+    for (aspect, sizes) in [
+        (100.0, vec![26, 51, 101, 201, 401, 801]),
+        (1000.0, vec![51, 101, 201, 401]),
+    ] {
         let r0 = l / (2.0 * aspect);
-        let log = (l / r0).ln() + 2f64.ln();
-        let cyl = (2.0 * PI * l / (log - 1.5), 4.0 * PI * l / (log - 0.5));
-        for intervals in [25, 50, 100, 200, 400] {
-            let n = intervals + 1;
-            let x = straight_rod(n, l);
-            let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &x);
-            let t = std::time::Instant::now();
-            let z = model.resistance(&x, "rod").unwrap();
-            let ax = total_drag(&z, n, Vector3::z()).z;
-            let tr = total_drag(&z, n, Vector3::x()).x;
-            println!(
-                "aspect {aspect}, N = {n}, Q = {}: axial {ax:.6} ({:.5}), transverse {tr:.6} ({:.5}) [{:.2}s]",
-                model.points_per_edge(),
-                ax / cyl.0,
-                tr / cyl.1,
-                t.elapsed().as_secs_f64()
-            );
-        }
-    }
-}
-
-#[test]
-fn rigid_helix_thrust() {
-    for n in [60, 85] {
-        let (x, r0) = helix(n);
-        let u: Vec<Vector3<f64>> = x.iter().map(|p| Vector3::new(-p.y, p.x, 0.0)).collect();
-        let l = Lighthill::from_radius(1.0, r0, Quadrature::Reference);
-        let fl: Vector3<f64> = l.resistance(&x, "").unwrap().solve_vectors(&u).iter().sum();
-        for m in [n, 2 * n, 4 * n] {
-            let (xm, _) = helix(m);
-            let um: Vec<Vector3<f64>> = xm.iter().map(|p| Vector3::new(-p.y, p.x, 0.0)).collect();
-            let r = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &xm);
-            let fr: Vector3<f64> = r.resistance(&xm, "").unwrap().solve_vectors(&um).iter().sum();
-            println!(
-                "lighthill N = {n}: thrust {:.6}; rpy N = {m}: {:.6}, ratio {:.5}",
-                fl.z,
-                fr.z,
-                fr.z / fl.z
-            );
-        }
-    }
-    let _ = (lighthill_cutoff(1.0), FluidModel::Rpy, std::any::type_name::<Fluid>());
-}
-
-#[test]
-#[ignore]
-fn explore_quadrature() {
-    let l: f64 = 1.0;
-    let r0 = l / 200.0;
-    let a = rpy_blob_radius(r0);
-    for intervals in [25usize, 50, 100, 200, 400, 800] {
-        let n = intervals + 1;
-        let x = straight_rod(n, l);
-        let mut line = format!("N = {n}:");
-        for q in [2usize, 4, 8, 16, 32, 64] {
-            if (q as f64) * a * intervals as f64 > 40.0 || (q as f64) < 1.0 / (a * intervals as f64) {
-                continue;
-            }
-            let model = Rpy::new(1.0, a, q);
-            let z = model.resistance(&x, "rod").unwrap();
-            let f = z.solve_vectors(&vec![Vector3::z(); n]);
-            let ax: f64 = f.iter().map(|v| v.z).sum();
-            line += &format!(" Q={q}: {ax:.7} (end {:.4})", f[0].z / ax);
-        }
-        println!("{line}");
-    }
-}
-
-#[test]
-#[ignore]
-fn explore_timing() {
-    for n in [60usize, 120, 240, 480] {
-        let (x, r0) = helix(n);
         let a = rpy_blob_radius(r0);
-        let h = arc_length(&x) / (n - 1) as f64;
-        let y: Vec<Vector3<f64>> = x.iter().map(|p| Vector3::new(-p.y, p.x, 0.0)).collect();
-        let t = std::time::Instant::now();
-        let lh = Lighthill::from_radius(1.0, r0, Quadrature::Reference);
-        let _ = lh.mobility(&x);
-        let tl = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
-        let _ = lh.mobility_derivative(&x, &y);
-        let tld = t.elapsed().as_secs_f64();
-        let mut line = format!("N = {n}: lighthill A {tl:.4}s B {tld:.4}s;");
-        for c in [2.0, 4.0, 8.0] {
-            let q = ((c * h / a).ceil() as usize).max(2);
-            let model = Rpy::new(1.0, a, q);
-            let t = std::time::Instant::now();
-            let am = model.mobility(&x);
-            let ta = t.elapsed().as_secs_f64();
-            let t = std::time::Instant::now();
-            let _ = model.mobility_derivative(&x, &y);
-            let tb = t.elapsed().as_secs_f64();
-            let t = std::time::Instant::now();
-            let z = Resistance::new(&am, "").unwrap();
-            let tz = t.elapsed().as_secs_f64();
-            let f: Vector3<f64> = z.solve_vectors(&y).iter().sum();
-            line += &format!(" c={c} Q={q}: A {ta:.4}s B {tb:.4}s chol {tz:.4}s thrust {:.7};", f.z);
+        let log = (l / r0).ln() + 2f64.ln();
+        let lambda = [log - 1.5, log - 0.5];
+        let cylinder = [2.0 * PI * l / lambda[0], 4.0 * PI * l / lambda[1]];
+        let continuum = [
+            l * l / rpy_uniform_integral(l, a, true),
+            l * l / rpy_uniform_integral(l, a, false),
+        ];
+        let mut drags = Vec::new();
+        for &n in &sizes {
+            let (drag, uniform, q) = rpy_rod_drag(l, r0, n);
+            println!(
+                "aspect {aspect}, N = {n}, Q = {q}: axial {:.6} (/cyl {:.5}, /uniform {:.5}, uniform/continuum {:.6}), \
+                 transverse {:.6} (/cyl {:.5}, /uniform {:.5}, uniform/continuum {:.6})",
+                drag[0],
+                drag[0] / cylinder[0],
+                drag[0] / uniform[0],
+                uniform[0] / continuum[0],
+                drag[1],
+                drag[1] / cylinder[1],
+                drag[1] / uniform[1],
+                uniform[1] / continuum[1],
+            );
+            for k in 0..2 {
+                assert!((uniform[k] / continuum[k] - 1.0).abs() < 1e-3);
+                let gain = drag[k] / uniform[k] - 1.0;
+                assert!(gain > 0.0 && gain < lambda[k].powi(-2));
+                assert!((drag[k] / cylinder[k] - 1.0).abs() < lambda[k].powi(-2));
+            }
+            drags.push(drag);
         }
-        println!("{line}");
+        for k in 0..2 {
+            let changes: Vec<f64> = drags.windows(2).map(|p| p[1][k] - p[0][k]).collect();
+            let orders: Vec<f64> = changes.windows(2).map(|c| (c[0] / c[1]).log2()).collect();
+            println!(
+                "aspect {aspect}, {}: continuum (b) {:.6}, (u) {:.6}; changes [{}], observed orders {orders:.2?}",
+                ["axial", "transverse"][k],
+                cylinder[k],
+                continuum[k],
+                changes
+                    .iter()
+                    .map(|c| format!("{c:.2e}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            assert!(changes.iter().all(|&c| c > 0.0));
+            if aspect == 100.0 {
+                assert!(orders[orders.len() - 2..].iter().all(|&p| p > 0.8));
+            } else {
+                let last = drags.last().unwrap()[k];
+                assert!(changes.iter().all(|&c| c < 5e-4 * last));
+            }
+        }
     }
+}
+
+/// Force on the fluid `sum_j F_j` of the rigid representative helix rotating at unit rate about
+/// its axis (`U_i = e_z x x_i`).
+fn rigid_helix_force(fluid: &Fluid, x: &[Vector3<f64>]) -> Vector3<f64> {
+    let u: Vec<Vector3<f64>> = x.iter().map(|p| Vector3::new(-p.y, p.x, 0.0)).collect();
+    fluid
+        .resistance(x, "rigid helix")
+        .unwrap()
+        .solve_vectors(&u)
+        .iter()
+        .sum()
+}
+
+/// Test 4: thrust of the rigid representative helix turning about its axis, RPY against
+/// Lighthill at N = 85 (the finest admissible Lighthill N on this helix is 87).
+///
+/// Measured thrust (`-sum F_z`, units `mu omega l^2`): Lighthill N = 85: 0.036550; RPY
+/// N = 85, 169, 337: 0.038196, 0.038016, 0.038008 (ratios 1.0450, 1.0401, 1.0399). RPY converges
+/// in N (asserted: N = 169 and 337 within 0.5% of N = 85) and lies 4% above Lighthill. That gap
+/// is the known bias of Lighthill's point quadrature (`tests/fluid.rs`: its drag coefficients act
+/// as if `ln(L/r0)` were lowered by `ln 2 - gamma = 0.116`, an `O(1/Lambda)` offset of 2-3% each,
+/// and thrust is the small difference of the normal and tangential coefficients, so the offset
+/// is amplified), plus Lighthill's own resolution error at N = 85. Asserted:
+/// `0 < thrust_rpy / thrust_lighthill - 1 < 0.06`. (The independent rigid-helix reference of the
+/// self-contained-repository issue is not in this repository yet.)
+#[test]
+fn rigid_helix_thrust_rpy_against_lighthill() {
+    let (x, r0) = helix(85);
+    let lighthill = Fluid::Lighthill(Lighthill::from_radius(1.0, r0, Quadrature::Reference));
+    let reference = -rigid_helix_force(&lighthill, &x).z;
+    let mut thrust = Vec::new();
+    for n in [85, 169, 337] {
+        let (xn, _) = helix(n);
+        let rpy = Fluid::Rpy(Rpy::for_polygon(1.0, rpy_blob_radius(r0), &xn));
+        let t = -rigid_helix_force(&rpy, &xn).z;
+        println!(
+            "thrust: Lighthill N = 85 {reference:.6}; RPY N = {n} {t:.6}, ratio {:.5}",
+            t / reference
+        );
+        thrust.push(t);
+    }
+    let excess = thrust[0] / reference - 1.0;
+    assert!(excess > 0.0 && excess < 0.06, "{excess}");
+    for t in &thrust[1..] {
+        assert!((t / thrust[0] - 1.0).abs() < 5e-3);
+    }
+}
+
+/// Test 5: the study file selects the model: `fluid.model = "rpy"` builds [`Fluid::Rpy`] with
+/// `a = e^(3/2) r0 / 4` (or `fluid.blob_radius`), has no admissible-N cap (N = 400 passes the
+/// resolution check that refuses N = 90 on Lighthill), and bad values are refused naming the
+/// field; the default stays Lighthill.
+#[test]
+fn study_file_selects_the_fluid_model() {
+    let set = |items: &[&str]| -> Vec<String> { items.iter().map(|s| s.to_string()).collect() };
+    let study = Study::load(
+        None,
+        &set(&["fluid.model=\"rpy\"", "discretization.nodes=400"]),
+    )
+    .unwrap();
+    let physical = study.physical();
+    assert_eq!(physical.fluid.model, FluidModel::Rpy);
+    assert_eq!(admissible_max_nodes(&physical), None);
+    let model = Model::new(&physical).unwrap();
+    model.check_resolution().unwrap();
+    let ell = physical.shape.reference_length();
+    match &model.fluid {
+        Fluid::Rpy(rpy) => {
+            assert!((rpy.blob_radius - rpy_blob_radius(physical.rod.r0) / ell).abs() < 1e-15);
+            assert!(model.fluid.is_mass_matrix() && model.fluid.resolution_cutoff().is_none());
+        }
+        other => panic!("expected RPY, got {other:?}"),
+    }
+    let custom = Study::load(
+        None,
+        &set(&["fluid.model=\"rpy\"", "fluid.blob_radius=2e-3"]),
+    )
+    .unwrap();
+    match Model::new(&custom.physical()).unwrap().fluid {
+        Fluid::Rpy(rpy) => assert!((rpy.blob_radius - 2e-3 / ell).abs() < 1e-15),
+        other => panic!("expected RPY, got {other:?}"),
+    }
+
+    let lighthill = Study::load(None, &set(&["discretization.nodes=90"])).unwrap();
+    assert!(matches!(
+        Model::new(&lighthill.physical()).unwrap().fluid,
+        Fluid::Lighthill(_)
+    ));
+    assert_eq!(admissible_max_nodes(&lighthill.physical()), Some(87));
+    assert!(
+        Model::new(&lighthill.physical())
+            .unwrap()
+            .check_resolution()
+            .is_err()
+    );
+
+    for (items, field) in [
+        (
+            vec!["fluid.model=\"rpy\"", "fluid.blob_radius=-1e-3"],
+            "fluid.blob_radius",
+        ),
+        (
+            vec!["fluid.model=\"rpy\"", "fluid.blob_radius=nan"],
+            "fluid.blob_radius",
+        ),
+        (vec!["fluid.blob_radius=1e-3"], "fluid.blob_radius"),
+        (
+            vec!["fluid.model=\"rpy\"", "fluid.quadrature=\"original\""],
+            "fluid.quadrature",
+        ),
+    ] {
+        match Study::load(None, &set(&items)) {
+            Err(Error::Input { field: f, .. }) => assert_eq!(f, field, "{items:?}"),
+            other => panic!("{items:?}: expected an input error, got {other:?}"),
+        }
+    }
+    assert!(Study::load(None, &set(&["fluid.model=\"stokes\""])).is_err());
 }

@@ -118,12 +118,7 @@ impl Fluid {
     /// The dimensionless fluid (`mu = 1`, lengths in units of `ell`) of a rod of radius `r0`
     /// (SI, as `ell`) whose natural node positions (dimensionless) are `natural`: the RPY
     /// quadrature is chosen from the natural edges ([`Rpy::for_polygon`]).
-    pub fn from_params(
-        params: &FluidParams,
-        r0: f64,
-        ell: f64,
-        natural: &[Vector3<f64>],
-    ) -> Self {
+    pub fn from_params(params: &FluidParams, r0: f64, ell: f64, natural: &[Vector3<f64>]) -> Self {
         match params.model {
             FluidModel::Lighthill => Fluid::Lighthill(Lighthill {
                 mu: 1.0,
