@@ -101,14 +101,15 @@ use super::mobility::add_block;
 use crate::{Error, Result};
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Quadrature points per blob radius: an edge of length `l` gets
 /// `Q = max(2, ceil(POINTS_PER_BLOB * l / a))` Gauss points (spacing at most `a / 8`). The
 /// product rule's error is second order in the spacing (the `|r|` cone of `M` on the diagonal):
 /// with 8, the uniform-density drag of a straight rod is within 1e-4 of its closed form and the
-/// rigid-helix thrust within about 0.03% of its limit in `Q` (measured at N = 60 and 240; with 2 and 4 points per blob:
-/// 0.2-0.4% and 0.07-0.1%).
+/// rigid-helix thrust within about 0.03% of its limit in `Q` (measured at N = 60 and 240; with
+/// 2 and 4 points per blob: 0.2-0.4% and 0.07-0.1%).
 pub const POINTS_PER_BLOB: f64 = 8.0;
 
 /// The blob radius `a = e^(3/2) r0 / 4` that reproduces the slender-body local drag of a
@@ -193,6 +194,33 @@ struct Discretisation {
     pos: Vec<Vector3<f64>>,
     /// `[c_p (1 - xi_q), c_p xi_q]`: the weights of the point's two nodes, before `1/w`.
     pw: Vec<[f64; 2]>,
+}
+
+/// What the points of one edge `k` contribute in [`Rpy::mobility_derivative`]: for the rows
+/// `i = k, k + 1`, the blocks `B_ij` (all `j`), `partial` (all edges, both ends) and the
+/// edge-length coefficient `C_ik`.
+struct EdgeRows {
+    b: [Vec<Matrix3<f64>>; 2],
+    partial: [Vec<Vector3<f64>>; 2],
+    coef: [Vector3<f64>; 2],
+}
+
+/// Runs `task(k)` for `k = 0 .. count` on the rayon pool, a few tasks per thread at a time, and
+/// hands the results to `merge` in the order of `k`: the sums are the same whatever the number
+/// of threads, and only one batch of results is held at once.
+fn in_parallel_batches<T: Send>(
+    count: usize,
+    task: impl Fn(usize) -> T + Sync,
+    mut merge: impl FnMut(usize, T),
+) {
+    let batch = 4 * rayon::current_num_threads();
+    for start in (0..count).step_by(batch) {
+        let end = (start + batch).min(count);
+        let results: Vec<T> = (start..end).into_par_iter().map(&task).collect();
+        for (k, result) in (start..end).zip(results) {
+            merge(k, result);
+        }
+    }
 }
 
 impl Rpy {
@@ -306,20 +334,13 @@ impl Rpy {
         }
     }
 
-    /// The mobility matrix `A(X) = P^T M_pts P` (`3N x 3N`, node-major, symmetric positive
-    /// definite; see the [module documentation](self)).
-    ///
-    /// # Panics
-    /// If `x` has fewer than two nodes.
-    pub fn mobility(&self, x: &[Vector3<f64>]) -> Mat<f64> {
-        let n = x.len();
-        let d = self.discretise(x);
+    /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
+    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
+    fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
         let q = self.points_per_edge();
-        let edges = n - 1;
-        let mut a = Mat::zeros(3 * n, 3 * n);
-        for k in 0..edges {
-            for k2 in k..edges {
-                // s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2) pw_b(p2).
+        let edges = d.len.len();
+        (k..edges)
+            .map(|k2| {
                 let mut s = [[Matrix3::zeros(); 2]; 2];
                 for p in k * q..(k + 1) * q {
                     let mut row = [Matrix3::zeros(); 2];
@@ -334,18 +355,39 @@ impl Rpy {
                         }
                     }
                 }
-                for (ia, sa) in s.iter().enumerate() {
-                    for (jb, sab) in sa.iter().enumerate() {
-                        let (i, j) = (k + ia, k2 + jb);
-                        let block = sab / (d.w[i] * d.w[j]);
-                        add_block(&mut a, i, j, &block);
-                        if k2 != k {
-                            add_block(&mut a, j, i, &block.transpose());
+                s
+            })
+            .collect()
+    }
+
+    /// The mobility matrix `A(X) = P^T M_pts P` (`3N x 3N`, node-major, symmetric positive
+    /// definite; see the [module documentation](self)).
+    ///
+    /// # Panics
+    /// If `x` has fewer than two nodes.
+    pub fn mobility(&self, x: &[Vector3<f64>]) -> Mat<f64> {
+        let n = x.len();
+        let d = self.discretise(x);
+        let edges = n - 1;
+        let mut a = Mat::zeros(3 * n, 3 * n);
+        in_parallel_batches(
+            edges,
+            |k| self.edge_pairs(&d, k),
+            |k, pairs| {
+                for (k2, s) in (k..edges).zip(pairs) {
+                    for (ia, sa) in s.iter().enumerate() {
+                        for (jb, sab) in sa.iter().enumerate() {
+                            let (i, j) = (k + ia, k2 + jb);
+                            let block = sab / (d.w[i] * d.w[j]);
+                            add_block(&mut a, i, j, &block);
+                            if k2 != k {
+                                add_block(&mut a, j, i, &block.transpose());
+                            }
                         }
                     }
                 }
-            }
-        }
+            },
+        );
         for c in 0..3 * n {
             for r in c + 1..3 * n {
                 let mean = 0.5 * (a[(r, c)] + a[(c, r)]);
@@ -354,6 +396,84 @@ impl Rpy {
             }
         }
         a
+    }
+
+    /// The contributions of the points on edge `k` to the rows `k, k + 1` of `B`, of `partial`
+    /// and of the edge-length coefficients of edge `k` (see [`Rpy::mobility_derivative`]).
+    fn edge_rows(&self, d: &Discretisation, forces: &[[Vector3<f64>; 2]], k: usize) -> EdgeRows {
+        let q = self.points_per_edge();
+        let edges = d.len.len();
+        let n = edges + 1;
+        let mut out = EdgeRows {
+            b: [vec![Matrix3::zeros(); n], vec![Matrix3::zeros(); n]],
+            partial: [
+                vec![Vector3::zeros(); 2 * edges],
+                vec![Vector3::zeros(); 2 * edges],
+            ],
+            coef: [Vector3::zeros(); 2],
+        };
+        let m0 = self.self_mobility();
+        for (y, (pw_p, &xi)) in d.pos[k * q..(k + 1) * q]
+            .iter()
+            .zip(d.pw[k * q..(k + 1) * q].iter().zip(&self.rule.xi))
+        {
+            let p_node = [pw_p[0] / d.w[k], pw_p[1] / d.w[k + 1]];
+            let mut velocity = Vector3::zeros();
+            let mut own = Matrix3::zeros();
+            for k2 in 0..edges {
+                let mut s = [Vector3::zeros(); 2];
+                // sum_{p2 on k2} D and sum_{p2 on k2} xi2 D.
+                let mut d_sum = Matrix3::zeros();
+                let mut d_xi = Matrix3::zeros();
+                let edge = k2 * q..(k2 + 1) * q;
+                for ((y2, &[g0, g1]), xi2) in d.pos[edge.clone()]
+                    .iter()
+                    .zip(&forces[edge])
+                    .zip(&self.rule.xi)
+                {
+                    let r = y - y2;
+                    let rn = r.norm();
+                    if rn == 0.0 {
+                        s[0] += g0 * m0;
+                        s[1] += g1 * m0;
+                        continue;
+                    }
+                    let rhat = r / rn;
+                    let c = self.radial(rn);
+                    let (rg0, rg1) = (rhat.dot(&g0), rhat.dot(&g1));
+                    s[0] += g0 * c.alpha + rhat * (c.beta * rg0);
+                    s[1] += g1 * c.alpha + rhat * (c.beta * rg1);
+                    // D = u rhat^T + rhat v^T + (beta/r)(rhat.G) I.
+                    let g = g0 + g1;
+                    let rg = rg0 + rg1;
+                    let u = g * c.dalpha;
+                    let v = g * c.beta_over_r + rhat * ((c.dbeta - 2.0 * c.beta_over_r) * rg);
+                    let dm = u * rhat.transpose()
+                        + rhat * v.transpose()
+                        + Matrix3::from_diagonal_element(c.beta_over_r * rg);
+                    d_sum += dm;
+                    d_xi += dm * *xi2;
+                }
+                velocity += s[0] + s[1];
+                own += d_sum;
+                let sd = [d_sum - d_xi, d_xi];
+                for (ia, &pi) in p_node.iter().enumerate() {
+                    out.partial[ia][2 * k2] += s[0] * pi;
+                    out.partial[ia][2 * k2 + 1] += s[1] * pi;
+                    for (jb, sdb) in sd.iter().enumerate() {
+                        out.b[ia][k2 + jb] -= sdb * pi;
+                    }
+                }
+            }
+            let phi = [1.0 - xi, xi];
+            for (ia, &pi) in p_node.iter().enumerate() {
+                for (jb, phib) in phi.iter().enumerate() {
+                    out.b[ia][k + jb] += own * (pi * phib);
+                }
+                out.coef[ia] += velocity * (pi / d.len[k]);
+            }
+        }
+        out
     }
 
     /// `B = ∂(A(X) y)/∂X` at fixed `y`: `B[(3i+a, 3j+b)] = ∂(A(X) y)_{3i+a} / ∂x_{j,b}`
@@ -387,69 +507,25 @@ impl Rpy {
         let mut partial = vec![Vector3::zeros(); 2 * n * edges];
         // Coefficients of the edge-length derivatives: B_{i,k+1} += C_ik ê_k^T, B_ik -= C_ik ê_k^T.
         let mut coef = vec![Vector3::zeros(); n * edges];
-        let m0 = self.self_mobility();
-        for (p, pw_p) in d.pw.iter().enumerate() {
-            let k = p / q;
-            let xi = self.rule.xi[p % q];
-            let p_node = [pw_p[0] / d.w[k], pw_p[1] / d.w[k + 1]];
-            let mut velocity = Vector3::zeros();
-            let mut own = Matrix3::zeros();
-            for k2 in 0..edges {
-                let mut s = [Vector3::zeros(); 2];
-                // sum_{p2 on k2} D and sum_{p2 on k2} xi2 D.
-                let mut d_sum = Matrix3::zeros();
-                let mut d_xi = Matrix3::zeros();
-                let edge = k2 * q..(k2 + 1) * q;
-                for ((y2, &[g0, g1]), xi2) in d.pos[edge.clone()]
-                    .iter()
-                    .zip(&forces[edge])
-                    .zip(&self.rule.xi)
-                {
-                    let r = d.pos[p] - y2;
-                    let rn = r.norm();
-                    if rn == 0.0 {
-                        s[0] += g0 * m0;
-                        s[1] += g1 * m0;
-                        continue;
-                    }
-                    let rhat = r / rn;
-                    let c = self.radial(rn);
-                    let (rg0, rg1) = (rhat.dot(&g0), rhat.dot(&g1));
-                    s[0] += g0 * c.alpha + rhat * (c.beta * rg0);
-                    s[1] += g1 * c.alpha + rhat * (c.beta * rg1);
-                    // D = u rhat^T + rhat v^T + (beta/r)(rhat.G) I.
-                    let g = g0 + g1;
-                    let rg = rg0 + rg1;
-                    let u = g * c.dalpha;
-                    let v = g * c.beta_over_r + rhat * ((c.dbeta - 2.0 * c.beta_over_r) * rg);
-                    let dm = u * rhat.transpose()
-                        + rhat * v.transpose()
-                        + Matrix3::from_diagonal_element(c.beta_over_r * rg);
-                    d_sum += dm;
-                    d_xi += dm * *xi2;
-                }
-                velocity += s[0] + s[1];
-                own += d_sum;
-                let sd = [d_sum - d_xi, d_xi];
-                for (ia, &pi) in p_node.iter().enumerate() {
+        in_parallel_batches(
+            edges,
+            |k| self.edge_rows(&d, &forces, k),
+            |k, rows| {
+                for ia in 0..2 {
                     let i = k + ia;
-                    let base = 2 * (i * edges + k2);
-                    partial[base] += s[0] * pi;
-                    partial[base + 1] += s[1] * pi;
-                    for (jb, sdb) in sd.iter().enumerate() {
-                        add_block(&mut b, i, k2 + jb, &(sdb * -pi));
+                    for (j, block) in rows.b[ia].iter().enumerate() {
+                        add_block(&mut b, i, j, block);
                     }
+                    for (t, v) in partial[2 * i * edges..2 * (i + 1) * edges]
+                        .iter_mut()
+                        .zip(&rows.partial[ia])
+                    {
+                        *t += v;
+                    }
+                    coef[i * edges + k] += rows.coef[ia];
                 }
-            }
-            let phi = [1.0 - xi, xi];
-            for (ia, &pi) in p_node.iter().enumerate() {
-                let i = k + ia;
-                for (jb, phib) in phi.iter().enumerate() {
-                    add_block(&mut b, i, k + jb, &(own * (pi * phib)));
-                }
-                coef[i * edges + k] += velocity * (pi / d.len[k]);
-            }
-        }
+            },
+        );
         let mut a_y = vec![Vector3::zeros(); n];
         for i in 0..n {
             let row = &partial[2 * i * edges..2 * (i + 1) * edges];
