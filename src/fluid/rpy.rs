@@ -63,8 +63,10 @@
 //! and overlapping blobs included — the points are distinct, `M_pts` is positive definite and so is
 //! `A`. If points do coincide, `M_pts` is only semi-definite and `F^T A F = 0` exactly when the
 //! forces summed over each set of coincident points and the forces at the other points all
-//! vanish, which a crossing at one point cannot produce (its two edges carry other, distinct points)
-//! but two identical edges can. `A` is made exactly symmetric by averaging with its transpose.
+//! vanish. Two edges crossing at one common Gauss point keep `A` definite when `Q >= 3` (each
+//! edge keeps two distinct points of its own, whose forces must vanish, so its node forces do);
+//! two identical edges (a rod folded exactly onto itself) make `A` singular, as they should.
+//! `A` is made exactly symmetric by averaging with its transpose.
 //!
 //! **Choice of `Q`.** The product rule is accurate while the point spacing `l/Q` resolves `a`;
 //! `Q = max(2, ceil(POINTS_PER_BLOB * l / a))` ([`POINTS_PER_BLOB`]) keeps the spacing below
@@ -126,8 +128,9 @@ struct GaussRule {
 }
 
 impl GaussRule {
-    /// The `q`-point rule (exact for polynomials of degree `2q - 1`), nodes by Newton iteration
-    /// on the Legendre polynomial `P_q` from Tricomi's initial guesses.
+    /// The `q`-point rule (exact for polynomials of degree `2q - 1`): the roots `t` of the
+    /// Legendre polynomial `P_q` by Newton iteration from `cos(pi (i + 3/4) / (q + 1/2))`,
+    /// `xi = (1 -+ t)/2`, `g = 1 / ((1 - t^2) P_q'(t)^2)`.
     fn new(q: usize) -> Self {
         let mut xi = vec![0.0; q];
         let mut weight = vec![0.0; q];
