@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::fluid::{Fluid, lighthill_cutoff};
+use crate::fluid::Fluid;
 use crate::params::{Physical, Scales};
 use crate::rod::frame::Chart;
 use crate::rod::{Rod, Stiffness};
@@ -112,10 +112,7 @@ fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
 /// operator turns indefinite once the spacing falls to about 3.9 delta). `None` when the fluid
 /// model is positive definite at every resolution (RPY): no cap beyond the validated 5000.
 pub fn admissible_max_nodes(physical: &Physical) -> Option<usize> {
-    if !physical.fluid.model.limits_resolution() {
-        return None;
-    }
-    let delta = lighthill_cutoff(physical.rod.r0);
+    let delta = physical.fluid.model.resolution_cutoff(physical.rod.r0)?;
     let contour = physical.shape.contour_length();
     let estimate = ((contour / (4.0 * delta)).floor() as usize + 1).max(5);
     let ok = |n: usize| natural_mobility_is_definite(physical, n);

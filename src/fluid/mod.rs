@@ -100,10 +100,15 @@ pub enum FluidModel {
 }
 
 impl FluidModel {
-    /// Whether the model's discretisation loses positive definiteness at fine resolution, so
-    /// that studies have an admissible node range (Lighthill; RPY is definite at every `N`).
-    pub fn limits_resolution(self) -> bool {
-        self == FluidModel::Lighthill
+    /// For a rod of radius `r0`, the length below which the node spacing makes the model's `A`
+    /// indefinite, so that studies have an admissible node range: Lighthill's cut-off `delta`
+    /// (definite while the spacing exceeds about `4 delta`); `None` for RPY, definite at every
+    /// resolution.
+    pub fn resolution_cutoff(self, r0: f64) -> Option<f64> {
+        match self {
+            FluidModel::Lighthill => Some(lighthill_cutoff(r0)),
+            FluidModel::Rpy => None,
+        }
     }
 }
 
@@ -168,9 +173,7 @@ impl Fluid {
         )
     }
 
-    /// The length below which the node spacing makes `A` indefinite, if the model has one:
-    /// Lighthill's cut-off `delta` (the discretisation is definite while the spacing exceeds
-    /// about `4 delta`); `None` for RPY, definite at every resolution.
+    /// The dimensionless [`FluidModel::resolution_cutoff`] of this fluid.
     pub fn resolution_cutoff(&self) -> Option<f64> {
         match self {
             Fluid::Lighthill(f) => Some(f.delta),
