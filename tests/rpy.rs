@@ -11,6 +11,7 @@ use helixbif::model::{Model, admissible_max_nodes};
 use helixbif::params::Physical;
 use helixbif::shape::natural_nodes;
 use helixbif::study::Study;
+use helixbif::study::runs::default_ladder;
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
@@ -417,8 +418,9 @@ fn rigid_helix_thrust_rpy_against_lighthill() {
 
 /// Test 5: the study file selects the model: `fluid.model = "rpy"` builds [`Fluid::Rpy`] with
 /// `a = e^(3/2) r0 / 4` (or `fluid.blob_radius`), has no admissible-N cap (N = 400 passes the
-/// resolution check that refuses N = 90 on Lighthill), and bad values are refused naming the
-/// field; the default stays Lighthill.
+/// resolution check that refuses N = 90 on Lighthill; `discretization.per_turn` is not capped;
+/// the default `locate --extrapolate` ladder is `N, 2N - 1, 4N - 3`), and bad values are refused
+/// naming the field; the default stays Lighthill.
 #[test]
 fn study_file_selects_the_fluid_model() {
     let set = |items: &[&str]| -> Vec<String> { items.iter().map(|s| s.to_string()).collect() };
@@ -449,6 +451,23 @@ fn study_file_selects_the_fluid_model() {
         Fluid::Rpy(rpy) => assert!((rpy.blob_radius - 2e-3 / ell).abs() < 1e-15),
         other => panic!("expected RPY, got {other:?}"),
     }
+
+    // No cap on the nodes per turn (Lighthill caps 30 per turn at 87 - 2), and the default
+    // ladder halves the spacing twice from the study's N.
+    let per_turn = |model: &str| {
+        Study::load(
+            None,
+            &set(&[
+                &format!("fluid.model=\"{model}\""),
+                "discretization.per_turn=30",
+            ]),
+        )
+        .unwrap()
+        .discretization
+        .nodes
+    };
+    assert_eq!((per_turn("rpy"), per_turn("lighthill")), (121, 85));
+    assert_eq!(default_ladder(&study), vec![400, 799, 1597]);
 
     let lighthill = Study::load(None, &set(&["discretization.nodes=90"])).unwrap();
     assert!(matches!(
