@@ -208,7 +208,7 @@ struct EdgeRows {
     coef: [Vector3<f64>; 2],
 }
 
-/// Runs `task(k)` for `k = 0 .. count` on the rayon pool, a few tasks per thread at a time, and
+/// Runs `task(k)` for `k = 0 .. count` on the rayon pool, 32 tasks per thread at a time, and
 /// hands the results to `merge` in the order of `k`: the sums are the same whatever the number
 /// of threads, and only one batch of results is held at once.
 fn in_parallel_batches<T: Send>(
@@ -216,7 +216,7 @@ fn in_parallel_batches<T: Send>(
     task: impl Fn(usize) -> T + Sync,
     mut merge: impl FnMut(usize, T),
 ) {
-    let batch = 4 * rayon::current_num_threads();
+    let batch = 32 * rayon::current_num_threads();
     for start in (0..count).step_by(batch) {
         let end = (start + batch).min(count);
         let results: Vec<T> = (start..end).into_par_iter().map(&task).collect();
@@ -269,6 +269,7 @@ impl Rpy {
         1.0 / (6.0 * PI * self.mu * self.blob_radius)
     }
 
+    #[inline(always)]
     fn radial(&self, r: f64) -> Radial {
         let a = self.blob_radius;
         if r >= 2.0 * a {
@@ -296,6 +297,7 @@ impl Rpy {
     }
 
     /// The `3 x 3` kernel `M(r)`.
+    #[inline(always)]
     fn kernel(&self, r: &Vector3<f64>) -> Matrix3<f64> {
         let rn = r.norm();
         if rn == 0.0 {
