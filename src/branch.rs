@@ -112,7 +112,7 @@ pub fn trace(
     observer: &mut impl Observer,
 ) -> Result<Branch> {
     model.check_resolution()?;
-    if model.fluid.quadrature == crate::fluid::Quadrature::Original {
+    if !model.fluid.is_mass_matrix() {
         return Err(crate::Error::input(
             "fluid.quadrature",
             "the original quadrature's mobility is indefinite (A_ii t_i = 0), so Z_ff is no mass \

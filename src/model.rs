@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 
-use crate::fluid::{Lighthill, lighthill_cutoff};
+use crate::fluid::Fluid;
 use crate::params::{Physical, Scales};
 use crate::rod::frame::Chart;
 use crate::rod::{Rod, Stiffness};
@@ -23,7 +23,7 @@ pub struct Model {
     pub chart: Chart,
     /// Net weight per unit length `q ell^3 / EI`.
     pub weight: f64,
-    pub fluid: Lighthill,
+    pub fluid: Fluid,
 }
 
 impl Model {
@@ -47,15 +47,11 @@ impl Model {
         Ok(Model {
             physical: physical.clone(),
             scales,
-            natural,
             rod,
             chart,
             weight: physical.weight_per_length() * ell.powi(3) / ei,
-            fluid: Lighthill {
-                mu: 1.0,
-                delta: lighthill_cutoff(physical.rod.r0) / ell,
-                quadrature: physical.fluid.quadrature,
-            },
+            fluid: Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &natural),
+            natural,
         })
     }
 
@@ -77,14 +73,18 @@ impl Model {
     /// Checks that the node count lies in the admissible range (docs/model.md section 3) and
     /// that the mobility matrix of the natural shape is positive definite there; if not, the
     /// error (an input error: the node count is out of range) gives the range and the reason.
-    /// A count above the range is refused without factorizing at that size.
+    /// A count above the range is refused without factorizing at that size. Nothing to check
+    /// for a fluid model that is positive definite at every resolution (RPY).
     pub fn check_resolution(&self) -> Result<()> {
-        let max = admissible_max_nodes(&self.physical);
+        let Some(delta) = self.fluid.resolution_cutoff() else {
+            return Ok(());
+        };
+        let max = admissible_max_nodes(&self.physical).unwrap_or(usize::MAX);
         let n = self.nodes();
         if n <= max && natural_mobility_is_definite(&self.physical, n) {
             return Ok(());
         }
-        let spacing = self.rod.rest_lengths[0] / self.fluid.delta;
+        let spacing = self.rod.rest_lengths[0] / delta;
         let range = if max >= 5 {
             format!("the admissible range 5..={max}")
         } else {
@@ -108,24 +108,22 @@ fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
         .into_iter()
         .map(|p| p / ell)
         .collect();
-    let fluid = Lighthill {
-        mu: 1.0,
-        delta: lighthill_cutoff(physical.rod.r0) / ell,
-        quadrature: physical.fluid.quadrature,
-    };
-    fluid.resistance(&x, "").is_ok()
+    Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &x)
+        .resistance(&x, "")
+        .is_ok()
 }
 
 /// The largest node count for which the natural shape's mobility matrix is positive definite
-/// (4 when not even 5 nodes are). The discrete operator turns indefinite once the spacing falls
-/// to about 3.9 delta (docs/model.md section 3), so the search starts from the estimate
+/// (4 when not even 5 nodes are); `None` when the fluid model is positive definite at every
+/// resolution (RPY). The discrete Lighthill operator turns indefinite once the spacing falls to
+/// about 3.9 delta (docs/model.md section 3), so the search starts from the estimate
 /// `ds = 4 delta`, brackets the limit by steps that double, and bisects: a handful of
 /// factorizations of the size of the limit, whatever node count is asked for. A model whose
 /// matrix never fails (the original quadrature, factorized by LU) is capped at four times the
 /// estimate. The natural mobility is positive definite for every `N` below the limit on the
 /// shapes tested (`tests/fluid.rs`); [`Model::check_resolution`] still checks the `N` in use.
-pub fn admissible_max_nodes(physical: &Physical) -> usize {
-    let delta = lighthill_cutoff(physical.rod.r0);
+pub fn admissible_max_nodes(physical: &Physical) -> Option<usize> {
+    let delta = physical.fluid.model.resolution_cutoff(physical.rod.r0)?;
     let contour = physical.shape.contour_length();
     let estimate = ((contour / (4.0 * delta)).floor() as usize + 1).max(5);
     let cap = (4 * estimate).max(64);
@@ -140,7 +138,7 @@ pub fn admissible_max_nodes(physical: &Physical) -> usize {
                 break (good, next);
             }
             if next == cap {
-                return cap;
+                return Some(cap);
             }
             good = next;
             step *= 2;
@@ -153,7 +151,7 @@ pub fn admissible_max_nodes(physical: &Physical) -> usize {
                 break (next, bad);
             }
             if next == 5 {
-                return 4;
+                return Some(4);
             }
             bad = next;
             step *= 2;
@@ -167,5 +165,5 @@ pub fn admissible_max_nodes(physical: &Physical) -> usize {
             bad = mid;
         }
     }
-    good
+    Some(good)
 }

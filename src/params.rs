@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::fluid::Quadrature;
+use crate::fluid::{FluidModel, Quadrature};
 use crate::{Error, Result};
 
 /// The elastic rod: material and cross-section.
@@ -45,6 +45,16 @@ pub struct FluidParams {
     /// Discretization of Lighthill's integral (`reference` or `original`, see README).
     #[serde(default)]
     pub quadrature: Quadrature,
+    /// Hydrodynamic model: `lighthill` (default) or `rpy` (docs/model.md section 9).
+    #[serde(default, skip_serializing_if = "is_lighthill")]
+    pub model: FluidModel,
+    /// RPY blob radius `a` (m); default `e^(3/2) r0 / 4`. Only with `model = "rpy"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blob_radius: Option<f64>,
+}
+
+fn is_lighthill(model: &FluidModel) -> bool {
+    *model == FluidModel::Lighthill
 }
 
 fn default_gravity() -> f64 {
@@ -157,7 +167,7 @@ pub struct Discretization {
     /// Number of nodes `N` (at least 5).
     pub nodes: usize,
     /// For a helix: nodes per turn instead of a fixed count, `N = round(per_turn * turns) + 1`,
-    /// capped two below the admissible maximum (the resolution then follows the geometry in a
+    /// capped two below the admissible maximum if the fluid model has one (the resolution then follows the geometry in a
     /// sweep). Resolved into `nodes` when the study is loaded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_turn: Option<f64>,
@@ -213,6 +223,8 @@ impl Physical {
                 rho: 1240.0,
                 g: 9.81,
                 quadrature: Quadrature::Reference,
+                model: FluidModel::Lighthill,
+                blob_radius: None,
             },
             shape: ShapeParams::Helix {
                 l: 0.20,
@@ -334,6 +346,42 @@ impl Physical {
                     self.discretization.nodes
                 ),
             ));
+        }
+        self.validate_fluid_model()
+    }
+
+    fn validate_fluid_model(&self) -> Result<()> {
+        let fluid = &self.fluid;
+        match fluid.model {
+            FluidModel::Lighthill => {
+                if let Some(a) = fluid.blob_radius {
+                    return Err(Error::input(
+                        "fluid.blob_radius",
+                        format!(
+                            "applies to fluid.model = \"rpy\" only, got {a} with \"lighthill\""
+                        ),
+                    ));
+                }
+            }
+            FluidModel::Rpy => {
+                if let Some(a) = fluid.blob_radius {
+                    let max = 0.5 * self.shape.contour_length();
+                    if !(a.is_finite() && a > 0.0 && a < max) {
+                        return Err(Error::input(
+                            "fluid.blob_radius",
+                            format!(
+                                "must be a finite length in (0, {max}) m (half the contour length), got {a}"
+                            ),
+                        ));
+                    }
+                }
+                if fluid.quadrature != Quadrature::Reference {
+                    return Err(Error::input(
+                        "fluid.quadrature",
+                        "selects a Lighthill quadrature; with fluid.model = \"rpy\" it must stay \"reference\"",
+                    ));
+                }
+            }
         }
         Ok(())
     }

@@ -169,10 +169,14 @@ impl Section for Ladder {
         for ((n, w), k) in self.nodes.iter().zip(&self.omega_b).zip(&self.kinds) {
             writeln!(f, "  N = {n:3}: omega_b = {w:.8} rad/s ({k})")?;
         }
+        let range = match self.nodes_max {
+            Some(max) => format!("admissible N <= {max}"),
+            None => "no admissible-N limit".to_owned(),
+        };
         write!(
             f,
-            "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; admissible N <= {})",
-            self.omega_b_extrapolated, self.omega_b_error, self.order, self.nodes_max
+            "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; {range})",
+            self.omega_b_extrapolated, self.omega_b_error, self.order
         )
     }
 }

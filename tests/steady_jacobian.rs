@@ -9,14 +9,16 @@ mod common;
 
 use common::{Rng, relative_max_error};
 use helixbif::continuation::newton::System;
+use helixbif::fluid::FluidModel;
 use helixbif::model::Model;
 use helixbif::params::Physical;
 use helixbif::steady::Steady;
 
 /// Relative errors of the whole Jacobian, of its viscous part, and of its twist-twist block (each
 /// relative to its own largest entry) at a random state.
-fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64, f64) {
+fn check(fluid: FluidModel, nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64, f64) {
     let mut physical = Physical::representative();
+    physical.fluid.model = fluid;
     physical.discretization.nodes = nodes;
     let model = Model::new(&physical).unwrap();
     let problem = Steady::new(&model, omegabar);
@@ -68,12 +70,13 @@ fn check(nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64, f64) {
     )
 }
 
-#[test]
-fn jacobian_matches_finite_differences_with_rotation() {
-    for (nodes, omegabar, amp, seed) in
-        [(20, 125.0, 0.1, 1), (30, 300.0, 0.3, 2), (24, 0.0, 0.2, 3)]
-    {
-        let (err, visc, twist) = check(nodes, omegabar, amp, seed);
+fn assert_jacobian(fluid: FluidModel, cases: &[(usize, f64, f64, u64)]) {
+    for &(nodes, omegabar, amp, seed) in cases {
+        let (err, visc, twist) = check(fluid, nodes, omegabar, amp, seed);
+        println!(
+            "{fluid:?}, N = {nodes}, omegabar = {omegabar}: relative errors {err:.1e} (all), \
+             {visc:.1e} (viscous), {twist:.1e} (twist)"
+        );
         assert!(
             twist < 1e-6,
             "N = {nodes}, omegabar = {omegabar}: twist block relative error {twist:e}"
@@ -87,6 +90,20 @@ fn jacobian_matches_finite_differences_with_rotation() {
             "N = {nodes}, omegabar = {omegabar}: viscous block relative error {visc:e}"
         );
     }
+}
+
+#[test]
+fn jacobian_matches_finite_differences_with_rotation() {
+    assert_jacobian(
+        FluidModel::Lighthill,
+        &[(20, 125.0, 0.1, 1), (30, 300.0, 0.3, 2), (24, 0.0, 0.2, 3)],
+    );
+}
+
+/// The same check on the RPY fluid (its `B` enters `Z (Omega - B)`).
+#[test]
+fn jacobian_matches_finite_differences_on_rpy() {
+    assert_jacobian(FluidModel::Rpy, &[(16, 300.0, 0.3, 4)]);
 }
 
 /// `G_p = dG/dp` of the rod problem (the parameter column of the bordered system) against

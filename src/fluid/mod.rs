@@ -1,6 +1,15 @@
-//! Lighthill (1976) slender-body theory on a polygonal centreline.
+//! Hydrodynamics of a polygonal centreline: the mobility `A(X)` (nodal forces on the fluid to
+//! nodal velocities), its shape derivative `B = ∂(A(X) y)/∂X` and the resistance `Z = A^{-1}`,
+//! behind one interface, [`Fluid`], with two models ([`FluidModel`]):
 //!
-//! # Continuous theory
+//! * [`Lighthill`] (the reference, documented below): Lighthill's slender-body theory with a
+//!   point quadrature, positive definite only while the node spacing exceeds about `4 delta`;
+//! * [`Rpy`] (module [`rpy`]): the Rotne–Prager–Yamakawa regularised line in a symmetric
+//!   Galerkin form, positive definite at every resolution.
+//!
+//! # Lighthill (1976) slender-body theory
+//!
+//! ## Continuous theory
 //!
 //! A slender filament of radius `r0` and centreline `x(s)` pushes on a viscous fluid (viscosity
 //! `mu`) with force per unit length `f(s)`. Lighthill's slender-body theory gives the centreline
@@ -13,7 +22,7 @@
 //! with the Oseen tensor (Stokeslet) `J(r) = (I/|r| + r r^T/|r|^3) / (8 pi mu)` and the
 //! cut-off `delta = r0 sqrt(e) / 2` ([`lighthill_cutoff`]).
 //!
-//! # Discretisation
+//! ## Discretisation
 //!
 //! Nodes `x_0 .. x_{N-1}`, edges `e^i = x_{i+1} - x_i`, unit edge tangents `ê^i = e^i/|e^i|`.
 //! The force `F_j` (exerted by the rod on the fluid) is lumped at node `j`, i.e.
@@ -69,10 +78,109 @@ mod derivative;
 mod geometry;
 mod mobility;
 mod resistance;
+pub mod rpy;
 
 pub use resistance::Resistance;
+pub use rpy::{Rpy, rpy_blob_radius};
 
+use crate::Result;
+use crate::params::FluidParams;
+use faer::Mat;
 use nalgebra::Vector3;
+
+/// Which hydrodynamic model a study uses (`fluid.model`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FluidModel {
+    /// Lighthill's slender-body theory ([`Lighthill`]), the reference.
+    #[default]
+    Lighthill,
+    /// The RPY-regularised centreline ([`Rpy`]).
+    Rpy,
+}
+
+impl FluidModel {
+    /// For a rod of radius `r0`, the length below which the node spacing makes the model's `A`
+    /// indefinite, so that studies have an admissible node range: Lighthill's cut-off `delta`
+    /// (definite while the spacing exceeds about `4 delta`); `None` for RPY, definite at every
+    /// resolution.
+    pub fn resolution_cutoff(self, r0: f64) -> Option<f64> {
+        match self {
+            FluidModel::Lighthill => Some(lighthill_cutoff(r0)),
+            FluidModel::Rpy => None,
+        }
+    }
+}
+
+/// The hydrodynamic model of a study: the one interface the solver uses.
+#[derive(Clone, Debug)]
+pub enum Fluid {
+    Lighthill(Lighthill),
+    Rpy(Rpy),
+}
+
+impl Fluid {
+    /// The dimensionless fluid (`mu = 1`, lengths in units of `ell`) of a rod of radius `r0`
+    /// (SI, as `ell`) whose natural node positions (dimensionless) are `natural`: the RPY
+    /// quadrature is chosen from the natural edges ([`Rpy::for_polygon`]).
+    pub fn from_params(params: &FluidParams, r0: f64, ell: f64, natural: &[Vector3<f64>]) -> Self {
+        match params.model {
+            FluidModel::Lighthill => Fluid::Lighthill(Lighthill {
+                mu: 1.0,
+                delta: lighthill_cutoff(r0) / ell,
+                quadrature: params.quadrature,
+            }),
+            FluidModel::Rpy => {
+                let a = params.blob_radius.unwrap_or_else(|| rpy_blob_radius(r0));
+                Fluid::Rpy(Rpy::for_polygon(1.0, a / ell, natural))
+            }
+        }
+    }
+
+    /// The mobility matrix `A(x)` (`3N x 3N`, node-major, symmetric).
+    pub fn mobility(&self, x: &[Vector3<f64>]) -> Mat<f64> {
+        match self {
+            Fluid::Lighthill(f) => f.mobility(x),
+            Fluid::Rpy(f) => f.mobility(x),
+        }
+    }
+
+    /// The shape derivative `B = ∂(A(X) y)/∂X` at fixed `y`.
+    pub fn mobility_derivative(&self, x: &[Vector3<f64>], y: &[Vector3<f64>]) -> Mat<f64> {
+        match self {
+            Fluid::Lighthill(f) => f.mobility_derivative(x, y),
+            Fluid::Rpy(f) => f.mobility_derivative(x, y),
+        }
+    }
+
+    /// The resistance `Z = A(x)^{-1}`; errors name `context`.
+    pub fn resistance(&self, x: &[Vector3<f64>], context: &str) -> Result<Resistance> {
+        match self {
+            Fluid::Lighthill(f) => f.resistance(x, context),
+            Fluid::Rpy(f) => f.resistance(x, context),
+        }
+    }
+
+    /// Whether `A` is positive definite, so that `Z_ff` can serve as the mass matrix of the
+    /// stability problem (false for Lighthill's original quadrature, where `A_ii t_i = 0`).
+    pub fn is_mass_matrix(&self) -> bool {
+        !matches!(
+            self,
+            Fluid::Lighthill(Lighthill {
+                quadrature: Quadrature::Original,
+                ..
+            })
+        )
+    }
+
+    /// The dimensionless [`FluidModel::resolution_cutoff`] of this fluid.
+    pub fn resolution_cutoff(&self) -> Option<f64> {
+        match self {
+            Fluid::Lighthill(f) => Some(f.delta),
+            Fluid::Rpy(_) => None,
+        }
+    }
+}
 
 /// How the slender-body integral is discretised (see the [module documentation](self)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]

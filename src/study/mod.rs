@@ -165,7 +165,8 @@ impl Study {
             ));
         }
         let wanted = (per_turn * l / lambda).round() as usize + 1;
-        let max = crate::model::admissible_max_nodes(&self.physical()).saturating_sub(2);
+        let max = crate::model::admissible_max_nodes(&self.physical())
+            .map_or(usize::MAX, |max| max.saturating_sub(2));
         self.discretization.nodes = wanted.min(max).max(5);
         Ok(())
     }

@@ -291,16 +291,20 @@ pub struct Ladder {
     pub omega_b_error: f64,
     pub omegabar_b_extrapolated: f64,
     pub order: f64,
-    /// Largest admissible node count of the study (docs/model.md section 3).
-    pub nodes_max: usize,
+    /// Largest admissible node count of the study (docs/model.md section 3); `None` for a fluid
+    /// model without a resolution limit (RPY).
+    pub nodes_max: Option<usize>,
 }
 
 /// The default ladder: five node counts evenly spaced from half the admissible maximum to two
-/// below it.
+/// below it; without an admissible maximum (RPY), the study's `N` and two successive halvings
+/// of its node spacing, `N, 2N - 1, 4N - 3`.
 pub fn default_ladder(study: &Study) -> Vec<usize> {
-    let max = admissible_max_nodes(&study.physical())
-        .saturating_sub(2)
-        .max(10);
+    let Some(max) = admissible_max_nodes(&study.physical()) else {
+        let n = study.discretization.nodes;
+        return vec![n, 2 * n - 1, 4 * n - 3];
+    };
+    let max = max.saturating_sub(2).max(10);
     let min = (max / 2).max(8);
     (0..5).map(|k| min + (max - min) * k / 4).collect()
 }

@@ -33,6 +33,8 @@ pub fn straight_rod(length: f64, r0: f64, alpha_deg: f64, nodes: usize) -> Physi
             rho: 0.0,
             g: 9.81,
             quadrature: Default::default(),
+            model: Default::default(),
+            blob_radius: None,
         },
         shape: ShapeParams::Straight { length, alpha_deg },
         discretization: Discretization {
