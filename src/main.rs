@@ -28,7 +28,7 @@ resolve against the study file's folder.
 
 --set KEY=VALUE overrides any study field by its dotted path, the value in TOML syntax:
   --set rod.E=2e6   --set discretization.nodes=80   --set shape.handedness=left
-  --set 'fluid.quadrature=\"reference\"'
+  --set 'fluid.model=\"rpy\"'   (the RPY-regularized fluid, docs/model.md section 9)
 A whole table is replaced by a TOML inline table:
   --set 'shape={kind=\"straight\", L=0.12, alpha_deg=15}'
 With --set and no --out, results go to output/<name>.set-<overrides>/, never over the
