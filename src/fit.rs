@@ -1,8 +1,7 @@
-//! Fits: power laws with confidence intervals, lines through the origin, and Richardson
-//! extrapolation in the node count.
+//! Fits: power laws with confidence intervals, lines through the origin, and the extrapolation
+//! in the node count with the known orders of the discretization.
 
-use argmin::core::{CostFunction, Executor, Jacobian, Operator};
-use argmin::solver::brent::BrentOpt;
+use argmin::core::{Executor, Jacobian, Operator};
 use argmin::solver::gaussnewton::GaussNewton;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -10,104 +9,76 @@ use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use crate::{Error, Result};
 
-/// A value extrapolated to infinite resolution from a ladder of node counts.
+/// A value extrapolated to infinite resolution from a ladder of node counts with the known
+/// orders of the discretization (docs/model.md section 10):
+///
+/// ```text
+/// v(N) = c0 + c1 h + c2 h^2,        h = 1/(N - 1)                                    (1)
+/// ```
+///
+/// (for a helix `h` is proportional to the helix angle per edge `dphi`: the elastic part
+/// converges as `dphi^2`, the Lighthill point sums and the ends add a first-order part). A
+/// free-order model `c + C N^-p` would be biased by the mixture of orders, and its spread could
+/// not see the bias.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Extrapolated {
-    /// The limit `v_inf` of `v(N) = v_inf + C N^(-p)`.
+    /// The limit `c0`.
     pub value: f64,
-    /// Error estimate: with four or more node counts, the largest change of `v_inf` when one of
-    /// them is left out, or the root-mean-square misfit if larger; with three, the size of the
-    /// correction `|v_inf - v(N_max)|`.
+    /// Error estimate: the larger of the change of `c0` when the second-order term is dropped
+    /// (the first-order model `c0' + c1' h` through the two finest rungs: what the known
+    /// orders add to the leading one) and, with four rungs or more, the largest change of `c0`
+    /// when one rung is left out.
     pub error: f64,
-    /// Fitted convergence order `p` and coefficient `C`.
-    pub order: f64,
-    pub coefficient: f64,
+    /// The coefficients `c1`, `c2` of (1).
+    pub coefficients: [f64; 2],
 }
 
-/// Least-squares `(v_inf, C)` of `v = v_inf + C N^(-p)` at fixed `p`, and the sum of squared
-/// residuals.
-fn linear_fit(ns: &[f64], values: &[f64], p: f64) -> (f64, f64, f64) {
-    let xs: Vec<f64> = ns.iter().map(|n| n.powf(-p)).collect();
-    let m = xs.len() as f64;
-    let (sx, sy) = (xs.iter().sum::<f64>(), values.iter().sum::<f64>());
-    let sxx: f64 = xs.iter().map(|x| x * x).sum();
-    let sxy: f64 = xs.iter().zip(values).map(|(x, y)| x * y).sum();
-    let c = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-    let v = (sy - c * sx) / m;
-    let sse = xs
+/// Least-squares coefficients `(c0, c1, c2)` of (1) through the points `(h, v)` (at least
+/// three distinct `h`).
+fn known_order_fit(h: &[f64], values: &[f64]) -> Result<[f64; 3]> {
+    let a = DMatrix::from_fn(h.len(), 3, |i, j| h[i].powi(j as i32));
+    let b = DVector::from_column_slice(values);
+    let c = a
+        .svd(true, true)
+        .solve(&b, 1e-14)
+        .map_err(|e| Error::Numerical(format!("known-order fit failed: {e}")))?;
+    Ok([c[0], c[1], c[2]])
+}
+
+/// Extrapolation (1) of `values` measured at node counts `nodes` (at least three distinct).
+pub fn extrapolate(nodes: &[usize], values: &[f64]) -> Result<Extrapolated> {
+    let mut rungs: Vec<(f64, f64)> = nodes
         .iter()
         .zip(values)
-        .map(|(x, y)| (y - v - c * x).powi(2))
-        .sum();
-    (v, c, sse)
-}
-
-struct Misfit<'a> {
-    ns: &'a [f64],
-    values: &'a [f64],
-}
-
-impl CostFunction for Misfit<'_> {
-    type Param = f64;
-    type Output = f64;
-    fn cost(&self, p: &f64) -> std::result::Result<f64, argmin::core::Error> {
-        Ok(linear_fit(self.ns, self.values, *p).2)
-    }
-}
-
-/// Fits `v(N) = v_inf + C N^(-p)` with `p` in `[0.25, 6]` (Brent's method on the misfit, the
-/// pair `(v_inf, C)` by linear least squares at each `p`).
-fn fit_order(ns: &[f64], values: &[f64]) -> Result<(f64, f64, f64, f64)> {
-    let solver = BrentOpt::new(0.25, 6.0);
-    let result = Executor::new(Misfit { ns, values }, solver)
-        .configure(|s| s.max_iters(200))
-        .run()
-        .map_err(|e| Error::Numerical(format!("Richardson fit failed: {e}")))?;
-    let p = result
-        .state()
-        .best_param
-        .ok_or_else(|| Error::Numerical("Richardson fit found no order".into()))?;
-    let (v, c, sse) = linear_fit(ns, values, p);
-    Ok((v, c, p, sse))
-}
-
-/// Richardson extrapolation of `values` measured at node counts `nodes` (at least three).
-pub fn richardson(nodes: &[usize], values: &[f64]) -> Result<Extrapolated> {
-    if nodes.len() < 3 || nodes.len() != values.len() {
+        .map(|(&n, &v)| (1.0 / (n as f64 - 1.0), v))
+        .collect();
+    rungs.sort_by(|a, b| b.0.total_cmp(&a.0));
+    rungs.dedup_by(|a, b| a.0 == b.0);
+    if rungs.len() < 3 || nodes.len() != values.len() || nodes.iter().any(|&n| n < 2) {
         return Err(Error::input(
             "nodes",
-            "Richardson extrapolation needs at least three node counts",
+            "the extrapolation needs at least three distinct node counts (each >= 2)",
         ));
     }
-    let ns: Vec<f64> = nodes.iter().map(|&n| n as f64).collect();
-    let (value, coefficient, order, sse) = fit_order(&ns, values)?;
-    let finest = ns
-        .iter()
-        .zip(values)
-        .max_by(|a, b| a.0.total_cmp(b.0))
-        .map(|(_, v)| *v)
-        .expect("at least three values");
-    let error = if ns.len() == 3 {
-        (value - finest).abs()
-    } else {
-        let mut spread: f64 = 0.0;
-        for k in 0..ns.len() {
-            let (n2, v2): (Vec<f64>, Vec<f64>) = ns
-                .iter()
-                .zip(values)
-                .enumerate()
-                .filter(|(i, _)| *i != k)
-                .map(|(_, (n, v))| (*n, *v))
-                .unzip();
-            spread = spread.max((fit_order(&n2, &v2)?.0 - value).abs());
+    let (h, v): (Vec<f64>, Vec<f64>) = rungs.iter().copied().unzip();
+    let [c0, c1, c2] = known_order_fit(&h, &v)?;
+    // The two finest rungs (smallest h, last after the sort) through c0' + c1' h.
+    let k = h.len();
+    let slope = (v[k - 1] - v[k - 2]) / (h[k - 1] - h[k - 2]);
+    let first_order = v[k - 1] - slope * h[k - 1];
+    let mut error = (c0 - first_order).abs();
+    if k >= 4 {
+        for leave in 0..k {
+            let keep = |i: &usize| *i != leave;
+            let h2: Vec<f64> = (0..k).filter(keep).map(|i| h[i]).collect();
+            let v2: Vec<f64> = (0..k).filter(keep).map(|i| v[i]).collect();
+            error = error.max((known_order_fit(&h2, &v2)?[0] - c0).abs());
         }
-        spread.max((sse / ns.len() as f64).sqrt())
-    };
+    }
     Ok(Extrapolated {
-        value,
+        value: c0,
         error,
-        order,
-        coefficient,
+        coefficients: [c1, c2],
     })
 }
 
@@ -437,20 +408,24 @@ mod tests {
     }
 
     #[test]
-    fn richardson_recovers_a_known_limit_and_order() {
-        let nodes = [20, 30, 40, 60, 80];
-        let values: Vec<f64> = nodes.iter().map(|&n| 7.837 + 3.0 / n as f64).collect();
-        let e = richardson(&nodes, &values).unwrap();
-        assert!((e.value - 7.837).abs() < 1e-6, "{e:?}");
-        assert!((e.order - 1.0).abs() < 1e-3);
-        let values: Vec<f64> = nodes[..3]
-            .iter()
-            .map(|&n| 2.0 - 5.0 / (n as f64).powi(2))
-            .collect();
-        let e = richardson(&nodes[..3], &values).unwrap();
-        assert!(
-            (e.value - 2.0).abs() < 1e-6 && (e.order - 2.0).abs() < 1e-3,
-            "{e:?}"
-        );
+    fn known_orders_recover_the_limit_of_a_mixed_order_ladder() {
+        // v = 0.5 + 0.3 h - 2 h^2 (h = 1/(N - 1)): recovered to round-off from three rungs or
+        // five; the bar is the effect of the second-order term on the first-order limit.
+        let law = |n: usize| {
+            let h = 1.0 / (n as f64 - 1.0);
+            0.5 + 0.3 * h - 2.0 * h * h
+        };
+        let nodes = [30, 40, 60, 70, 85];
+        let values: Vec<f64> = nodes.iter().map(|&n| law(n)).collect();
+        let e = extrapolate(&nodes, &values).unwrap();
+        assert!((e.value - 0.5).abs() < 1e-12, "{e:?}");
+        assert!((e.coefficients[0] - 0.3).abs() < 1e-9 && (e.coefficients[1] + 2.0).abs() < 1e-7);
+        let (h1, h2) = (1.0 / 69.0, 1.0 / 84.0);
+        let first_order = law(85) - (law(85) - law(70)) / (h2 - h1) * h2;
+        assert!((e.error - (first_order - 0.5).abs()).abs() < 1e-12, "{e:?}");
+        let e3 = extrapolate(&nodes[2..], &values[2..]).unwrap();
+        assert!((e3.value - 0.5).abs() < 1e-10, "{e3:?}");
+        // Two rungs cannot fix three coefficients.
+        assert!(extrapolate(&nodes[..2], &values[..2]).is_err());
     }
 }

@@ -175,8 +175,8 @@ impl Section for Ladder {
         };
         write!(
             f,
-            "  extrapolated: omega_b = {:.6} +- {:.6} rad/s (convergence order {:.2}; {range})",
-            self.omega_b_extrapolated, self.omega_b_error, self.order
+            "  extrapolated: omega_b = {:.6} +- {:.6} rad/s ({}; {range})",
+            self.omega_b_extrapolated, self.omega_b_error, self.model
         )
     }
 }

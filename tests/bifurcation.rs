@@ -9,7 +9,7 @@ use helixbif::continuation::ContinuationSettings;
 use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
 use helixbif::continuation::events::EventKind;
 use helixbif::continuation::newton::NewtonSettings;
-use helixbif::fit::richardson;
+use helixbif::fit::extrapolate;
 use helixbif::model::Model;
 use helixbif::params::{Handedness, Physical, ShapeParams};
 use helixbif::solve::solve_at;
@@ -58,8 +58,8 @@ fn greenhill_column_buckles_under_its_own_weight() {
             "error ratio {ratio}: {errors:?}"
         );
     }
-    let extrapolated = richardson(&nodes, &q).unwrap();
-    println!("Richardson: {extrapolated:?}");
+    let extrapolated = extrapolate(&nodes, &q).unwrap();
+    println!("known orders: {extrapolated:?}");
     assert!(
         (extrapolated.value - exact).abs() < 2e-3 * exact,
         "{extrapolated:?}"

@@ -108,7 +108,7 @@ pub enum Plan {
         #[serde(default)]
         cases: Vec<Case>,
     },
-    /// `omega_b`, optionally over a ladder of node counts with Richardson extrapolation.
+    /// `omega_b`, optionally over a ladder of node counts extrapolated with the known orders.
     Locate {
         #[serde(default)]
         extrapolate: bool,

@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::branch::{Located, locate, observables_at, rest_state, trace};
 use crate::continuation::arclength::{Observer, Point, Stop};
 use crate::continuation::events::Event;
-use crate::fit::{Extrapolated, richardson};
+use crate::fit::{Extrapolated, extrapolate};
 use crate::model::{Model, admissible_max_nodes};
 use crate::output::{CsvWriter, Meta, create_dir};
 use crate::steady::SteadyState;
@@ -280,7 +280,8 @@ pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
     Ok(result?.0)
 }
 
-/// `locate --extrapolate`: `omega_b` over a ladder of node counts and its Richardson limit.
+/// `locate --extrapolate`: `omega_b` over a ladder of node counts and its limit with the known
+/// orders (docs/model.md section 10, [`extrapolate`]).
 #[derive(Serialize)]
 pub struct Ladder {
     pub nodes: Vec<usize>,
@@ -290,7 +291,9 @@ pub struct Ladder {
     pub omega_b_extrapolated: f64,
     pub omega_b_error: f64,
     pub omegabar_b_extrapolated: f64,
-    pub order: f64,
+    /// The error model, and its coefficients `c1`, `c2` (rad/s).
+    pub model: &'static str,
+    pub coefficients: [f64; 2],
     /// Largest admissible node count of the study (docs/model.md section 3); `None` for a fluid
     /// model without a resolution limit (RPY).
     pub nodes_max: Option<usize>,
@@ -317,9 +320,7 @@ pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
     if distinct.len() < 3 {
         return Err(Error::input(
             "--nodes",
-            format!(
-                "a Richardson extrapolation needs at least three distinct node counts, got {ladder:?}"
-            ),
+            format!("the extrapolation needs at least three distinct node counts, got {ladder:?}"),
         ));
     }
     let mut results = Vec::new();
@@ -339,7 +340,15 @@ pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
     let nodes: Vec<usize> = results.iter().map(|r| r.0).collect();
     let omega_b: Vec<f64> = results.iter().map(|r| r.1).collect();
     let omegabar_b: Vec<f64> = results.iter().map(|r| r.2).collect();
-    let e: Extrapolated = richardson(&nodes, &omega_b)?;
+    // One event followed over the ladder: rungs that find different kinds would mix modes.
+    if results.iter().any(|r| r.3 != results[0].3) {
+        return Err(Error::Numerical(format!(
+            "the rungs {nodes:?} find different events ({:?}): no one limit to extrapolate; \
+             choose a ladder on which the first instability is of one kind",
+            results.iter().map(|r| r.3.as_str()).collect::<Vec<_>>()
+        )));
+    }
+    let e: Extrapolated = extrapolate(&nodes, &omega_b)?;
     let ratio = omegabar_b[0] / omega_b[0];
     Ok(Ladder {
         nodes_max: admissible_max_nodes(&study.physical()),
@@ -350,6 +359,7 @@ pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
         omega_b_extrapolated: e.value,
         omega_b_error: e.error,
         omegabar_b_extrapolated: e.value * ratio,
-        order: e.order,
+        model: "omega_b(N) = c0 + c1 h + c2 h^2, h = 1/(N - 1)",
+        coefficients: e.coefficients,
     })
 }
