@@ -11,6 +11,10 @@ use helixbif::fluid::{
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
+mod common;
+
+use common::SplitMix64;
+
 /// Helix of the test geometry, in units of its axial length: radius 0.0795, pitch 0.25, 4 turns,
 /// `X(phi) = (R cos phi, -R sin phi, -pitch phi / (2 pi))`, nodes at equal steps of `phi`.
 const HELIX_RADIUS: f64 = 0.0795;
@@ -43,25 +47,6 @@ fn straight_rod(n: usize, l: f64) -> Vec<Vector3<f64>> {
     (0..n)
         .map(|k| Vector3::new(0.0, 0.0, l * k as f64 / (n - 1) as f64))
         .collect()
-}
-
-/// SplitMix64: a small deterministic pseudo-random generator (no `rand` dependency).
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// Uniform in `[-1, 1)`.
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        2.0 * (z >> 11) as f64 / (1u64 << 53) as f64 - 1.0
-    }
-
-    fn vector(&mut self) -> Vector3<f64> {
-        Vector3::new(self.uniform(), self.uniform(), self.uniform())
-    }
 }
 
 /// The test helix with every node moved randomly by up to 10% of the node spacing.

@@ -15,6 +15,10 @@ use helixbif::study::runs::default_ladder;
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
+mod common;
+
+use common::SplitMix64;
+
 /// The representative helix (docs/model.md section 7) with `n` nodes, in units of its axial length
 /// `l`, and its rod radius `r0 / l`.
 fn helix(n: usize) -> (Vec<Vector3<f64>>, f64) {
@@ -52,25 +56,6 @@ fn hairpin(legs: usize, gap: f64, arc_nodes: usize, shift: f64) -> Vec<Vector3<f
     }
     x.extend((0..legs).map(|k| Vector3::new(1.0 - shift - k as f64 * h, gap, 0.0)));
     x
-}
-
-/// SplitMix64: a small deterministic pseudo-random generator.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// Uniform in `[-1, 1)`.
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        2.0 * (z >> 11) as f64 / (1u64 << 53) as f64 - 1.0
-    }
-
-    fn vector(&mut self) -> Vector3<f64> {
-        Vector3::new(self.uniform(), self.uniform(), self.uniform())
-    }
 }
 
 fn max_abs(m: &Mat<f64>) -> f64 {

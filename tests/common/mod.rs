@@ -114,3 +114,23 @@ pub fn small_sweep(dir: &std::path::Path) -> std::path::PathBuf {
     std::fs::write(&path, text).unwrap();
     path
 }
+
+/// SplitMix64: a small deterministic pseudo-random generator (no `rand` dependency), for the
+/// fluid tests' perturbed configurations.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    /// Uniform in `[-1, 1)`.
+    pub fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        2.0 * (z >> 11) as f64 / (1u64 << 53) as f64 - 1.0
+    }
+
+    pub fn vector(&mut self) -> Vector3<f64> {
+        Vector3::new(self.uniform(), self.uniform(), self.uniform())
+    }
+}
