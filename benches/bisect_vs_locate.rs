@@ -43,7 +43,7 @@ fn main() {
         )
         .expect("locate");
         let t_locate = start.elapsed().as_secs_f64();
-        let event = event.expect("an instability below 2 rad/s");
+        let event = event.expect("an instability below 2 rad/s").event;
         let omega_b = event.p;
 
         let settings = BisectSettings::default();

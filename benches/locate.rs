@@ -2,7 +2,8 @@
 //! 1e-8): on the representative helix at N = 30, 50, 70, and on a longer rod (l = 0.4 m, whose
 //! admissible range reaches N = 150) at N = 100 and 150; with the share of the time spent in
 //! residual/Jacobian evaluations, in the stability pair (twist elimination and Z_ff), and in the
-//! engine (bordered solves, eigenvalues), and the number of points and corrector iterations.
+//! engine (bordered solves, eigenvalues), and the number of points and corrector iterations;
+//! then the representative helix on the RPY fluid at N = 60 and 240 (docs/model.md section 9).
 //!
 //! Run: `cargo bench --bench locate`.
 
@@ -17,6 +18,7 @@ use helixbif::branch::{Parameter, RodProblem, rest_state};
 use helixbif::continuation::arclength::{Limits, Silent, follow};
 use helixbif::continuation::newton::NewtonSettings;
 use helixbif::continuation::{ContinuationSettings, Linearization, Problem};
+use helixbif::fluid::FluidModel;
 use helixbif::model::Model;
 use helixbif::params::{Physical, ShapeParams};
 
@@ -61,6 +63,9 @@ impl Problem for Timed<'_> {
     fn scales(&self) -> (f64, f64) {
         self.inner.scales()
     }
+    fn rechart(&self, u: &[f64]) -> bool {
+        self.inner.rechart(u)
+    }
 }
 
 fn run(label: &str, physical: &Physical) {
@@ -69,11 +74,11 @@ fn run(label: &str, physical: &Physical) {
     let rest = rest_state(&model, &NewtonSettings::default()).expect("rest state");
     let omegabar_max = model.scales.omega_to_bar(2.0);
     let problem = Timed {
-        inner: RodProblem {
-            model: &model,
-            parameter: Parameter::Omega,
-            parameter_scale: helixbif::branch::omega_scale(omegabar_max),
-        },
+        inner: RodProblem::new(
+            &model,
+            Parameter::Omega,
+            helixbif::branch::omega_scale(omegabar_max),
+        ),
         linearize: RefCell::new((0, 0.0)),
         residual: RefCell::new((0, 0.0)),
         stability: RefCell::new((0, 0.0)),
@@ -121,11 +126,17 @@ fn run(label: &str, physical: &Physical) {
 
 fn main() {
     faer::set_global_parallelism(faer::Par::Seq);
+    // `cargo bench --bench locate -- rpy` runs only the rows whose label contains "rpy".
+    let filter = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .unwrap_or_default();
     println!("locate, {}", common::machine());
+    let mut rows = Vec::new();
     for n in [30, 50, 70] {
         let mut p = Physical::representative();
         p.discretization.nodes = n;
-        run("default", &p);
+        rows.push(("default", p));
     }
     for n in [100, 150] {
         let mut p = Physical::representative();
@@ -133,6 +144,15 @@ fn main() {
             *l = 0.4;
         }
         p.discretization.nodes = n;
-        run("l = 0.4 m", &p);
+        rows.push(("l = 0.4 m", p));
+    }
+    for n in [60, 240] {
+        let mut p = Physical::representative();
+        p.fluid.model = FluidModel::Rpy;
+        p.discretization.nodes = n;
+        rows.push(("rpy", p));
+    }
+    for (label, p) in rows.iter().filter(|(label, _)| label.contains(&filter)) {
+        run(label, p);
     }
 }

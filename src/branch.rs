@@ -1,6 +1,8 @@
 //! The rotating rod as a continuation problem (parameter `omegabar` or the weight `q`), and the
 //! drivers of `helixbif branch` and `helixbif locate`.
 
+use std::cell::RefCell;
+
 use faer::Mat;
 use serde::Serialize;
 
@@ -10,6 +12,7 @@ use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
 use crate::model::Model;
+use crate::rod::frame::Chart;
 use crate::steady::{Observables, Steady, SteadyState, height};
 
 /// The continuation parameter of the rod.
@@ -37,24 +40,49 @@ pub fn omega_scale(omegabar_max: f64) -> f64 {
     (0.01 * omegabar_max.abs()).max(OMEGA_SCALE)
 }
 
-/// The steady rod problem `G(u; p) = 0` with `p` the chosen [`Parameter`].
+/// The chart of the twist angles is moved to the current state once an edge has turned by more
+/// than 60 degrees from its chart tangent: the transport of reference frames from the chart
+/// (docs/model.md section 2) is singular where an edge points against its chart tangent, which
+/// a tight arc curling up under rotation reaches (`R/L = 0.29` near 0.947 rad/s).
+const RECHART_COSINE: f64 = 0.5;
+
+/// The steady rod problem `G(u; p) = 0` with `p` the chosen [`Parameter`], its twist angles
+/// measured in a chart that starts as the natural one and follows the branch
+/// ([`Problem::rechart`]).
 pub struct RodProblem<'a> {
     pub model: &'a Model,
     pub parameter: Parameter,
     /// The typical change of `p` (the parameter's unit in the arclength): [`omega_scale`] or
     /// [`WEIGHT_SCALE`].
     pub parameter_scale: f64,
+    chart: RefCell<Chart>,
 }
 
 impl<'a> RodProblem<'a> {
-    /// The steady problem at parameter value `p` (twist measured in the natural chart).
+    /// The problem in the model's natural chart.
+    pub fn new(model: &'a Model, parameter: Parameter, parameter_scale: f64) -> Self {
+        RodProblem {
+            model,
+            parameter,
+            parameter_scale,
+            chart: RefCell::new(model.chart.clone()),
+        }
+    }
+
+    /// The steady problem at parameter value `p`, twist measured in the current chart.
     pub fn steady(&self, p: f64) -> Steady<'a> {
         let mut s = Steady::new(self.model, 0.0);
+        s.chart = self.chart.borrow().clone();
         match self.parameter {
             Parameter::Omega => s.omega = p,
             Parameter::Weight => s.weight = p,
         }
         s
+    }
+
+    /// The chart the twist angles are measured in now (that of the latest points and events).
+    pub fn chart(&self) -> Chart {
+        self.chart.borrow().clone()
     }
 }
 
@@ -97,6 +125,24 @@ impl Problem for RodProblem<'_> {
     fn scales(&self) -> (f64, f64) {
         (POSITION_SCALE, self.parameter_scale)
     }
+
+    /// Moves the chart to `u` (directors transported onto its edges, reference twist unwrapped
+    /// near the old one, so that the energy and the angles at `u` are unchanged) once an edge
+    /// has turned past [`RECHART_COSINE`] from its chart tangent.
+    fn rechart(&self, u: &[f64]) -> bool {
+        let x = self.steady(0.0).config(u).x;
+        let far = {
+            let chart = self.chart.borrow();
+            x.windows(2)
+                .zip(&chart.tangents)
+                .any(|(e, t)| (e[1] - e[0]).normalize().dot(t) < RECHART_COSINE)
+        };
+        if far {
+            let moved = self.chart.borrow().transported(&x);
+            *self.chart.borrow_mut() = moved;
+        }
+        far
+    }
 }
 
 pub use crate::solve::rest_state;
@@ -111,6 +157,26 @@ pub fn trace(
     stop_at_first_instability: bool,
     observer: &mut impl Observer,
 ) -> Result<Branch> {
+    let (branch, _) = trace_in_chart(
+        model,
+        rest,
+        omegabar_max,
+        settings,
+        stop_at_first_instability,
+        observer,
+    )?;
+    Ok(branch)
+}
+
+/// [`trace`], with the chart the last points and events are measured in.
+fn trace_in_chart(
+    model: &Model,
+    rest: &SteadyState,
+    omegabar_max: f64,
+    settings: &ContinuationSettings,
+    stop_at_first_instability: bool,
+    observer: &mut impl Observer,
+) -> Result<(Branch, Chart)> {
     model.check_resolution()?;
     if !model.fluid.is_mass_matrix() {
         return Err(crate::Error::input(
@@ -119,11 +185,7 @@ pub fn trace(
              matrix for the stability problem: continuation needs \"reference\"",
         ));
     }
-    let problem = RodProblem {
-        model,
-        parameter: Parameter::Omega,
-        parameter_scale: omega_scale(omegabar_max),
-    };
+    let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
     let u0 = problem.steady(0.0).free_vector(&rest.config);
     // A fold may take the branch back past rest, a little.
     let limits = Limits {
@@ -132,7 +194,8 @@ pub fn trace(
         stop_at_first_instability,
     };
     let direction = omegabar_max.signum();
-    follow(&problem, u0, 0.0, direction, settings, &limits, observer)
+    let branch = follow(&problem, u0, 0.0, direction, settings, &limits, observer)?;
+    Ok((branch, problem.chart()))
 }
 
 /// Observables of the solution `u` at `omegabar` on a branch from `rest`.
@@ -194,6 +257,23 @@ impl Located {
     }
 }
 
+/// The first loss of stability of a branch from rest: the event, whose state `u` has its twist
+/// angles measured in `chart` (the natural chart unless the branch moved it).
+#[derive(Clone, Debug)]
+pub struct Critical {
+    pub event: Event,
+    pub chart: Chart,
+}
+
+impl Critical {
+    /// The steady problem at the event, in the event's chart.
+    pub fn steady<'a>(&self, model: &'a Model) -> Steady<'a> {
+        let mut s = Steady::new(model, self.event.p);
+        s.chart = self.chart.clone();
+        s
+    }
+}
+
 /// Follows the branch from rest to its first loss of stability and pins it down.
 pub fn locate(
     model: &Model,
@@ -201,11 +281,11 @@ pub fn locate(
     newton: &NewtonSettings,
     settings: &ContinuationSettings,
     observer: &mut impl Observer,
-) -> Result<(Located, Option<Event>)> {
+) -> Result<(Located, Option<Critical>)> {
     model.check_resolution()?;
     let rest = rest_state(model, newton)?;
     let omegabar_max = model.scales.omega_to_bar(omega_max);
-    let branch = trace(model, &rest, omegabar_max, settings, true, observer)?;
+    let (branch, chart) = trace_in_chart(model, &rest, omegabar_max, settings, true, observer)?;
     let points = branch.points.len();
     let corrector_iterations = branch.points.iter().map(|p| p.iterations).sum();
     let none = Located {
@@ -282,5 +362,5 @@ pub fn locate(
         precision: Some(event.precision),
         ..none
     };
-    Ok((located, Some(event)))
+    Ok((located, Some(Critical { event, chart })))
 }

@@ -14,8 +14,11 @@ use helixbif::output::Table;
 use helixbif::params::ShapeParams;
 use helixbif::report::{BisectReport, FitReport, MergeReport, Report, RunReport, Titled};
 use helixbif::solve::{Solution, solve_at};
+use helixbif::study::plan::{check_accuracy, check_max_nodes};
 use helixbif::study::run::run;
-use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate};
+use helixbif::study::runs::{
+    DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
+};
 use helixbif::study::simulate::{SimulateOptions, run_simulate};
 use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge, run_sweep};
@@ -98,6 +101,18 @@ enum Command {
         /// continuation.event_tol).
         #[arg(long)]
         tol: Option<f64>,
+        /// Relative accuracy EPS of omega_b: N is refined from the study's (spacing halved
+        /// each time) until the estimated discretization error is below EPS or the model can
+        /// go no further (Lighthill's admissible range, --max-nodes), and the error, the N used
+        /// and how the error was estimated are reported (docs/model.md section 10).
+        #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"])]
+        accuracy: f64,
+        /// Largest node count of the refinement.
+        #[arg(long, default_value_t = DEFAULT_MAX_NODES, conflicts_with_all = ["single", "extrapolate"])]
+        max_nodes: usize,
+        /// Locate at the study's N only, without an error estimate.
+        #[arg(long, conflicts_with = "extrapolate")]
+        single: bool,
         /// Run a ladder of node counts and extrapolate omega_b to infinite resolution.
         #[arg(long)]
         extrapolate: bool,
@@ -335,12 +350,17 @@ fn branch(study: &StudyArgs, omega_max: Option<f64>, out: Option<&Path>) -> Outc
     Ok(Box::new(titled(&study_file, report)))
 }
 
-fn locate_command(
-    study: &StudyArgs,
-    tol: Option<f64>,
-    extrapolate: bool,
-    nodes: &[usize],
-) -> Outcome {
+/// How `locate` treats the node count.
+enum Resolution<'a> {
+    /// The study's `N` only.
+    Single,
+    /// Refined until the estimated error is below `accuracy` (relative).
+    Refine { accuracy: f64, max_nodes: usize },
+    /// Over a ladder (empty: the default one), extrapolated.
+    Ladder(&'a [usize]),
+}
+
+fn locate_command(study: &StudyArgs, tol: Option<f64>, how: Resolution<'_>) -> Outcome {
     let mut overrides = study.set.clone();
     if let Some(t) = tol {
         if !(t > 0.0 && t < 1e-2) {
@@ -349,18 +369,31 @@ fn locate_command(
         overrides.push(format!("continuation.event_tol={t:e}"));
     }
     let study_file = Study::from_path(study.study.as_deref(), &overrides)?;
-    if extrapolate {
-        let ladder = if nodes.is_empty() {
-            default_ladder(&study_file)
-        } else {
-            nodes.to_vec()
-        };
-        let result = run_ladder(&study_file, &ladder)?;
-        return Ok(Box::new(titled(&study_file, result)));
+    match how {
+        Resolution::Ladder(nodes) => {
+            let ladder = if nodes.is_empty() {
+                default_ladder(&study_file)
+            } else {
+                nodes.to_vec()
+            };
+            let result = run_ladder(&study_file, &ladder)?;
+            Ok(Box::new(titled(&study_file, result)))
+        }
+        Resolution::Refine {
+            accuracy,
+            max_nodes,
+        } => {
+            check_accuracy("--accuracy", accuracy)?;
+            check_max_nodes("--max-nodes", max_nodes)?;
+            let result = run_refinement(&study_file, accuracy, max_nodes)?;
+            Ok(Box::new(titled(&study_file, result)))
+        }
+        Resolution::Single => {
+            let model = Model::new(&study_file.physical())?;
+            let located = run_locate(&study_file, &model)?;
+            Ok(Box::new(titled(&study_file, located)))
+        }
     }
-    let model = Model::new(&study_file.physical())?;
-    let located = run_locate(&study_file, &model)?;
-    Ok(Box::new(titled(&study_file, located)))
 }
 
 fn run_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
@@ -579,9 +612,24 @@ fn main() -> ExitCode {
         Command::Locate {
             study,
             tol,
+            accuracy,
+            max_nodes,
+            single,
             extrapolate,
             nodes,
-        } => (locate_command(study, *tol, *extrapolate, nodes), study.json),
+        } => {
+            let how = if *extrapolate {
+                Resolution::Ladder(nodes)
+            } else if *single {
+                Resolution::Single
+            } else {
+                Resolution::Refine {
+                    accuracy: *accuracy,
+                    max_nodes: *max_nodes,
+                }
+            };
+            (locate_command(study, *tol, how), study.json)
+        }
         Command::Run { study, out } => (run_command(study, out.as_deref()), study.json),
         Command::Sweep { study, shard, out } => (
             sweep_command(study, shard.as_deref(), out.as_deref()),

@@ -10,7 +10,7 @@ use crate::dynamics::Bisection;
 use crate::fit::PowerLaw;
 use crate::output::LeftOut;
 use crate::solve::SolutionSummary;
-use crate::study::runs::{BranchReport, Ladder};
+use crate::study::runs::{BranchReport, Ladder, Refinement};
 use crate::study::simulate::SimulateReport;
 use crate::study::slurm::{SlurmScripts, SlurmSubmission};
 use crate::study::sweep::SweepSummary;
@@ -178,6 +178,41 @@ impl Section for Ladder {
             "  extrapolated: omega_b = {:.6} +- {:.6} rad/s ({}; {range})",
             self.omega_b_extrapolated, self.omega_b_error, self.model
         )
+    }
+}
+
+impl Section for Refinement {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        if self.rungs.len() > 1 {
+            writeln!(f, "refinement of `{study}` in N:")?;
+            for r in &self.rungs {
+                writeln!(
+                    f,
+                    "  N = {:4}: omega_b = {} rad/s ({})",
+                    r.nodes,
+                    maybe(r.omega_b, 10),
+                    r.kind
+                )?;
+            }
+        }
+        self.finest.show(study, f)?;
+        if let (Some(e), Some(rel), Some(est)) =
+            (self.omega_b_error, self.relative_error, &self.estimate)
+        {
+            write!(
+                f,
+                "\n  discretization error of omega_b at N = {}: {e:.2e} rad/s ({rel:.2e} relative; {}",
+                self.finest.nodes, est.method
+            )?;
+            if let Some(p) = est.observed_order {
+                write!(f, "; observed order {p:.2}")?;
+            }
+            write!(f, "; limit {:.8} rad/s)", est.limit)?;
+        }
+        match &self.stopped {
+            None => write!(f, "\n  accuracy {:.1e} reached", self.accuracy),
+            Some(why) => write!(f, "\n  accuracy {:.1e} NOT reached: {why}", self.accuracy),
+        }
     }
 }
 

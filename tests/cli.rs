@@ -146,8 +146,13 @@ fn node_count_outside_the_admissible_range_is_refused_with_the_reason() {
 
 #[test]
 fn locate_json_has_the_documented_keys() {
-    let (code, stdout, stderr) =
-        helixbif(&["locate", "--json", "--set", "discretization.nodes=30"]);
+    let (code, stdout, stderr) = helixbif(&[
+        "locate",
+        "--single",
+        "--json",
+        "--set",
+        "discretization.nodes=30",
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     for key in [
@@ -167,6 +172,7 @@ fn locate_json_has_the_documented_keys() {
     // Below omega_b nothing happens: kind none, exit 0.
     let (code, stdout, _) = helixbif(&[
         "locate",
+        "--single",
         "--json",
         "--set",
         "discretization.nodes=20",

@@ -146,15 +146,17 @@ vary = [{ key = "shape.alpha_deg", values = [15.0, 180.0] }]
 
 #[test]
 fn a_branch_that_approaches_itself_names_the_loss_of_positive_definiteness() {
-    // The tight arc of figure 2 curls up until its free end nears its base (about 0.94 rad/s).
-    let dir = temp_dir("cli-arc-contact");
+    // The representative helix turned against its handedness: past an S of two folds its turns
+    // close up until two come within about 3.5 delta of each other (near 0.29 rad/s).
+    let dir = temp_dir("cli-helix-contact");
     let (code, _, stderr) = helixbif(&[
         "branch",
-        "studies/fig2_straight_and_curved.toml",
         "--set",
-        "shape={kind=\"arc\",L=0.12,R=0.0348}",
+        "shape.handedness=\"left\"",
+        "--set",
+        "discretization.nodes=40",
         "--omega-max",
-        "1.5",
+        "0.6",
         "--out",
         dir.to_str().unwrap(),
     ]);
@@ -185,6 +187,7 @@ fn a_thin_tight_helix_buckling_at_a_high_rate_is_located_within_the_default_budg
     // times the representative helix's.
     let (code, stdout, stderr) = helixbif(&[
         "locate",
+        "--single",
         "studies/exponent_m.toml",
         "--set",
         "shape.R_over_lambda=0.05",
@@ -416,4 +419,110 @@ fn simulate_and_bisect_use_the_study_newton_settings() {
     let (code, _, stderr) = helixbif(&["bisect", "--lo", "0.3", "--hi", "0.7", "--ramp-time", "0"]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--ramp-time"), "{stderr}");
+}
+
+#[test]
+fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
+    // Default accuracy 1e-3: from N = 40 the spacing halves to 79, then the next rung is
+    // capped at the admissible maximum 87, past which Lighthill's operator is indefinite.
+    let (code, stdout, stderr) =
+        helixbif(&["locate", "--json", "--set", "discretization.nodes=40"]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let rungs: Vec<u64> = v["rungs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["nodes"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rungs, [40, 79, 87], "{v}");
+    assert_eq!(v["nodes"], 87);
+    assert_eq!(v["reached"], false);
+    let stopped = v["stopped"].as_str().unwrap();
+    assert!(
+        stopped.contains("N = 87") && stopped.contains("rpy"),
+        "{stopped}"
+    );
+    // The estimate is the rungs' own: at least the last increment times h_f/(h_p - h_f) when
+    // it falls back to first order, never below the second-order Richardson estimate.
+    let w: Vec<f64> = v["rungs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["omega_b"].as_f64().unwrap())
+        .collect();
+    let (hp, hf) = (1.0 / 78.0, 1.0 / 86.0);
+    let second = (w[2] - w[1]).abs() * hf * hf / (hp * hp - hf * hf);
+    let error = v["omega_b_error"].as_f64().unwrap();
+    assert!(error >= second, "{error} vs {second}");
+    assert!(
+        (v["relative_error"].as_f64().unwrap() - error / w[2]).abs() < 1e-15,
+        "{v}"
+    );
+    // Bad accuracies are refused, naming the flag.
+    let (code, _, stderr) = helixbif(&["locate", "--accuracy", "0.5"]);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("--accuracy") && stderr.contains("(0, 0.1)"),
+        "{stderr}"
+    );
+    let (code, _, _) = helixbif(&["locate", "--single", "--accuracy", "1e-2"]);
+    assert_eq!(code, 2);
+}
+
+#[test]
+fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_computation() {
+    // A thick rod (r0 = 6.32 mm, four times the representative's) on the RPY line: its
+    // quadrature has a sixteenth of the points, so N = 161 is cheap. Rungs 21, 41, 81.
+    let common = [
+        "--set",
+        "fluid.model=rpy",
+        "--set",
+        "rod.r0=6.32e-3",
+        "--set",
+        "branch.omega_max=300",
+        "--json",
+    ];
+    let mut args = vec![
+        "locate",
+        "--accuracy",
+        "1e-6",
+        "--max-nodes",
+        "81",
+        "--set",
+        "discretization.nodes=21",
+    ];
+    args.extend(common);
+    let (code, stdout, stderr) = helixbif(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let w: Vec<f64> = v["rungs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["omega_b"].as_f64().unwrap())
+        .collect();
+    assert_eq!(w.len(), 3, "{v}");
+    assert!(v["stopped"].as_str().unwrap().contains("--max-nodes 81"));
+    // The observed order reported is the rungs' (spacing halved each time).
+    let p = v["estimate"]["observed_order"].as_f64().unwrap();
+    assert!(
+        (p - ((w[1] - w[0]) / (w[2] - w[1])).ln() / 2f64.ln()).abs() < 1e-6,
+        "{p} {w:?}"
+    );
+    let mut fine = vec!["locate", "--single", "--set", "discretization.nodes=161"];
+    fine.extend(common);
+    let (code, stdout, stderr) = helixbif(&fine);
+    assert_eq!(code, 0, "{stderr}");
+    let f: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(f["kind"], "hopf");
+    // The true error of the N = 81 value is at least its distance to the finer value (both
+    // converge from above); the estimate covers it, and by less than a factor of 20.
+    let measured = w[2] - f["omega_b"].as_f64().unwrap();
+    let error = v["omega_b_error"].as_f64().unwrap();
+    assert!(measured > 0.0, "{measured}");
+    assert!(
+        error >= measured && error < 20.0 * measured,
+        "{error} vs {measured}"
+    );
 }

@@ -51,7 +51,7 @@ fn hopf(model: &Model) -> f64 {
         &mut Silent,
     )
     .unwrap();
-    let event = event.unwrap();
+    let event = event.unwrap().event;
     assert_eq!(event.kind, EventKind::Hopf, "{located:?}");
     event.p
 }

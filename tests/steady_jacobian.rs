@@ -125,11 +125,7 @@ fn parameter_derivatives_match_finite_differences() {
         (Parameter::Weight, WEIGHT_SCALE, 2.0, 0.1),
     ];
     for (parameter, parameter_scale, p, h) in cases {
-        let problem = RodProblem {
-            model: &model,
-            parameter,
-            parameter_scale,
-        };
+        let problem = RodProblem::new(&model, parameter, parameter_scale);
         let u: Vec<f64> = problem
             .steady(0.0)
             .free_vector(&model.natural_config())

@@ -37,7 +37,9 @@
 //! reported once with its multiplicity. A corrector point is accepted only at `tol` (or when
 //! its Newton correction is at round-off size), so an event's precision rests on converged
 //! points. With [`Limits::stop_at_first_instability`] the run ends at the first loss of
-//! stability, or at once when the starting point is already unstable.
+//! stability, or at once when the starting point is already unstable. After every accepted point
+//! the problem may move its chart there ([`Problem::rechart`]); the point's tangent is then
+//! recomputed in the new coordinates.
 
 use faer::Mat;
 use faer::prelude::Solve;
@@ -520,6 +522,13 @@ pub fn follow<P: Problem>(
         if outside {
             branch.stop = Stop::ParameterLimit;
             return Ok(branch);
+        }
+        let last = branch.points.last_mut().expect("a point was just pushed");
+        if problem.rechart(&last.u) {
+            // The same point in new coordinates: its tangent, oriented as before.
+            let lin = problem.linearize(&last.u, last.p)?;
+            (last.tangent_u, last.tangent_p) =
+                tangent(&lin, &metric, &last.tangent_u, last.tangent_p)?;
         }
     }
     Ok(branch)

@@ -54,6 +54,15 @@ pub trait Problem {
     fn scales(&self) -> (f64, f64) {
         (1.0, 1.0)
     }
+    /// For a problem whose unknowns are coordinates in a chart of a manifold (the rod's twist
+    /// angles are measured from reference frames transported from a fixed chart, singular when
+    /// an edge turns to point against its chart tangent): moves the chart to the accepted
+    /// solution `u` when `u` has come near the chart's singular set, keeping `u` the same
+    /// state, and says whether it did. The engine then recomputes the tangent there; every
+    /// later point is measured in the new chart. The default never moves.
+    fn rechart(&self, _u: &[f64]) -> bool {
+        false
+    }
 }
 
 /// Settings of the continuation, in the units of the problem's parameter.

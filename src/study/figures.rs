@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use crate::Result;
-use crate::fit::{common_power_law, power_law, through_origin};
+use crate::fit::{common_power_law, local_exponents, power_law, through_origin};
 use crate::output::{Table, io_error};
 use crate::plot::{Figure, Marker, MarkerShape, Scale, Series, Style, write_figure};
 use crate::study::Study;
@@ -259,7 +259,51 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "prefactors": f.prefactors,
                     "left_out": left_out,
                     "per_series_m": f.per_group.iter().map(|(g, p, ci)| json!({"series": g, "m": -p, "m_ci": [-ci[1], -ci[0]]})).collect::<Vec<_>>(),
+                    // The local exponent m_loc = -d ln y / d ln x between neighbouring points
+                    // of each series: the power law's m is an average of these.
+                    "local_m": groups.iter().map(|(g, x, y)| json!({
+                        "series": g,
+                        "intervals": local_exponents(x, y).iter().map(|l| json!({
+                            "x_lo": l.x_lo, "x_hi": l.x_hi, "x_mid": l.x_mid, "m_loc": -l.p,
+                        })).collect::<Vec<_>>(),
+                    })).collect::<Vec<_>>(),
                 });
+                let local: Vec<Series> = groups
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (g, x, y))| {
+                        let l = local_exponents(x, y);
+                        Series {
+                            label: label(g),
+                            x: l.iter().map(|l| l.x_mid).collect(),
+                            y: l.iter().map(|l| -l.p).collect(),
+                            style: Style::Markers(shapes[i % shapes.len()]),
+                            stable: None,
+                            err: None,
+                        }
+                    })
+                    .chain(std::iter::once({
+                        let (x, _) = curve(&|x| x, lo);
+                        let y = vec![m; x.len()];
+                        dashed(&format!("common fit, m = {m:.3}"), x, y)
+                    }))
+                    .collect();
+                write_figure(
+                    &Figure {
+                        title: format!(
+                            "{}: local exponent -d ln {} / d ln {}",
+                            study.name,
+                            short_name(&spec.y),
+                            short_name(&spec.x)
+                        ),
+                        x_label: axis_label(&spec.x),
+                        y_label: "m_loc (-)".into(),
+                        x_scale: scale(spec.log_x),
+                        series: local,
+                        ..Figure::default()
+                    },
+                    &dir.join(format!("local_m_{k}.svg")),
+                )?;
                 let path = dir.join("fit.json");
                 std::fs::write(&path, format!("{record:#}\n")).map_err(io_error(&path))?;
                 // The collapse: y / N_k against x falls on one curve if the form is separable.

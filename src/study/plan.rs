@@ -108,12 +108,18 @@ pub enum Plan {
         #[serde(default)]
         cases: Vec<Case>,
     },
-    /// `omega_b`, optionally over a ladder of node counts extrapolated with the known orders.
+    /// `omega_b` at the study's `N`; with `accuracy`, refined in `N` until its estimated
+    /// discretization error is below it (up to `max_nodes`); or over a ladder of node counts
+    /// extrapolated with the known orders.
     Locate {
         #[serde(default)]
         extrapolate: bool,
         #[serde(default)]
         nodes: Vec<usize>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        accuracy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_nodes: Option<usize>,
     },
     /// `omega_b` over the product of the cases and the values of one or two parameters.
     Sweep {
@@ -312,7 +318,52 @@ impl Plan {
                 }
                 Ok(())
             }
-            Plan::Branch { .. } | Plan::Locate { .. } => Ok(()),
+            Plan::Locate {
+                accuracy,
+                max_nodes,
+                extrapolate,
+                ..
+            } => {
+                if let Some(a) = accuracy {
+                    check_accuracy("study.accuracy", *a)?;
+                }
+                if let Some(m) = max_nodes {
+                    check_max_nodes("study.max_nodes", *m)?;
+                }
+                if *extrapolate && accuracy.is_some() {
+                    return Err(Error::input(
+                        "study.accuracy",
+                        "a refinement to an accuracy and an extrapolation over a ladder \
+                         exclude each other: set one",
+                    ));
+                }
+                Ok(())
+            }
+            Plan::Branch { .. } => Ok(()),
         }
+    }
+}
+
+/// Checks a relative accuracy of `omega_b` (`locate --accuracy`): in `(0, 0.1)`.
+pub fn check_accuracy(field: &str, accuracy: f64) -> Result<()> {
+    if accuracy > 0.0 && accuracy < 0.1 {
+        Ok(())
+    } else {
+        Err(Error::input(
+            field,
+            format!("must lie in (0, 0.1) (a relative error of omega_b), got {accuracy}"),
+        ))
+    }
+}
+
+/// Checks the largest node count of a refinement: at least 5.
+pub fn check_max_nodes(field: &str, max_nodes: usize) -> Result<()> {
+    if max_nodes >= 5 {
+        Ok(())
+    } else {
+        Err(Error::input(
+            field,
+            format!("must be >= 5, got {max_nodes}"),
+        ))
     }
 }

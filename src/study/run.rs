@@ -7,7 +7,9 @@ use serde_json::{Value, json};
 
 use super::figures::{self, Case as FigureCase};
 use super::plan::Plan;
-use super::runs::{default_ladder, run_branch, run_ladder, run_locate};
+use super::runs::{
+    DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
+};
 use super::sweep::{cases, run_sweep, variant};
 use super::{Study, sweep_figures};
 use crate::model::Model;
@@ -40,6 +42,8 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
         nodes: Vec::new(),
+        accuracy: None,
+        max_nodes: None,
     });
     // What did not complete; reported as a numerical failure once everything is written.
     let mut failures: Vec<String> = Vec::new();
@@ -81,7 +85,12 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
             failures.extend(stalled);
             json!({ "kind": "branch", "cases": summaries })
         }
-        Plan::Locate { extrapolate, nodes } => {
+        Plan::Locate {
+            extrapolate,
+            nodes,
+            accuracy,
+            max_nodes,
+        } => {
             let value = if *extrapolate {
                 let ladder = if nodes.is_empty() {
                     default_ladder(study)
@@ -89,6 +98,9 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
                     nodes.clone()
                 };
                 serde_json::to_value(run_ladder(study, &ladder)?)
+            } else if let Some(eps) = accuracy {
+                let max = max_nodes.unwrap_or(DEFAULT_MAX_NODES);
+                serde_json::to_value(run_refinement(study, *eps, max)?)
             } else {
                 let model = Model::new(&study.physical())?;
                 serde_json::to_value(run_locate(study, &model)?)

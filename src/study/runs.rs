@@ -7,10 +7,10 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::branch::{Located, locate, observables_at, rest_state, trace};
+use crate::branch::{Critical, Located, locate, observables_at, rest_state, trace};
 use crate::continuation::arclength::{Observer, Point, Stop};
 use crate::continuation::events::Event;
-use crate::fit::{Extrapolated, extrapolate};
+use crate::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
 use crate::model::{Model, admissible_max_nodes};
 use crate::output::{CsvWriter, Meta, create_dir};
 use crate::steady::SteadyState;
@@ -257,7 +257,7 @@ pub fn locate_study(
     study: &Study,
     model: &Model,
     observer: &mut impl Observer,
-) -> Result<(Located, Option<Event>)> {
+) -> Result<(Located, Option<Critical>)> {
     locate(
         model,
         study.branch.omega_max,
@@ -362,4 +362,158 @@ pub fn run_ladder(study: &Study, ladder: &[usize]) -> Result<Ladder> {
         model: "omega_b(N) = c0 + c1 h + c2 h^2, h = 1/(N - 1)",
         coefficients: e.coefficients,
     })
+}
+
+/// `locate --accuracy EPS` (the default of `locate`): `omega_b` refined in `N` until its
+/// estimated discretization error (docs/model.md section 10, [`discretization_error`]) is below
+/// `EPS` relative, or the model can go no further.
+#[derive(Serialize)]
+pub struct Refinement {
+    /// The finest rung, whose `omega_b` is the answer (its fields at the top level).
+    #[serde(flatten)]
+    pub finest: Located,
+    /// Relative accuracy asked for.
+    pub accuracy: f64,
+    /// Whether the estimated relative error is below `accuracy`.
+    pub reached: bool,
+    /// Estimated discretization error of `omega_b` (rad/s) and relative; absent with one rung.
+    pub omega_b_error: Option<f64>,
+    pub relative_error: Option<f64>,
+    /// The estimate: its limit, observed order and method.
+    pub estimate: Option<DiscretizationError>,
+    /// Every rung: node count, `omega_b`, kind.
+    pub rungs: Vec<Rung>,
+    /// Why the refinement ended without reaching `accuracy` (absent when it did).
+    pub stopped: Option<String>,
+}
+
+/// One rung of a refinement.
+#[derive(Clone, Serialize)]
+pub struct Rung {
+    pub nodes: usize,
+    pub omega_b: Option<f64>,
+    pub kind: String,
+}
+
+/// The largest node count a refinement goes to unless told otherwise (`--max-nodes`): the
+/// RPY line has no admissible limit, and past a few hundred nodes the dense stability solve at
+/// every continuation point makes each rung cost `O(N^3)`.
+pub const DEFAULT_MAX_NODES: usize = 500;
+
+/// The node count after `n` in a refinement: the spacing halved (`2N - 1`, so that
+/// `h = 1/(N - 1)` halves), capped at `max` (the admissible limit or `--max-nodes`); `None`
+/// when `n` is already there.
+fn refined(n: usize, max: usize) -> Option<usize> {
+    let next = (2 * n - 1).min(max);
+    (next > n).then_some(next)
+}
+
+/// Runs `locate` at the study's `N`, then at successively halved spacings, until the estimated
+/// relative error of the finest `omega_b` is below `accuracy`, the next `N` would pass the
+/// fluid model's admissible range (Lighthill, docs/model.md section 3) or `max_nodes`, a rung
+/// fails (the rungs before it are kept), or the rungs stop finding one kind of event.
+pub fn run_refinement(study: &Study, accuracy: f64, max_nodes: usize) -> Result<Refinement> {
+    let admissible = admissible_max_nodes(&study.physical());
+    let start = study.discretization.nodes;
+    let limit = admissible.map_or(max_nodes, |a| a.min(max_nodes));
+    if start > limit {
+        // The study's own N is outside the range: refused with the usual message.
+        Model::new(&study.physical())?.check_resolution()?;
+    }
+    let limit_reason = |n: usize| match admissible {
+        Some(a) if a <= max_nodes => format!(
+            "the next refinement would pass N = {a}, the largest node count at which this rod's \
+             Lighthill operator is positive definite (docs/model.md section 3); fluid.model = \
+             \"rpy\" has no such limit (section 9)"
+        ),
+        _ => format!("the next refinement would pass --max-nodes {max_nodes} (at N = {n})"),
+    };
+    let mut rungs: Vec<Rung> = Vec::new();
+    let mut finest: Option<Located> = None;
+    let mut n = start;
+    let stopped = loop {
+        let mut s = study.clone();
+        s.discretization.nodes = n;
+        s.discretization.per_turn = None;
+        let model = Model::new(&s.physical())?;
+        let located = match run_locate(&s, &model) {
+            Ok(l) => l,
+            Err(e) if finest.is_some() => break Some(format!("the rung at N = {n} failed: {e}")),
+            Err(e) => return Err(e),
+        };
+        eprintln!(
+            "locate N = {n}: {} ({})",
+            located
+                .omega_b
+                .map_or("no omega_b".into(), |w| format!("omega_b = {w:.10} rad/s")),
+            located.kind
+        );
+        rungs.push(Rung {
+            nodes: n,
+            omega_b: located.omega_b,
+            kind: located.kind.clone(),
+        });
+        let kind_changed = rungs[0].kind != located.kind;
+        let found = located.omega_b.is_some();
+        finest = Some(located);
+        if !found {
+            break Some(format!(
+                "no omega_b at N = {n} (kind {}): nothing to refine",
+                rungs[rungs.len() - 1].kind
+            ));
+        }
+        if kind_changed {
+            break Some(format!(
+                "the first instability changes kind between rungs ({}): the rungs follow \
+                 different modes, so no error estimate is made",
+                rungs
+                    .iter()
+                    .map(|r| format!("N = {}: {}", r.nodes, r.kind))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        if rungs.len() >= 2 {
+            let (nodes, values) = rung_values(&rungs);
+            let e = discretization_error(&nodes, &values)?;
+            let relative = e.error / values[values.len() - 1].abs();
+            eprintln!("  estimated relative error {relative:.2e} ({})", e.method);
+            if relative < accuracy {
+                break None;
+            }
+        }
+        match refined(n, limit) {
+            Some(next) => n = next,
+            None => break Some(limit_reason(n)),
+        }
+    };
+    let finest = finest.expect("at least one rung ran");
+    let kinds_agree = rungs.iter().all(|r| r.kind == rungs[0].kind);
+    let estimate = if rungs.len() >= 2 && kinds_agree && finest.omega_b.is_some() {
+        let (nodes, values) = rung_values(&rungs);
+        Some(discretization_error(&nodes, &values)?)
+    } else {
+        None
+    };
+    let omega_b_error = estimate.as_ref().map(|e| e.error);
+    let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
+    let reached = relative_error.is_some_and(|r| r < accuracy);
+    Ok(Refinement {
+        finest,
+        accuracy,
+        reached,
+        omega_b_error,
+        relative_error,
+        estimate,
+        rungs,
+        stopped: if reached { None } else { stopped },
+    })
+}
+
+/// The node counts and `omega_b` of rungs that all found one.
+fn rung_values(rungs: &[Rung]) -> (Vec<usize>, Vec<f64>) {
+    rungs
+        .iter()
+        .filter_map(|r| r.omega_b.map(|w| (r.nodes, w)))
+        .unzip()
 }

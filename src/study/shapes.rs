@@ -17,7 +17,6 @@ use crate::model::Model;
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_panels};
 use crate::solve::solve_at;
-use crate::steady::Steady;
 use crate::{Error, Result};
 
 /// One node of a shape in `shapes.csv` (SI).
@@ -102,11 +101,12 @@ pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
     )?;
 
     // The critical mode at omega_b.
-    let (located, event) = locate_study(study, &model, &mut Silent)?;
-    let Some(event) = event else {
+    let (located, critical) = locate_study(study, &model, &mut Silent)?;
+    let Some(critical) = critical else {
         return Ok(json!({ "kind": "shapes", "omegas": omegas, "mode": null }));
     };
-    let steady = Steady::new(&model, event.p);
+    let steady = critical.steady(&model);
+    let event = &critical.event;
     let (k, m) = steady.stability_pair(&event.u)?;
     let (value, v) = mode(&k, &m, event.eigenvalue)?;
     let base = steady.config(&event.u).x;
