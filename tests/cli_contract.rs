@@ -526,3 +526,58 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
         "{error} vs {measured}"
     );
 }
+
+#[test]
+fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
+    let dir = temp_dir("cli-locate-accuracy");
+    let study = dir.join("refine.toml");
+    // The representative helix (its [discretization] table last) with 20 nodes and a study table.
+    let base = std::fs::read_to_string("studies/representative.toml")
+        .unwrap()
+        .replace("nodes = 60", "nodes = 20");
+    std::fs::write(
+        &study,
+        format!("{base}\n[study]\nkind = \"locate\"\naccuracy = 1e-6\nmax_nodes = 39\n"),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = helixbif(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    let rungs: Vec<u64> = v["rungs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["nodes"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rungs, [20, 39], "{v}");
+    assert_eq!(v["reached"], false);
+    assert!(v["omega_b_error"].as_f64().unwrap() > 0.0);
+    // Out of range, or together with an extrapolation: refused, naming the field.
+    for (extra, field) in [
+        ("accuracy = 0.5\n", "study.accuracy"),
+        ("accuracy = 1e-3\nextrapolate = true\n", "study.accuracy"),
+        ("max_nodes = 3\n", "study.max_nodes"),
+    ] {
+        std::fs::write(
+            &study,
+            format!("{base}\n[study]\nkind = \"locate\"\n{extra}"),
+        )
+        .unwrap();
+        let (code, _, stderr) = helixbif(&[
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{extra}: {stderr}");
+        assert!(stderr.contains(field), "{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -296,17 +296,6 @@ impl Rpy {
         }
     }
 
-    /// The `3 x 3` kernel `M(r)`.
-    #[inline(always)]
-    fn kernel(&self, r: &Vector3<f64>) -> Matrix3<f64> {
-        let rn = r.norm();
-        if rn == 0.0 {
-            return Matrix3::from_diagonal_element(self.self_mobility());
-        }
-        let c = self.radial(rn);
-        Matrix3::from_diagonal_element(c.alpha) + r * r.transpose() * (c.beta / (rn * rn))
-    }
-
     fn discretise(&self, x: &[Vector3<f64>]) -> Discretisation {
         let n = x.len();
         assert!(n >= 2, "RPY mobility needs at least two nodes, got {n}");
@@ -339,8 +328,34 @@ impl Rpy {
         }
     }
 
+    /// `alpha(r)` and `beta(r) / r^2` from `r^2`, so that `M(r) = alpha I + (beta/r^2) r r^T`
+    /// needs no unit vector (`beta / r^2 = 0` at `r = 0`, where `beta = 0` too).
+    #[inline(always)]
+    fn alpha_and_beta_over_r2(&self, r2: f64) -> (f64, f64) {
+        let a = self.blob_radius;
+        if r2 >= 4.0 * a * a {
+            let k = 1.0 / (8.0 * PI * self.mu);
+            let inv2 = 1.0 / r2;
+            let inv = inv2.sqrt();
+            let a2 = a * a * inv2;
+            (
+                k * inv * (1.0 + 2.0 * a2 / 3.0),
+                k * inv * inv2 * (1.0 - 2.0 * a2),
+            )
+        } else if r2 > 0.0 {
+            let k = self.self_mobility();
+            let r = r2.sqrt();
+            let slope = 3.0 * k / (32.0 * a);
+            (k - 3.0 * slope * r, slope / r)
+        } else {
+            (self.self_mobility(), 0.0)
+        }
+    }
+
     /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
-    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
+    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`. The
+    /// inner sums are kept as a scalar times `I` plus a symmetric matrix (six entries), the
+    /// form of `M`.
     fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
         let q = self.points_per_edge();
         let edges = d.len.len();
@@ -348,14 +363,43 @@ impl Rpy {
             .map(|k2| {
                 let mut s = [[Matrix3::zeros(); 2]; 2];
                 for p in k * q..(k + 1) * q {
-                    let mut row = [Matrix3::zeros(); 2];
+                    let y = d.pos[p];
+                    // [alpha sum, xx, xy, xz, yy, yz, zz] for each end b of edge k2.
+                    let mut sums = [[0.0; 7]; 2];
                     for p2 in k2 * q..(k2 + 1) * q {
-                        let m = self.kernel(&(d.pos[p] - d.pos[p2]));
-                        row[0] += m * d.pw[p2][0];
-                        row[1] += m * d.pw[p2][1];
+                        let r = y - d.pos[p2];
+                        let (alpha, c) = self.alpha_and_beta_over_r2(r.norm_squared());
+                        let rr = [
+                            r.x * r.x,
+                            r.x * r.y,
+                            r.x * r.z,
+                            r.y * r.y,
+                            r.y * r.z,
+                            r.z * r.z,
+                        ];
+                        for (sum, w) in sums.iter_mut().zip(d.pw[p2]) {
+                            sum[0] += w * alpha;
+                            let cw = c * w;
+                            for (t, v) in sum[1..].iter_mut().zip(&rr) {
+                                *t += cw * v;
+                            }
+                        }
                     }
+                    let rows = sums.map(|t| {
+                        Matrix3::new(
+                            t[0] + t[1],
+                            t[2],
+                            t[3],
+                            t[2],
+                            t[0] + t[4],
+                            t[5],
+                            t[3],
+                            t[5],
+                            t[0] + t[6],
+                        )
+                    });
                     for (sa, weight) in s.iter_mut().zip(d.pw[p]) {
-                        for (sab, r) in sa.iter_mut().zip(&row) {
+                        for (sab, r) in sa.iter_mut().zip(&rows) {
                             *sab += r * weight;
                         }
                     }
