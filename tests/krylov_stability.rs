@@ -1,0 +1,260 @@
+//! The Krylov path of the stability problem (src/continuation/krylov.rs) against the dense
+//! solver: on pencils built with a known spectrum, along the representative branch, and through
+//! `locate`.
+
+mod common;
+
+use common::SplitMix64;
+use faer::{Mat, Side, c64};
+use helixbif::branch::{Parameter, RodProblem, locate, omega_scale, rest_state, trace};
+use helixbif::continuation::arclength::Silent;
+use helixbif::continuation::krylov::{Refusal, rightmost, shift_after};
+use helixbif::continuation::newton::NewtonSettings;
+use helixbif::continuation::stability::{
+    Spectrum, eigen_counts, leading, reset_eigen_counts, spectrum,
+};
+use helixbif::continuation::{ContinuationSettings, EigenMethod, Problem};
+use helixbif::model::Model;
+use helixbif::params::Physical;
+
+/// The largest relative difference between two lists of eigenvalues, entry by entry.
+fn relative_difference(a: &[c64], b: &[c64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "{a:?} vs {b:?}");
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).norm() / y.norm().max(1e-300))
+        .fold(0.0, f64::max)
+}
+
+/// A pencil with the eigenvalues `values` (a complex value stands for its conjugate pair):
+/// `M = L L^T` symmetric positive definite (random, seeded), `K = L Q (D + N) Q^T L^T` with `Q`
+/// orthogonal (random), `D` block diagonal (a 2x2 block `[[a, b], [-b, a]]` per pair) and `N`
+/// a small coupling strictly above the diagonal blocks among the first `coupled` unknowns.
+/// `L^{-1} K L^{-T} = Q (D + N) Q^T` is block upper triangular in the basis `Q`, so the
+/// eigenvalues are exactly those of `D`, and the pencil is not normal.
+fn pencil(values: &[c64], coupled: usize, seed: u64) -> (Mat<f64>, Mat<f64>) {
+    let n: usize = values.iter().map(|s| if s.im != 0.0 { 2 } else { 1 }).sum();
+    let mut rng = SplitMix64(seed);
+    let a = Mat::from_fn(n, n, |_, _| rng.uniform());
+    let m = &a * a.transpose() * (1.0 / n as f64) + Mat::<f64>::identity(n, n);
+    let l = m.llt(Side::Lower).unwrap().L().to_owned();
+    let sym = &a + a.transpose();
+    let q = sym.self_adjoint_eigen(Side::Lower).unwrap().U().to_owned();
+    let mut d = Mat::<f64>::zeros(n, n);
+    let mut block = vec![0; n];
+    let mut i = 0;
+    for (b, v) in values.iter().enumerate() {
+        d[(i, i)] = v.re;
+        block[i] = b;
+        if v.im != 0.0 {
+            d[(i + 1, i + 1)] = v.re;
+            d[(i, i + 1)] = v.im;
+            d[(i + 1, i)] = -v.im;
+            block[i + 1] = b;
+            i += 2;
+        } else {
+            i += 1;
+        }
+    }
+    for i in 0..coupled {
+        for j in 0..coupled {
+            if block[i] < block[j] {
+                d[(i, j)] = 5.0 * rng.uniform();
+            }
+        }
+    }
+    let k = &l * &q * &d * q.transpose() * l.transpose();
+    (k, m)
+}
+
+/// A spectrum like the rod's: complex pairs fanning out from the imaginary axis (two with
+/// `Re s > 0`, one just left of it), real eigenvalues on both sides of zero, and a stiff tail
+/// down to `-1e6`.
+fn rod_like(shift: f64) -> Vec<c64> {
+    let mut values = vec![
+        c64::new(2.0 + shift, 250.0),
+        c64::new(1e-3 + shift, 120.0),
+        c64::new(-1e-3 + shift, 310.0),
+        c64::new(0.5 + shift, 0.0),
+        c64::new(-0.7 + shift, 0.0),
+        c64::new(-40.0, 200.0),
+        c64::new(-90.0, 80.0),
+        c64::new(-150.0, 0.0),
+    ];
+    for j in 0..160 {
+        values.push(c64::new(-300.0 * 1.06f64.powi(j), 0.0));
+    }
+    values.push(c64::new(-1e6, 0.0));
+    values
+}
+
+#[test]
+fn krylov_finds_the_rightmost_eigenvalues_of_pencils_with_a_known_spectrum() {
+    for (seed, shift) in [(1, 0.0), (2, -3.0), (3, 1.5)] {
+        let values = rod_like(shift);
+        let (k, m) = pencil(&values, 13, seed);
+        let dense = spectrum(&k, &m, 6).unwrap();
+        // The shift comes from a neighbouring pencil, as along a branch.
+        let (k0, m0) = pencil(&rod_like(shift - 0.5), 13, seed + 10);
+        let prior = spectrum(&k0, &m0, 6).unwrap();
+        let krylov = rightmost(&k, &m, 6, shift_after(&prior), 24).unwrap();
+        let exact_unstable: usize = values
+            .iter()
+            .filter(|s| s.re > 0.0)
+            .map(|s| if s.im != 0.0 { 2 } else { 1 })
+            .sum();
+        println!(
+            "seed {seed}: unstable exact {exact_unstable}, dense {}, krylov {}; leading {:?}",
+            dense.unstable, krylov.unstable, krylov.leading
+        );
+        assert_eq!(krylov.unstable, dense.unstable);
+        assert_eq!(krylov.unstable, exact_unstable);
+        let mut exact: Vec<c64> = values
+            .iter()
+            .flat_map(|s| {
+                let pair = (s.im != 0.0).then(|| s.conj());
+                std::iter::once(*s).chain(pair)
+            })
+            .collect();
+        exact.sort_by(|a, b| b.re.total_cmp(&a.re).then(b.im.total_cmp(&a.im)));
+        let exact_difference = relative_difference(&krylov.leading, &exact[..krylov.leading.len()]);
+        println!(
+            "  Krylov vs the exact spectrum, largest relative difference {exact_difference:.2e}"
+        );
+        assert!(exact_difference < 1e-8);
+        let difference = relative_difference(&krylov.leading, &dense.leading);
+        println!("  Krylov vs dense, largest relative difference {difference:.2e}");
+        assert!(difference < 1e-8, "{krylov:?} vs {dense:?}");
+    }
+}
+
+#[test]
+fn an_unstable_pair_beyond_the_krylov_budget_is_left_to_the_dense_solver() {
+    // 120 eigenvalues clustered near the axis (more than the Krylov path may ask for) and an
+    // unstable pair far up the imaginary axis: the disk of found eigenvalues cannot reach it,
+    // the count is in doubt, and `leading` answers with the dense solver.
+    let mut values: Vec<c64> = (0..120)
+        .map(|j| c64::new(-1.0 - 0.05 * j as f64, 0.0))
+        .collect();
+    values.push(c64::new(0.2, 2000.0));
+    let (k, m) = pencil(&values, 20, 7);
+    let prior = Spectrum {
+        leading: values[..6].to_vec(),
+        unstable: 0,
+    };
+    let refused = rightmost(&k, &m, 6, shift_after(&prior), 24);
+    assert_eq!(refused, Err(Refusal::CountInDoubt));
+    reset_eigen_counts();
+    let answer = leading(&k, &m, 6, EigenMethod::Krylov, Some(&prior)).unwrap();
+    let counts = eigen_counts();
+    println!("{counts:?}");
+    assert_eq!((counts.fallbacks, counts.dense, counts.krylov), (1, 1, 0));
+    assert_eq!(answer.unstable, 2);
+    assert_eq!(answer, spectrum(&k, &m, 6).unwrap());
+}
+
+/// Along the representative branch at `nodes` (Lighthill) past its Hopf point: at every point
+/// the Krylov spectrum (shift from the point before) against the dense one.
+fn branch_agrees(nodes: usize) {
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = nodes;
+    let model = Model::new(&physical).unwrap();
+    let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
+    let omegabar_max = model.scales.omega_to_bar(0.8);
+    let settings = ContinuationSettings {
+        eigen: EigenMethod::Dense,
+        ..ContinuationSettings::default()
+    };
+    let branch = trace(&model, &rest, omegabar_max, &settings, false, &mut Silent).unwrap();
+    let problem = RodProblem {
+        model: &model,
+        parameter: Parameter::Omega,
+        parameter_scale: omega_scale(omegabar_max),
+    };
+    let mut worst: f64 = 0.0;
+    let mut unstable_points = 0;
+    for pair in branch.points.windows(2) {
+        let (before, point) = (&pair[0], &pair[1]);
+        let lin = problem.linearize(&point.u, point.p).unwrap();
+        let (k, m) = problem.stability_pair(&point.u, point.p, &lin).unwrap();
+        let krylov = rightmost(&k, &m, 6, shift_after(&before.spectrum), 24)
+            .unwrap_or_else(|e| panic!("refused at omegabar {}: {e:?}", point.p));
+        assert_eq!(krylov.unstable, point.spectrum.unstable, "at {}", point.p);
+        worst = worst.max(relative_difference(
+            &krylov.leading,
+            &point.spectrum.leading,
+        ));
+        unstable_points += usize::from(krylov.unstable > 0);
+    }
+    println!(
+        "N = {nodes}: {} points ({unstable_points} unstable), largest relative difference of \
+         the leading eigenvalues {worst:.2e}",
+        branch.points.len()
+    );
+    assert!(unstable_points > 0);
+    assert!(worst < 1e-8, "{worst}");
+}
+
+#[test]
+fn krylov_and_dense_agree_along_the_representative_branch_at_30_nodes() {
+    branch_agrees(30);
+}
+
+#[test]
+fn krylov_and_dense_agree_along_the_representative_branch_at_60_nodes() {
+    branch_agrees(60);
+}
+
+#[test]
+fn located_omega_b_does_not_depend_on_the_eigensolver() {
+    for nodes in [30, 60] {
+        let mut physical = Physical::representative();
+        physical.discretization.nodes = nodes;
+        let model = Model::new(&physical).unwrap();
+        let omega_b = |eigen| {
+            let settings = ContinuationSettings {
+                eigen,
+                ..ContinuationSettings::default()
+            };
+            reset_eigen_counts();
+            let (located, _) = locate(
+                &model,
+                2.0,
+                &NewtonSettings::default(),
+                &settings,
+                &mut Silent,
+            )
+            .unwrap();
+            (located.omega_b.unwrap(), eigen_counts())
+        };
+        let (dense, dense_counts) = omega_b(EigenMethod::Dense);
+        let (krylov, krylov_counts) = omega_b(EigenMethod::Krylov);
+        println!(
+            "N = {nodes}: omega_b dense {dense:.12}, krylov {krylov:.12} (relative {:.1e}); \
+             {krylov_counts:?}",
+            (krylov / dense - 1.0).abs()
+        );
+        assert_eq!(dense_counts.krylov, 0);
+        // Only the first point (no spectrum before it to seed the shift) is dense.
+        assert_eq!(krylov_counts.fallbacks, 0, "{krylov_counts:?}");
+        assert!(krylov_counts.krylov > 10);
+        assert!((krylov / dense - 1.0).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn the_eigensolver_is_a_study_setting() {
+    let study = helixbif::study::Study::load(None, &["continuation.eigen=krylov".into()]).unwrap();
+    assert_eq!(study.continuation.eigen, EigenMethod::Krylov);
+    assert_eq!(
+        helixbif::study::Study::load(None, &[])
+            .unwrap()
+            .continuation
+            .eigen,
+        EigenMethod::Auto
+    );
+    let bad = helixbif::study::Study::load(None, &["continuation.eigen=arnoldi".into()])
+        .expect_err("an unknown solver is refused");
+    assert!(bad.is_input());
+    assert!(bad.to_string().contains("continuation.eigen"), "{bad}");
+}
