@@ -90,9 +90,20 @@ fn rod_like(shift: f64) -> Vec<c64> {
 
 #[test]
 fn krylov_finds_the_rightmost_eigenvalues_of_pencils_with_a_known_spectrum() {
-    for (seed, shift) in [(1, 0.0), (2, -3.0), (3, 1.5)] {
-        let values = rod_like(shift);
-        let (k, m) = pencil(&values, 13, seed);
+    for (seed, shift, double) in [
+        (1, 0.0, false),
+        (2, -3.0, false),
+        (3, 1.5, false),
+        (4, 0.0, true),
+    ] {
+        let mut values = rod_like(shift);
+        if double {
+            // A double unstable real eigenvalue and a double pair next to the axis, as in a
+            // symmetric problem, uncoupled: each counts twice.
+            values.splice(3..3, [c64::new(0.3, 0.0), c64::new(0.3, 0.0)]);
+            values.splice(0..0, [c64::new(-0.2, 180.0), c64::new(-0.2, 180.0)]);
+        }
+        let (k, m) = pencil(&values, if double { 0 } else { 13 }, seed);
         let dense = spectrum(&k, &m, 6).unwrap();
         // The shift comes from a neighbouring pencil, as along a branch.
         let (k0, m0) = pencil(&rod_like(shift - 0.5), 13, seed + 10);
