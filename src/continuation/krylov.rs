@@ -234,6 +234,10 @@ fn deflated_growth(op: &ShiftInvert, theta: &[c64], vectors: &Mat<c64>) -> f64 {
     project(&mut x);
     let mut growth = 0.0;
     for _ in 0..DEFLATED_STEPS {
+        if x.norm_l2() == 0.0 {
+            // The subspace found is the whole space.
+            return 0.0;
+        }
         let mut y = Mat::zeros(n, 1);
         op.apply_into(y.as_mut(), x.as_ref());
         project(&mut y);
@@ -349,12 +353,14 @@ pub fn rightmost(
         });
         let unstable = values.iter().filter(|s| s.re > 0.0).count();
         let wanted = keep.max(unstable + 2).min(n);
-        // The certificate needs the `wanted`-th rightmost inside the disk; then the wedge.
-        let certified = order.get(wanted - 1).is_some_and(|&j| {
-            let r = values[j].re.min(0.0);
-            (values[j] - sigma).norm() < radius
-                && largest_wedge(sigma, radius, r).is_some_and(|c| wedge_holds(k, m, c))
-        });
+        // The whole spectrum found (a small pencil) needs no certificate; else the `wanted`-th
+        // rightmost must lie inside the disk, and then the wedge.
+        let certified = nev == n
+            || order.get(wanted - 1).is_some_and(|&j| {
+                let r = values[j].re.min(0.0);
+                (values[j] - sigma).norm() < radius
+                    && largest_wedge(sigma, radius, r).is_some_and(|c| wedge_holds(k, m, c))
+            });
         if certified {
             let missed = deflated_growth(&op, &theta, &vectors) * radius;
             if missed > 1.0 {
