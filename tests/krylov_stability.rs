@@ -164,14 +164,13 @@ fn an_unstable_pair_beyond_the_krylov_budget_is_left_to_the_dense_solver() {
     assert_eq!(answer, spectrum(&k, &m, 6).unwrap());
 }
 
-/// Along the representative branch at `nodes` (Lighthill) past its Hopf point: at every point
-/// the Krylov spectrum (shift from the point before) against the dense one.
-fn branch_agrees(nodes: usize) {
-    let mut physical = Physical::representative();
-    physical.discretization.nodes = nodes;
-    let model = Model::new(&physical).unwrap();
+/// Along the branch of `physical` from rest to `omega_max` rad/s: at every point the Krylov
+/// spectrum (shift from the point before) against the dense one. Returns the number of points
+/// and of unstable ones.
+fn branch_agrees(label: &str, physical: &Physical, omega_max: f64) -> (usize, usize) {
+    let model = Model::new(physical).unwrap();
     let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
-    let omegabar_max = model.scales.omega_to_bar(0.8);
+    let omegabar_max = model.scales.omega_to_bar(omega_max);
     let settings = ContinuationSettings {
         eigen: EigenMethod::Dense,
         ..ContinuationSettings::default()
@@ -198,22 +197,47 @@ fn branch_agrees(nodes: usize) {
         unstable_points += usize::from(krylov.unstable > 0);
     }
     println!(
-        "N = {nodes}: {} points ({unstable_points} unstable), largest relative difference of \
-         the leading eigenvalues {worst:.2e}",
+        "{label}: {} points ({unstable_points} unstable), largest relative difference of the \
+         leading eigenvalues {worst:.2e}",
         branch.points.len()
     );
-    assert!(unstable_points > 0);
     assert!(worst < 1e-8, "{worst}");
+    (branch.points.len(), unstable_points)
+}
+
+/// The representative helix at `nodes` (Lighthill) up to 0.8 rad/s, past its Hopf point.
+fn helix_branch_agrees(nodes: usize) {
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = nodes;
+    let (_, unstable) = branch_agrees(&format!("helix, N = {nodes}"), &physical, 0.8);
+    assert!(unstable > 0);
 }
 
 #[test]
 fn krylov_and_dense_agree_along_the_representative_branch_at_30_nodes() {
-    branch_agrees(30);
+    helix_branch_agrees(30);
 }
 
 #[test]
 fn krylov_and_dense_agree_along_the_representative_branch_at_60_nodes() {
-    branch_agrees(60);
+    helix_branch_agrees(60);
+}
+
+#[test]
+fn krylov_and_dense_agree_along_the_tight_arc_branch() {
+    // The R/L = 0.29 arc of studies/fig2_straight_and_curved.toml (22 nodes), to 0.9 rad/s.
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("studies/fig2_straight_and_curved.toml"),
+    )
+    .unwrap();
+    let study = helixbif::study::Study::load(
+        Some(&text),
+        &["shape={kind=\"arc\", L=0.12, R=0.0348}".into()],
+    )
+    .unwrap();
+    let (points, _) = branch_agrees("arc, R/L = 0.29", &study.physical(), 0.9);
+    assert!(points > 10);
 }
 
 #[test]
