@@ -9,7 +9,7 @@
 //! [`leading`] chooses between the two ([`EigenMethod`]) and falls back to dense wherever the
 //! Krylov path refuses; the thread's tally of both is [`eigen_counts`].
 
-use std::cell::Cell;
+use std::cell::RefCell;
 
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
@@ -38,37 +38,25 @@ pub struct EigenCounts {
 }
 
 thread_local! {
-    static COUNTS: Cell<EigenCounts> = const { Cell::new(EigenCounts {
-        krylov: 0, dense: 0, fallbacks: 0, last_refusal: None,
-    }) };
+    static COUNTS: RefCell<EigenCounts> = RefCell::new(EigenCounts::default());
 }
 
 /// The tally of this thread's spectra.
 pub fn eigen_counts() -> EigenCounts {
-    COUNTS.with(|c| {
-        let v = c.take();
-        c.set(v.clone());
-        v
-    })
+    COUNTS.with_borrow(|c| c.clone())
 }
 
 /// Sets this thread's tally to zero.
 pub fn reset_eigen_counts() {
-    COUNTS.with(|c| c.set(EigenCounts::default()));
-}
-
-fn tally(f: impl FnOnce(&mut EigenCounts)) {
-    COUNTS.with(|c| {
-        let mut v = c.take();
-        f(&mut v);
-        c.set(v);
-    });
+    COUNTS.with_borrow_mut(|c| *c = EigenCounts::default());
 }
 
 /// The `keep` eigenvalues of largest real part (at least the unstable count + 2) and the
 /// unstable count, by `method`. The Krylov path needs the leading spectrum of a nearby state,
 /// `prior`, for its shift ([`shift_after`]); without one, or where it refuses, the dense solver
-/// answers.
+/// answers. Krylov-Schur is first asked for twice as many eigenvalues as `prior` kept, plus 8,
+/// at least 24 (its subspace has at least 64 vectors in any case); the certificate asks for
+/// more where it needs them.
 pub fn leading(
     k: &Mat<f64>,
     m: &Mat<f64>,
@@ -85,16 +73,16 @@ pub fn leading(
         let nev = (2 * prior.leading.len() + 8).max(24);
         match rightmost(k, m, keep, shift_after(prior), nev) {
             Ok(s) => {
-                tally(|c| c.krylov += 1);
+                COUNTS.with_borrow_mut(|c| c.krylov += 1);
                 return Ok(s);
             }
-            Err(refusal) => tally(|c| {
+            Err(refusal) => COUNTS.with_borrow_mut(|c| {
                 c.fallbacks += 1;
                 c.last_refusal = Some(refusal);
             }),
         }
     }
-    tally(|c| c.dense += 1);
+    COUNTS.with_borrow_mut(|c| c.dense += 1);
     spectrum(k, m, keep)
 }
 
