@@ -46,7 +46,7 @@ use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
 use super::newton::{self, NewtonSettings, System, norm};
-use super::stability::{Spectrum, is_complex, spectrum};
+use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
 use crate::{Error, Result};
 
@@ -295,16 +295,18 @@ impl<P: Problem> System for AtParameter<'_, P> {
     }
 }
 
-/// The leading spectrum at a solution whose linearization is `lin`.
+/// The leading spectrum at a solution whose linearization is `lin`, by `settings.eigen`;
+/// `prior` is the spectrum of a nearby point, if any (it seeds the Krylov shift).
 pub fn stability(
     problem: &impl Problem,
     u: &[f64],
     p: f64,
     lin: &Linearization,
-    keep: usize,
+    settings: &ContinuationSettings,
+    prior: Option<&Spectrum>,
 ) -> Result<Spectrum> {
     let (k, m) = problem.stability_pair(u, p, lin)?;
-    spectrum(&k, &m, keep)
+    leading(&k, &m, settings.eigenvalues, settings.eigen, prior)
 }
 
 /// How the unstable count changes between two spectra: `Ok(true)` if one event explains it,
@@ -354,7 +356,7 @@ pub fn follow<P: Problem>(
     let zero = vec![0.0; u0.len()];
     let (tu, tp) = tangent(&lin, &metric, &zero, direction.signum() / metric.wp)?;
     let first = Point {
-        spectrum: stability(problem, &u0, p0, &lin, settings.eigenvalues)?,
+        spectrum: stability(problem, &u0, p0, &lin, settings, None)?,
         u: u0,
         p: p0,
         s: 0.0,
@@ -427,7 +429,7 @@ pub fn follow<P: Problem>(
                 )));
             }
             let (tu, tp) = tangent(&c.lin, &metric, &last.tangent_u, last.tangent_p)?;
-            let spectrum = stability(problem, &c.u, c.p, &c.lin, settings.eigenvalues)?;
+            let spectrum = stability(problem, &c.u, c.p, &c.lin, settings, Some(&last.spectrum))?;
             Ok(Point {
                 u: c.u,
                 p: c.p,

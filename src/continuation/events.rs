@@ -190,7 +190,14 @@ impl<'a, P: Problem> Sampler<'a, P> {
         } else {
             a.tangent_p
         };
-        let spectrum = stability(self.problem, &c.u, c.p, &c.lin, self.settings.eigenvalues)?;
+        let spectrum = stability(
+            self.problem,
+            &c.u,
+            c.p,
+            &c.lin,
+            self.settings,
+            Some(&a.spectrum),
+        )?;
         Ok(Sample {
             sigma,
             u: c.u,

@@ -10,6 +10,7 @@
 
 pub mod arclength;
 pub mod events;
+pub mod krylov;
 pub mod newton;
 pub mod reference;
 pub mod stability;
@@ -85,6 +86,22 @@ pub struct ContinuationSettings {
     pub eigenvalues: usize,
     /// Largest change of the parameter in one step, as a fraction of the range followed.
     pub max_parameter_step: f64,
+    /// How the leading eigenvalues are computed at each point (see [`EigenMethod`]).
+    pub eigen: EigenMethod,
+}
+
+/// The eigensolver of the stability problem (`continuation.eigen`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EigenMethod {
+    /// The full spectrum, dense ([`stability::spectrum`]).
+    Dense,
+    /// The rightmost eigenvalues by shift-invert Krylov-Schur over one LU factorization, with
+    /// a certified unstable count, falling back to dense where that fails ([`krylov`]).
+    Krylov,
+    /// Dense below [`stability::AUTO_KRYLOV_SIZE`] unknowns, Krylov from there on.
+    #[default]
+    Auto,
 }
 
 impl Default for ContinuationSettings {
@@ -99,6 +116,7 @@ impl Default for ContinuationSettings {
             event_tol: 1e-8,
             eigenvalues: 6,
             max_parameter_step: 1.0 / 60.0,
+            eigen: EigenMethod::Auto,
         }
     }
 }

@@ -1,15 +1,90 @@
 //! Linear stability: the eigenvalues of `K v = s M v` with `M` symmetric positive definite.
 //!
-//! With the Cholesky factor `M = L L^T` the problem is the standard one
+//! Dense ([`spectrum`]): with the Cholesky factor `M = L L^T` the problem is the standard one
 //! `C w = s w`, `C = L^{-1} K L^{-T}`, `w = L^T v` (same eigenvalues, a quarter of the cost of
 //! the QZ algorithm), solved by faer's dense non-symmetric eigensolver.
+//!
+//! Krylov ([`super::krylov`]): only the rightmost eigenvalues, by shift-invert over one LU
+//! factorization, with a certificate that the unstable count is that of the full spectrum.
+//! [`leading`] chooses between the two ([`EigenMethod`]) and falls back to dense wherever the
+//! Krylov path refuses; the thread's tally of both is [`eigen_counts`].
+
+use std::cell::RefCell;
 
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
 };
 use faer::{Mat, Par, Side, c64};
 
+use super::EigenMethod;
+use super::krylov::{self, rightmost, shift_after};
 use crate::{Error, Result};
+
+/// Size of the pencil from which `continuation.eigen = "auto"` uses the Krylov path (measured
+/// with `cargo bench --bench eigen`: below it the dense solver is as fast).
+pub const AUTO_KRYLOV_SIZE: usize = 150;
+
+/// How the spectra of this thread were computed, since its start or the last
+/// [`reset_eigen_counts`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EigenCounts {
+    /// Certified Krylov results.
+    pub krylov: usize,
+    /// Dense solves (asked for, without a previous spectrum to seed the shift, or fallbacks).
+    pub dense: usize,
+    /// Krylov attempts refused (each followed by a dense solve), and the last reason.
+    pub fallbacks: usize,
+    pub last_refusal: Option<krylov::Refusal>,
+}
+
+thread_local! {
+    static COUNTS: RefCell<EigenCounts> = RefCell::new(EigenCounts::default());
+}
+
+/// The tally of this thread's spectra.
+pub fn eigen_counts() -> EigenCounts {
+    COUNTS.with_borrow(|c| c.clone())
+}
+
+/// Sets this thread's tally to zero.
+pub fn reset_eigen_counts() {
+    COUNTS.with_borrow_mut(|c| *c = EigenCounts::default());
+}
+
+/// The `keep` eigenvalues of largest real part (at least the unstable count + 2) and the
+/// unstable count, by `method`. The Krylov path needs the leading spectrum of a nearby state,
+/// `prior`, for its shift ([`shift_after`]); without one, or where it refuses, the dense solver
+/// answers. Krylov-Schur is first asked for twice as many eigenvalues as `prior` kept, plus 8,
+/// at least 24 (its subspace has at least 64 vectors in any case); the certificate asks for
+/// more where it needs them.
+pub fn leading(
+    k: &Mat<f64>,
+    m: &Mat<f64>,
+    keep: usize,
+    method: EigenMethod,
+    prior: Option<&Spectrum>,
+) -> Result<Spectrum> {
+    let krylov = match method {
+        EigenMethod::Dense => false,
+        EigenMethod::Krylov => true,
+        EigenMethod::Auto => k.nrows() >= AUTO_KRYLOV_SIZE,
+    };
+    if let (true, Some(prior)) = (krylov, prior) {
+        let nev = (2 * prior.leading.len() + 8).max(24);
+        match rightmost(k, m, keep, shift_after(prior), nev) {
+            Ok(s) => {
+                COUNTS.with_borrow_mut(|c| c.krylov += 1);
+                return Ok(s);
+            }
+            Err(refusal) => COUNTS.with_borrow_mut(|c| {
+                c.fallbacks += 1;
+                c.last_refusal = Some(refusal);
+            }),
+        }
+    }
+    COUNTS.with_borrow_mut(|c| c.dense += 1);
+    spectrum(k, m, keep)
+}
 
 /// The leading part of a spectrum.
 #[derive(Clone, Debug, PartialEq)]
