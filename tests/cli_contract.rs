@@ -429,13 +429,8 @@ fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
         helixbif(&["locate", "--json", "--set", "discretization.nodes=40"]);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
-    let rungs: Vec<u64> = v["rungs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["nodes"].as_u64().unwrap())
-        .collect();
-    assert_eq!(rungs, [40, 79, 87], "{v}");
+    let rungs = rung_field(&v, "nodes");
+    assert_eq!(rungs, [40.0, 79.0, 87.0], "{v}");
     assert_eq!(v["nodes"], 87);
     assert_eq!(v["reached"], false);
     let stopped = v["stopped"].as_str().unwrap();
@@ -445,12 +440,7 @@ fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
     );
     // The estimate is the rungs' own: at least the last increment times h_f/(h_p - h_f) when
     // it falls back to first order, never below the second-order Richardson estimate.
-    let w: Vec<f64> = v["rungs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["omega_b"].as_f64().unwrap())
-        .collect();
+    let w = rung_field(&v, "omega_b");
     let (hp, hf) = (1.0 / 78.0, 1.0 / 86.0);
     let second = (w[2] - w[1]).abs() * hf * hf / (hp * hp - hf * hf);
     let error = v["omega_b_error"].as_f64().unwrap();
@@ -496,12 +486,7 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
     let (code, stdout, stderr) = helixbif(&args);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
-    let w: Vec<f64> = v["rungs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["omega_b"].as_f64().unwrap())
-        .collect();
+    let w = rung_field(&v, "omega_b");
     assert_eq!(w.len(), 3, "{v}");
     assert!(v["stopped"].as_str().unwrap().contains("--max-nodes 81"));
     // The observed order reported is the rungs' (spacing halved each time).
@@ -550,13 +535,7 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
-    let rungs: Vec<u64> = v["rungs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|r| r["nodes"].as_u64().unwrap())
-        .collect();
-    assert_eq!(rungs, [20, 39], "{v}");
+    assert_eq!(rung_field(&v, "nodes"), [20.0, 39.0], "{v}");
     assert_eq!(v["reached"], false);
     assert!(v["omega_b_error"].as_f64().unwrap() > 0.0);
     // Out of range, or together with an extrapolation: refused, naming the field.
@@ -580,4 +559,14 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
         assert!(stderr.contains(field), "{stderr}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The field `key` of every rung of a `locate` refinement's JSON.
+fn rung_field(v: &serde_json::Value, key: &str) -> Vec<f64> {
+    v["rungs"]
+        .as_array()
+        .expect("a refinement has rungs")
+        .iter()
+        .map(|r| r[key].as_f64().expect("a number"))
+        .collect()
 }
