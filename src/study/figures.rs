@@ -248,6 +248,10 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "m = {m:.4}, 95% CI [{:.4}, {:.4}]",
                     m_ci[0], m_ci[1]
                 ));
+                let local: Vec<_> = groups
+                    .iter()
+                    .map(|(_, x, y)| local_exponents(x, y))
+                    .collect();
                 let record = json!({
                     "m": m,
                     "m_ci": m_ci,
@@ -261,26 +265,24 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "per_series_m": f.per_group.iter().map(|(g, p, ci)| json!({"series": g, "m": -p, "m_ci": [-ci[1], -ci[0]]})).collect::<Vec<_>>(),
                     // The local exponent m_loc = -d ln y / d ln x between neighbouring points
                     // of each series: the power law's m is an average of these.
-                    "local_m": groups.iter().map(|(g, x, y)| json!({
+                    "local_m": groups.iter().zip(&local).map(|((g, _, _), l)| json!({
                         "series": g,
-                        "intervals": local_exponents(x, y).iter().map(|l| json!({
+                        "intervals": l.iter().map(|l| json!({
                             "x_lo": l.x_lo, "x_hi": l.x_hi, "x_mid": l.x_mid, "m_loc": -l.p,
                         })).collect::<Vec<_>>(),
                     })).collect::<Vec<_>>(),
                 });
-                let local: Vec<Series> = groups
+                let local_series: Vec<Series> = groups
                     .iter()
+                    .zip(&local)
                     .enumerate()
-                    .map(|(i, (g, x, y))| {
-                        let l = local_exponents(x, y);
-                        Series {
-                            label: label(g),
-                            x: l.iter().map(|l| l.x_mid).collect(),
-                            y: l.iter().map(|l| -l.p).collect(),
-                            style: Style::Markers(shapes[i % shapes.len()]),
-                            stable: None,
-                            err: None,
-                        }
+                    .map(|(i, ((g, _, _), l))| Series {
+                        label: label(g),
+                        x: l.iter().map(|l| l.x_mid).collect(),
+                        y: l.iter().map(|l| -l.p).collect(),
+                        style: Style::Markers(shapes[i % shapes.len()]),
+                        stable: None,
+                        err: None,
                     })
                     .chain(std::iter::once({
                         let (x, _) = curve(&|x| x, lo);
@@ -299,7 +301,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                         x_label: axis_label(&spec.x),
                         y_label: "m_loc (-)".into(),
                         x_scale: scale(spec.log_x),
-                        series: local,
+                        series: local_series,
                         ..Figure::default()
                     },
                     &dir.join(format!("local_m_{k}.svg")),

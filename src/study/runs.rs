@@ -430,6 +430,8 @@ pub fn run_refinement(study: &Study, accuracy: f64, max_nodes: usize) -> Result<
     };
     let mut rungs: Vec<Rung> = Vec::new();
     let mut finest: Option<Located> = None;
+    // The estimate of the finest rung (none while it has no omega_b or another kind of event).
+    let mut estimate: Option<DiscretizationError> = None;
     let mut n = start;
     let stopped = loop {
         let mut s = study.clone();
@@ -453,6 +455,7 @@ pub fn run_refinement(study: &Study, accuracy: f64, max_nodes: usize) -> Result<
             omega_b: located.omega_b,
             kind: located.kind.clone(),
         });
+        estimate = None;
         let kind_changed = rungs[0].kind != located.kind;
         let found = located.omega_b.is_some();
         finest = Some(located);
@@ -478,6 +481,7 @@ pub fn run_refinement(study: &Study, accuracy: f64, max_nodes: usize) -> Result<
             let e = discretization_error(&nodes, &values)?;
             let relative = e.error / values[values.len() - 1].abs();
             eprintln!("  estimated relative error {relative:.2e} ({})", e.method);
+            estimate = Some(e);
             if relative < accuracy {
                 break None;
             }
@@ -488,13 +492,6 @@ pub fn run_refinement(study: &Study, accuracy: f64, max_nodes: usize) -> Result<
         }
     };
     let finest = finest.expect("at least one rung ran");
-    let kinds_agree = rungs.iter().all(|r| r.kind == rungs[0].kind);
-    let estimate = if rungs.len() >= 2 && kinds_agree && finest.omega_b.is_some() {
-        let (nodes, values) = rung_values(&rungs);
-        Some(discretization_error(&nodes, &values)?)
-    } else {
-        None
-    };
     let omega_b_error = estimate.as_ref().map(|e| e.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.is_some_and(|r| r < accuracy);
