@@ -92,41 +92,11 @@ fn relative_asymmetry(a: &Mat<f64>) -> f64 {
     out / max_abs(a)
 }
 
-/// `A(X) y`.
-fn apply_mobility(model: &Lighthill, x: &[Vector3<f64>], y: &Mat<f64>) -> Mat<f64> {
-    model.mobility(x) * y
-}
-
-/// Central finite differences of `X -> A(X) y`, step `h` on every coordinate.
-fn finite_difference_derivative(
-    model: &Lighthill,
-    x: &[Vector3<f64>],
-    y: &[Vector3<f64>],
-    h: f64,
-) -> Mat<f64> {
-    let n = x.len();
-    let ys = stack_vectors(y);
-    let mut b = Mat::zeros(3 * n, 3 * n);
-    for j in 0..n {
-        for k in 0..3 {
-            let mut xp = x.to_vec();
-            let mut xm = x.to_vec();
-            xp[j][k] += h;
-            xm[j][k] -= h;
-            let dp = apply_mobility(model, &xp, &ys) - apply_mobility(model, &xm, &ys);
-            for r in 0..3 * n {
-                b[(r, 3 * j + k)] = dp[(r, 0)] / (2.0 * h);
-            }
-        }
-    }
-    b
-}
-
 /// `max |B - B_fd| / max |B|` on a perturbed helix with random `y`.
 fn derivative_error(model: &Lighthill, x: &[Vector3<f64>], rng: &mut SplitMix64) -> f64 {
     let y: Vec<Vector3<f64>> = (0..x.len()).map(|_| rng.vector()).collect();
     let b = model.mobility_derivative(x, &y);
-    let b_fd = finite_difference_derivative(model, x, &y, 1e-6);
+    let b_fd = common::finite_difference_derivative(|x| model.mobility(x), x, &y, 1e-6);
     max_abs(&(&b - &b_fd)) / max_abs(&b)
 }
 

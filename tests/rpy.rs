@@ -141,31 +141,6 @@ fn mobility_is_symmetric_positive_definite_at_every_resolution() {
     }
 }
 
-/// Central finite differences of `X -> A(X) y`.
-fn finite_difference_derivative(
-    model: &Rpy,
-    x: &[Vector3<f64>],
-    y: &[Vector3<f64>],
-    h: f64,
-) -> Mat<f64> {
-    let n = x.len();
-    let ys = stack_vectors(y);
-    let mut b = Mat::zeros(3 * n, 3 * n);
-    for j in 0..n {
-        for k in 0..3 {
-            let mut xp = x.to_vec();
-            let mut xm = x.to_vec();
-            xp[j][k] += h;
-            xm[j][k] -= h;
-            let dp = model.mobility(&xp) * &ys - model.mobility(&xm) * &ys;
-            for r in 0..3 * n {
-                b[(r, 3 * j + k)] = dp[(r, 0)] / (2.0 * h);
-            }
-        }
-    }
-    b
-}
-
 /// Test 2: analytic `B = d(A y)/dX` against central finite differences (step 1e-7, every
 /// coordinate) at randomly perturbed configurations (perturbation up to 0.1 spacing or 0.1 r0)
 /// with random `y`: the representative helix at N = 16, a single edge (N = 2), hairpins with
@@ -192,7 +167,7 @@ fn derivative_matches_finite_differences() {
         let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), &x);
         let y: Vec<Vector3<f64>> = (0..x.len()).map(|_| rng.vector()).collect();
         let b = model.mobility_derivative(&x, &y);
-        let b_fd = finite_difference_derivative(&model, &x, &y, 1e-7);
+        let b_fd = common::finite_difference_derivative(|x| model.mobility(x), &x, &y, 1e-7);
         let err = max_abs(&(&b - &b_fd)) / max_abs(&b);
         println!(
             "{name}: N = {}, Q = {}, max |B - B_fd| / max |B| = {err:.2e}",

@@ -134,3 +134,29 @@ impl SplitMix64 {
         Vector3::new(self.uniform(), self.uniform(), self.uniform())
     }
 }
+
+/// Central finite differences of `X -> A(X) y` for a mobility `A`, step `h` on every coordinate:
+/// column `3 j + k` is `(A(X + h e_jk) y - A(X - h e_jk) y) / (2 h)`.
+pub fn finite_difference_derivative(
+    mobility: impl Fn(&[Vector3<f64>]) -> faer::Mat<f64>,
+    x: &[Vector3<f64>],
+    y: &[Vector3<f64>],
+    h: f64,
+) -> faer::Mat<f64> {
+    let n = x.len();
+    let ys = helixbif::fluid::stack_vectors(y);
+    let mut b = faer::Mat::zeros(3 * n, 3 * n);
+    for j in 0..n {
+        for k in 0..3 {
+            let mut xp = x.to_vec();
+            let mut xm = x.to_vec();
+            xp[j][k] += h;
+            xm[j][k] -= h;
+            let dp = mobility(&xp) * &ys - mobility(&xm) * &ys;
+            for r in 0..3 * n {
+                b[(r, 3 * j + k)] = dp[(r, 0)] / (2.0 * h);
+            }
+        }
+    }
+    b
+}
