@@ -139,3 +139,167 @@ fn brusselator_hopf_at_b_equal_one_plus_a_squared() {
         assert!((p.u[0] - a).abs() < 1e-9 && (p.u[1] - p.p / a).abs() < 1e-9);
     }
 }
+
+/// A problem that counts the stability evaluations asked of it: one per accepted point, one per
+/// sample inside an event's bracket.
+struct Counted<P> {
+    inner: P,
+    stability: std::cell::Cell<usize>,
+}
+
+impl<P: Problem> Problem for Counted<P> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn residual(&self, u: &[f64], p: f64) -> helixbif::Result<Vec<f64>> {
+        self.inner.residual(u, p)
+    }
+    fn linearize(
+        &self,
+        u: &[f64],
+        p: f64,
+    ) -> helixbif::Result<helixbif::continuation::Linearization> {
+        self.inner.linearize(u, p)
+    }
+    fn stability_pair(
+        &self,
+        u: &[f64],
+        p: f64,
+        lin: &helixbif::continuation::Linearization,
+    ) -> helixbif::Result<(faer::Mat<f64>, faer::Mat<f64>)> {
+        self.stability.set(self.stability.get() + 1);
+        self.inner.stability_pair(u, p, lin)
+    }
+}
+
+/// The event search converges superlinearly on its test function (the real part of the
+/// crossing eigenvalue, the parameter part of the tangent): from a step of 0.5 to a bracket
+/// of 1e-10 relative, bisection alone would need about 32 samples per search
+/// (log2(0.5 / 5e-10)); the Illinois secant needs a handful (at most 8 here). A fold costs two
+/// searches (the tangent's turn, then the count change of its own real eigenvalue, which is
+/// then recognized as the fold's). Each event is also located to the tolerance asked.
+#[test]
+fn events_are_pinned_down_in_a_few_samples_not_by_bisection() {
+    let tight = ContinuationSettings {
+        event_tol: 1e-10,
+        ..settings()
+    };
+    type Case = (&'static str, usize, Vec<f64>, f64, f64, Limits, f64);
+    let cases: Vec<(Case, _)> = vec![
+        (
+            (
+                "hopf (Brusselator, a = 2)",
+                1,
+                vec![2.0, 0.5],
+                1.0,
+                1.0,
+                limits(0.0, 8.0),
+                5.0,
+            ),
+            brusselator(2.0),
+        ),
+        (
+            (
+                "branch point (pitchfork)",
+                1,
+                vec![0.0],
+                -1.0,
+                1.0,
+                limits(-2.0, 1.0),
+                0.0,
+            ),
+            pitchfork(0.0),
+        ),
+        (
+            (
+                "fold (imperfect pitchfork, eps = 0.01)",
+                2,
+                vec![-(2.0f64).sqrt()],
+                2.0,
+                -1.0,
+                limits(-1.0, 3.0),
+                3.0 * 0.005f64.powf(2.0 / 3.0),
+            ),
+            pitchfork(0.01),
+        ),
+    ];
+    for ((name, searches, u0, p0, direction, l, exact), inner) in cases {
+        let problem = Counted {
+            inner,
+            stability: std::cell::Cell::new(0),
+        };
+        let branch = follow(&problem, u0, p0, direction, &tight, &l, &mut Silent).unwrap();
+        let e = branch.events.first().expect(name);
+        assert!(
+            (e.p - exact).abs() <= 1e-10 * exact.abs().max(1e-6),
+            "{name}: at {} vs {exact}",
+            e.p
+        );
+        let samples = problem.stability.get() - branch.points.len();
+        assert!(samples <= 8 * searches, "{name}: {samples} samples");
+    }
+}
+
+/// `u' = J(p) u` in two rotation blocks: the pair `p - 1 +- i (2 + 3p)`, which crosses the axis
+/// at `p = 1` while its frequency grows fast, and the stable pair `-3 +- 11i`. Over a long step
+/// from `p = 0` to `p = 3` the crossing eigenvalue at the far end (`2 + 11i`) lies nearer the
+/// stable pair (distance 5) than its own value at the crossing (`5i`, distance 6.3): a search
+/// that identified the crossing mode by its value at the first far end would read the stable
+/// pair on the unstable side, see no sign change and fall back to bisection.
+fn racing_pair() -> helixbif::continuation::reference::Reference {
+    let jacobian = |p: f64| {
+        let (re, w) = (p - 1.0, 2.0 + 3.0 * p);
+        vec![
+            vec![re, -w, 0.0, 0.0],
+            vec![w, re, 0.0, 0.0],
+            vec![0.0, 0.0, -3.0, -11.0],
+            vec![0.0, 0.0, 11.0, -3.0],
+        ]
+    };
+    helixbif::continuation::reference::Analytic {
+        dim: 4,
+        g: Box::new(move |u, p| {
+            jacobian(p)
+                .iter()
+                .map(|row| row.iter().zip(u).map(|(a, b)| a * b).sum())
+                .collect()
+        }),
+        g_u: Box::new(move |_, p| jacobian(p)),
+        g_p: Box::new(|u, _| vec![u[0] + 3.0 * u[1], u[1] - 3.0 * u[0], 0.0, 0.0]),
+    }
+}
+
+#[test]
+fn a_crossing_mode_whose_frequency_races_is_still_pinned_down_by_the_secant() {
+    let wide = ContinuationSettings {
+        ds: 3.0,
+        ds_max: 4.0,
+        max_parameter_step: 1.0,
+        event_tol: 1e-10,
+        ..settings()
+    };
+    let problem = Counted {
+        inner: racing_pair(),
+        stability: std::cell::Cell::new(0),
+    };
+    let branch = follow(
+        &problem,
+        vec![0.0; 4],
+        0.0,
+        1.0,
+        &wide,
+        &limits(-1.0, 3.0),
+        &mut Silent,
+    )
+    .unwrap();
+    let e = branch.events.first().expect("the Hopf point");
+    assert_eq!(e.kind, EventKind::Hopf);
+    assert!((e.p - 1.0).abs() <= 1e-10, "Hopf at {}", e.p);
+    assert!(
+        (e.eigenvalue.im - 5.0).abs() < 1e-8,
+        "frequency {}",
+        e.eigenvalue.im
+    );
+    let samples = problem.stability.get() - branch.points.len();
+    assert!(samples <= 8, "{samples} samples");
+}

@@ -224,6 +224,15 @@ impl<'a, P: Problem> Sampler<'a, P> {
         self.settings.event_tol * p.abs().max(1e-6 * self.p_scale)
     }
 
+    /// How close to an end of the bracket `[lo, ..]` a proposed sample may come: a third of
+    /// the width in arclength at which [`Sampler::converged`] accepts (in `p` through the
+    /// tangent at `a`).
+    fn margin(&self, lo: &Sample) -> f64 {
+        let sigma_tol = self.settings.event_tol.sqrt() * self.step;
+        let p_tol = self.p_tol(lo.p) / self.a.tangent_p.abs();
+        sigma_tol.min(p_tol) / 3.0
+    }
+
     fn converged(&self, lo: &Sample, hi: &Sample) -> bool {
         (hi.p - lo.p).abs() <= self.p_tol(lo.p)
             && (hi.sigma - lo.sigma).abs() <= self.settings.event_tol.sqrt() * self.step
@@ -250,7 +259,8 @@ impl<'a, P: Problem> Sampler<'a, P> {
                     self.settings.event_tol, lo.p, hi.p
                 )));
             }
-            let sigma = secant(&lo, &hi, f(&lo, &lo, &hi) * w_lo, f(&hi, &lo, &hi) * w_hi);
+            let (f_lo, f_hi) = (f(&lo, &lo, &hi) * w_lo, f(&hi, &lo, &hi) * w_hi);
+            let sigma = secant(&lo, &hi, f_lo, f_hi, self.margin(&lo));
             let s = self.at(sigma)?;
             if beyond(&s) {
                 hi = s;
@@ -275,17 +285,12 @@ impl<'a, P: Problem> Sampler<'a, P> {
     /// differ); returns the event and the sample just beyond it.
     fn crossing(&self, lo: Sample, hi: Sample) -> Result<(Event, Sample)> {
         let base = lo.spectrum.unstable;
-        let tracked = crossing_eigenvalue(&lo.spectrum, &hi.spectrum);
         let growing = hi.spectrum.unstable > base;
-        // The tracked eigenvalue is re-identified from the nearer end of the bracket.
+        // The eigenvalue that crosses is identified afresh in every bracket (the unstable one
+        // of the far side whose nearest on the near side is stable): as the bracket narrows
+        // the identification only gets safer, and the secant sees one smooth function.
         let f = |s: &Sample, l: &Sample, h: &Sample| {
-            let from = if (s.sigma - l.sigma).abs() <= (s.sigma - h.sigma).abs() {
-                l
-            } else {
-                h
-            };
-            let near = from.spectrum.nearest(tracked);
-            crossing_function(s, c64::new(near.re, near.im.abs()), growing)
+            crossing_function(s, crossing_eigenvalue(&l.spectrum, &h.spectrum), growing)
         };
         let beyond = |s: &Sample| s.spectrum.unstable != base;
         let (l, h) = self.bracket(lo, hi, beyond, f)?;
@@ -313,7 +318,7 @@ impl<'a, P: Problem> Sampler<'a, P> {
         near: c64,
         multiplicity: usize,
     ) -> Result<Event> {
-        let sigma = secant(lo, hi, f(lo, lo, hi), f(hi, lo, hi));
+        let sigma = secant(lo, hi, f(lo, lo, hi), f(hi, lo, hi), 0.0);
         let best = self.at(sigma)?;
         let critical = best.spectrum.nearest(near);
         Ok(Event {
@@ -338,13 +343,15 @@ impl<'a, P: Problem> Sampler<'a, P> {
     }
 }
 
-/// The secant root of `f` between `lo` and `hi` when `f` changes sign from negative to positive
-/// there, else the midpoint.
-fn secant(lo: &Sample, hi: &Sample, f_lo: f64, f_hi: f64) -> f64 {
+/// The secant root of `f` between `lo` and `hi` when `f` goes from non-positive to positive
+/// there, kept at least `margin` inside the bracket (so that a root on an end, where the secant
+/// lands exactly, is closed off by one sample just beside it instead of by bisection from the
+/// other end); else the midpoint.
+fn secant(lo: &Sample, hi: &Sample, f_lo: f64, f_hi: f64, margin: f64) -> f64 {
     let sigma = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
-    let inside = (sigma - lo.sigma) * (sigma - hi.sigma) < 0.0;
-    if f_lo < 0.0 && f_hi > 0.0 && sigma.is_finite() && inside {
-        sigma
+    let (left, right) = (lo.sigma.min(hi.sigma), lo.sigma.max(hi.sigma));
+    if f_lo <= 0.0 && f_hi > 0.0 && sigma.is_finite() && right - left > 2.0 * margin {
+        sigma.clamp(left + margin, right - margin)
     } else {
         0.5 * (lo.sigma + hi.sigma)
     }
