@@ -1,6 +1,7 @@
 //! Wall time of `omega_b` by bisection on simulations from rest (`dynamics::bisect`, relative
-//! precision 1e-2) against continuation (`branch::locate`, relative precision 1e-8) on the
-//! representative helix at N = 30 and N = 60, in one run.
+//! precision 1e-2 and 1e-3, where each halving of the bracket costs one more simulation)
+//! against continuation (`branch::locate`, relative precision 1e-8) on the representative helix
+//! at N = 30 and N = 60, in one run.
 //!
 //! Run with `cargo bench --bench bisect_vs_locate` (add `-- 30` to do one node count only).
 //! The bisection bracket is `[0.6, 1.5] omega_b` around the value `locate` found (a guess a
@@ -25,9 +26,9 @@ fn main() {
         .collect();
     let nodes = if args.is_empty() { vec![30, 60] } else { args };
     println!(
-        "| N | locate (1e-8) | omegabar_b | bisect (1e-2) | bracket / omegabar_b | trials | steps | Newton it. | Jacobians | ratio |"
+        "| N | locate (1e-8) | omegabar_b | bisect precision | bisect | bracket / omegabar_b | trials | steps | Newton it. | Jacobians | ratio |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for n in nodes {
         let mut physical = Physical::representative();
         physical.discretization.nodes = n;
@@ -46,22 +47,27 @@ fn main() {
         let event = event.expect("an instability below 2 rad/s").event;
         let omega_b = event.p;
 
-        let settings = BisectSettings::default();
-        let start = Instant::now();
-        let result = bisect(&model, 0.6 * omega_b, 1.5 * omega_b, &settings).expect("bisect");
-        let t_bisect = start.elapsed().as_secs_f64();
-        for t in &result.trials {
-            eprintln!("N = {n}: {}", t.summary(omega_b));
+        for precision in [1e-2, 1e-3] {
+            let settings = BisectSettings {
+                precision,
+                ..BisectSettings::default()
+            };
+            let start = Instant::now();
+            let result = bisect(&model, 0.6 * omega_b, 1.5 * omega_b, &settings).expect("bisect");
+            let t_bisect = start.elapsed().as_secs_f64();
+            for t in &result.trials {
+                eprintln!("N = {n}, precision {precision:e}: {}", t.summary(omega_b));
+            }
+            println!(
+                "| {n} | {t_locate:.2} s | {omega_b:.4} | {precision:.0e} | {t_bisect:.1} s | [{:.4}, {:.4}] | {} | {} | {} | {} | {:.0} |",
+                result.bracket.0 / omega_b,
+                result.bracket.1 / omega_b,
+                result.trials.len(),
+                result.steps,
+                result.newton_iterations,
+                result.jacobians,
+                t_bisect / t_locate
+            );
         }
-        println!(
-            "| {n} | {t_locate:.2} s | {omega_b:.4} | {t_bisect:.1} s | [{:.4}, {:.4}] | {} | {} | {} | {} | {:.0} |",
-            result.bracket.0 / omega_b,
-            result.bracket.1 / omega_b,
-            result.trials.len(),
-            result.steps,
-            result.newton_iterations,
-            result.jacobians,
-            t_bisect / t_locate
-        );
     }
 }

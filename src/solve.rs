@@ -3,9 +3,10 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::continuation::newton::{NewtonReport, NewtonSettings};
+use crate::continuation::newton::{self, NewtonReport, NewtonSettings};
 use crate::model::Model;
 use crate::steady::{self, Observables, Steady, SteadyState, height};
+use faer::prelude::Solve;
 
 /// A steady state with everything `helixbif solve` reports.
 #[derive(Clone, Debug)]
@@ -78,9 +79,10 @@ pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyStat
 
 /// Solves for the steady state at `omegabar`: first the shape hanging at rest, then the rotating
 /// state reached by ramping the rate from rest with adaptive steps (the motor spinning up). Each
-/// step starts from a secant extrapolation of the last two states, so that Newton starts inside
-/// its (narrow) basin of quadratic convergence; a step whose Newton solve fails is halved, an
-/// easy one doubled. The report counts every Newton iteration of the ramp.
+/// step starts from the tangent predictor at the last state ([`tangent_guess`]), so that Newton
+/// starts inside its (narrow) basin of quadratic convergence; a step whose Newton solve fails is
+/// halved, an easy one doubled. The report counts every Newton iteration of the ramp (not the
+/// one linearization per step that each prediction costs).
 pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Result<Solution> {
     // At rest no fluid acts, so any node count is admissible; a rotating state needs a
     // positive mobility (refused before any work at that size).
@@ -103,7 +105,40 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
     })
 }
 
-/// Natural-parameter continuation of `load` from the state `start` to `target`, with a secant
+/// The state at load `value` predicted from the solution `current` along its tangent: the
+/// derivative `du/dv = -G_u^{-1} dG/dv` at `current`, the step `(value - v) du/dv` applied
+/// through the retraction (edges turned and stretched, not translated: a linear step would
+/// stretch turning edges at second order, which the stiff stretching turns into a large
+/// residual).
+fn tangent_guess(
+    model: &Model,
+    load: Load,
+    current: &SteadyState,
+    value: f64,
+) -> Result<crate::rod::Config> {
+    let problem = Steady {
+        model,
+        omega: current.omega,
+        weight: current.weight,
+        chart: current.chart.clone(),
+    };
+    let u = problem.free_vector(&current.config);
+    let lin = problem.linearize(&u)?;
+    let derivative = match load {
+        Load::Omega => problem.rate_derivative(&lin)?,
+        Load::Weight => problem.weight_derivative(),
+    };
+    let dv = value - load.of(current);
+    let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -dv * derivative[i]);
+    let du = lin.jacobian.partial_piv_lu().solve(&rhs);
+    let step: Vec<f64> = (0..u.len()).map(|i| du[(i, 0)]).collect();
+    if step.iter().any(|v| !v.is_finite()) {
+        return Ok(current.config.clone());
+    }
+    Ok(problem.config(&newton::System::retract(&problem, &u, &step)))
+}
+
+/// Natural-parameter continuation of `load` from the state `start` to `target`, with the tangent
 /// predictor. The step is doubled after an easy solve (at most 4 iterations), shortened after a
 /// laborious one (7 or more) and halved after a failure.
 fn ramp(
@@ -118,7 +153,6 @@ fn ramp(
         ..settings.clone()
     };
     let mut current = start.clone();
-    let mut previous: Option<SteadyState> = None;
     let mut step = target - load.of(start);
     let mut iterations = start.report.iterations;
     let mut history = start.report.history.clone();
@@ -130,16 +164,7 @@ fn ramp(
             here + step
         };
         let (omega, weight) = load.at(model, value);
-        let guess = match &previous {
-            Some(p) => Steady::new(model, omega).extrapolate(
-                &current.config,
-                &p.config,
-                here,
-                load.of(p),
-                value,
-            ),
-            None => current.config.clone(),
-        };
+        let guess = tangent_guess(model, load, &current, value)?;
         match steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
             Ok(next) => {
                 iterations += next.report.iterations;
@@ -149,7 +174,7 @@ fn ramp(
                     7.. => step *= 0.7,
                     _ => {}
                 }
-                previous = Some(std::mem::replace(&mut current, next));
+                current = next;
             }
             Err(e) => {
                 step *= 0.5;

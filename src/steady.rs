@@ -140,48 +140,6 @@ impl<'a> Steady<'a> {
         Mat::from_fn(n3 - first, n3 - first, |r, c| zm[(first + r, c)])
     }
 
-    /// Secant predictor: the state at parameter `p` extrapolated from `current` (at `p1`) and
-    /// `before` (at `p0`) edge by edge: the length of each edge linearly, its direction by
-    /// continuing the rotation that took it from `before` to `current` (Rodrigues), the nodes
-    /// by summing edges from the clamp, the angles linearly. A linear extrapolation of node
-    /// positions would shorten turning edges at second order and, with the stiff stretching,
-    /// start Newton far from the solution.
-    pub fn extrapolate(
-        &self,
-        current: &Config,
-        before: &Config,
-        p1: f64,
-        p0: f64,
-        p: f64,
-    ) -> Config {
-        let s = (p - p1) / (p1 - p0);
-        let mut x = current.x[..Layout::CLAMPED_NODES].to_vec();
-        for i in Layout::CLAMPED_NODES - 1..self.layout().edges() {
-            let e1 = current.x[i + 1] - current.x[i];
-            let e0 = before.x[i + 1] - before.x[i];
-            let (l1, l0) = (e1.norm(), e0.norm());
-            let (t1, t0) = (e1 / l1, e0 / l0);
-            let axis = t0.cross(&t1);
-            let angle = axis.norm().atan2(t0.dot(&t1));
-            let t = if axis.norm() > 0.0 {
-                let k = axis.normalize();
-                let phi = s * angle;
-                t1 * phi.cos() + k.cross(&t1) * phi.sin() + k * k.dot(&t1) * (1.0 - phi.cos())
-            } else {
-                t1
-            };
-            let next = x[i] + t * (l1 + s * (l1 - l0));
-            x.push(next);
-        }
-        let theta = current
-            .theta
-            .iter()
-            .zip(&before.theta)
-            .map(|(a, b)| a + s * (a - b))
-            .collect();
-        Config { x, theta }
-    }
-
     fn restrict(&self, full: &[f64]) -> Vec<f64> {
         self.layout()
             .free_indices()
