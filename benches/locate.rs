@@ -1,9 +1,11 @@
 //! Cost of `locate` (continuation from rest to the first loss of stability, pinned down to
-//! 1e-8): on the representative helix at N = 30, 50, 70, and on a longer rod (l = 0.4 m, whose
+//! 1e-8): on the representative helix at N = 30, 60, 85, and on a longer rod (l = 0.4 m, whose
 //! admissible range reaches N = 150) at N = 100 and 150; with the share of the time spent in
 //! residual/Jacobian evaluations, in the stability pair (twist elimination and Z_ff), and in the
 //! engine (bordered solves, eigenvalues), and the number of points and corrector iterations;
-//! then the representative helix on the RPY fluid at N = 60 and 240 (docs/model.md section 9).
+//! then the representative helix on the RPY fluid at N = 60, 240 and 400 (docs/model.md section
+//! 9). Each row also gives the time per accepted point as a multiple of one LU factorization of
+//! a bordered matrix of the corrector's size, measured in the same run.
 //!
 //! Run: `cargo bench --bench locate`.
 
@@ -109,6 +111,26 @@ fn run(label: &str, physical: &Physical) {
         .map_or(f64::NAN, |e| model.scales.omega_from_bar(e.p));
     let iterations: usize = branch.points.iter().map(|p| p.iterations).sum();
     let engine = total - tl - ts - tr;
+    // One LU factorization of a bordered matrix of this size (the corrector's), for scale.
+    let n = problem.dim() + 1;
+    let bordered = Mat::from_fn(n, n, |i, j| {
+        if i == j {
+            4.0
+        } else {
+            1.0 / (1.0 + (i as f64 - j as f64).abs())
+        }
+    });
+    let lu = common::median_seconds(3, || {
+        std::hint::black_box(bordered.partial_piv_lu());
+    });
+    let per_point = total / branch.points.len() as f64;
+    println!(
+        "{label:>14} {:>4}  per point {:>8.2}ms = {:>5.1} LUs of the bordered matrix (n = {n}, one LU {:.2}ms)",
+        model.nodes(),
+        per_point * 1e3,
+        per_point / lu,
+        lu * 1e3
+    );
     println!(
         "{label:>14} {:>4} {:>8.3}s  omega_b {omega_b:.6}  points {:>3} corrector its {:>4}  linearize {nl:>4} x {:>6.2}ms = {:>4.1}%  stability {ns:>3} x {:>6.2}ms = {:>4.1}%  residual {nr:>3} = {:>4.1}%  engine (LU, eigen) {:>4.1}%",
         model.nodes(),
@@ -133,7 +155,7 @@ fn main() {
         .unwrap_or_default();
     println!("locate, {}", common::machine());
     let mut rows = Vec::new();
-    for n in [30, 50, 70] {
+    for n in [30, 60, 85] {
         let mut p = Physical::representative();
         p.discretization.nodes = n;
         rows.push(("default", p));
@@ -146,7 +168,7 @@ fn main() {
         p.discretization.nodes = n;
         rows.push(("l = 0.4 m", p));
     }
-    for n in [60, 240] {
+    for n in [60, 240, 400] {
         let mut p = Physical::representative();
         p.fluid.model = FluidModel::Rpy;
         p.discretization.nodes = n;

@@ -11,6 +11,7 @@ use crate::continuation::arclength::{Branch, Limits, Observer, Stop, follow};
 use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
+use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{Observables, Steady, SteadyState, height};
@@ -56,6 +57,9 @@ pub struct RodProblem<'a> {
     /// [`WEIGHT_SCALE`].
     pub parameter_scale: f64,
     chart: RefCell<Chart>,
+    /// The factorized resistance of the latest linearization and the unknowns it was made at:
+    /// the stability pair at the point just corrected reuses it.
+    resistance: RefCell<Option<(Vec<f64>, Resistance)>>,
 }
 
 impl<'a> RodProblem<'a> {
@@ -66,6 +70,7 @@ impl<'a> RodProblem<'a> {
             parameter,
             parameter_scale,
             chart: RefCell::new(model.chart.clone()),
+            resistance: RefCell::new(None),
         }
     }
 
@@ -102,6 +107,7 @@ impl Problem for RodProblem<'_> {
             Parameter::Omega => steady.rate_derivative(&lin)?,
             Parameter::Weight => steady.weight_derivative(),
         };
+        *self.resistance.borrow_mut() = lin.drag.map(|d| (u.to_vec(), d.resistance));
         Ok(Linearization {
             g: lin.residual,
             g_u: lin.jacobian,
@@ -119,7 +125,9 @@ impl Problem for RodProblem<'_> {
         p: f64,
         lin: &Linearization,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
-        self.steady(p).stability_pair_from(u, &lin.g_u)
+        let cached = self.resistance.borrow();
+        let resistance = cached.as_ref().filter(|(at, _)| at == u).map(|(_, r)| r);
+        self.steady(p).stability_pair_from(u, &lin.g_u, resistance)
     }
 
     fn scales(&self) -> (f64, f64) {

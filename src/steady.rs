@@ -286,12 +286,19 @@ impl Steady<'_> {
     /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`.
     pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
         let lin = self.linearize(u)?;
-        self.stability_pair_from(u, &lin.jacobian)
+        let resistance = lin.drag.as_ref().map(|d| &d.resistance);
+        self.stability_pair_from(u, &lin.jacobian, resistance)
     }
 
     /// [`Steady::stability_pair`] from the Jacobian `j` of the steady residual at `u`, already
-    /// at hand (the continuation corrector ends with it).
-    pub fn stability_pair_from(&self, u: &[f64], j: &Mat<f64>) -> Result<(Mat<f64>, Mat<f64>)> {
+    /// at hand (the continuation corrector ends with it), and the factorized resistance at `u`
+    /// when that is at hand too (else `A` is assembled and factorized here).
+    pub fn stability_pair_from(
+        &self,
+        u: &[f64],
+        j: &Mat<f64>,
+        resistance: Option<&Resistance>,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
         let nx = self.layout().free_positions();
         let nt = j.nrows() - nx;
         let j_tt = Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]);
@@ -310,7 +317,14 @@ impl Steady<'_> {
             self.omega,
             x.len()
         );
-        let resistance = self.model.fluid.resistance(&x, &context)?;
+        let assembled;
+        let resistance = match resistance {
+            Some(r) => r,
+            None => {
+                assembled = self.model.fluid.resistance(&x, &context)?;
+                &assembled
+            }
+        };
         let n3 = 3 * x.len();
         let first = self.layout().x(Layout::CLAMPED_NODES, 0);
         let columns = Mat::from_fn(n3, nx, |r, c| if r == first + c { 1.0 } else { 0.0 });

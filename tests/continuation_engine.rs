@@ -303,3 +303,41 @@ fn a_crossing_mode_whose_frequency_races_is_still_pinned_down_by_the_secant() {
     let samples = problem.stability.get() - branch.points.len();
     assert!(samples <= 8, "{samples} samples");
 }
+
+/// Two real eigenvalues `p - 1` and `p - 1 - 5e-9` cross the axis closer together than the
+/// event tolerance can resolve (a double eigenvalue split by round-off): one branch point of
+/// multiplicity two, whichever of them the search meets first.
+#[test]
+fn crossings_closer_than_the_tolerance_are_one_event_with_their_multiplicity() {
+    let split = 5e-9;
+    let jacobian = move |p: f64| vec![vec![p - 1.0, 0.0], vec![0.0, p - 1.0 - split]];
+    let problem = helixbif::continuation::reference::Analytic {
+        dim: 2,
+        g: Box::new(move |u: &[f64], p: f64| vec![(p - 1.0) * u[0], (p - 1.0 - split) * u[1]]),
+        g_u: Box::new(move |_: &[f64], p: f64| jacobian(p)),
+        g_p: Box::new(|u: &[f64], _: f64| vec![u[0], u[1]]),
+    };
+    let branch = follow(
+        &problem,
+        vec![0.0; 2],
+        0.0,
+        1.0,
+        &settings(),
+        &limits(-1.0, 3.0),
+        &mut Silent,
+    )
+    .unwrap();
+    assert_eq!(
+        branch.events.len(),
+        1,
+        "{:?}",
+        branch.events.iter().map(|e| e.p).collect::<Vec<_>>()
+    );
+    let e = &branch.events[0];
+    assert_eq!(e.kind, EventKind::BranchPoint);
+    assert_eq!(
+        (e.multiplicity, e.unstable_before, e.unstable_after),
+        (2, 0, 2)
+    );
+    assert!((e.p - 1.0).abs() <= 1e-8, "at {}", e.p);
+}

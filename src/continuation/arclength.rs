@@ -19,11 +19,8 @@
 //!
 //! The tangent at the new point solves the same matrix with right-hand side `(0, 1)`, normalized
 //! in (1); this keeps its orientation, so turning points (folds, where `p` turns back) are passed
-//! without special treatment. The corrector keeps a factorization while its steps contract
-//! (chord steps, one residual each) and linearizes afresh only where they stop contracting
-//! ([`correct`]). The step grows by 1.5 after an easy correction (at most 2 Newton steps and 5
-//! iterations), shrinks by 0.7 after a hard one (4 Newton steps or 7 iterations) and is halved
-//! after a failure, or
+//! without special treatment. The step grows by 1.5 after an easy correction (at most 3
+//! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure, or
 //! when the corrector travelled more than half a step from the predicted point, or when the
 //! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
 //! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
@@ -45,7 +42,6 @@
 //! recomputed in the new coordinates.
 
 use faer::Mat;
-use faer::linalg::solvers::PartialPivLu;
 use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
@@ -62,14 +58,6 @@ const ROUND_OFF: f64 = 1e-13;
 /// accepts the point with the size of its last correction as its stated uncertainty.
 const FLOOR: f64 = 1e3;
 
-/// A correction is easy (the next step grows by 1.5) when it converges with at most
-/// `EASY_NEWTON` Newton steps and `EASY` iterations in all, hard (the step shrinks by 0.7) when
-/// it needs `HARD_NEWTON` Newton steps or `HARD` iterations.
-const EASY_NEWTON: usize = 2;
-const EASY: usize = 5;
-const HARD_NEWTON: usize = 4;
-const HARD: usize = 7;
-
 /// Smallest cosine between successive unit tangents (a turn of at most about 30 degrees).
 const MIN_TANGENT_COSINE: f64 = 0.85;
 
@@ -84,10 +72,8 @@ pub struct Point {
     pub tangent_u: Vec<f64>,
     pub tangent_p: f64,
     pub spectrum: Spectrum,
-    /// Corrector iterations spent on this point, and the linearizations among them (see
-    /// [`Corrected::linearizations`]).
+    /// Corrector iterations spent on this point.
     pub iterations: usize,
-    pub linearizations: usize,
     /// How far the point may lie from the branch in `p` (see [`Corrected::uncertainty`]).
     pub uncertainty: f64,
 }
@@ -164,8 +150,8 @@ impl Metric {
     }
 }
 
-/// The LU factorization of the bordered matrix `[G_u G_p; r_u^T r_p]`.
-fn factor_bordered(lin: &Linearization, r_u: &[f64], r_p: f64) -> PartialPivLu<f64> {
+/// Solves the bordered system `[G_u G_p; r_u^T r_p] z = rhs`.
+fn bordered_solve(lin: &Linearization, r_u: &[f64], r_p: f64, rhs: &[f64]) -> Option<Vec<f64>> {
     let n = lin.g.len();
     let mut a = Mat::zeros(n + 1, n + 1);
     for j in 0..n {
@@ -176,15 +162,10 @@ fn factor_bordered(lin: &Linearization, r_u: &[f64], r_p: f64) -> PartialPivLu<f
         a[(n, j)] = r_u[j];
     }
     a[(n, n)] = r_p;
-    a.partial_piv_lu()
-}
-
-/// `x = LU^{-1} b`, `None` unless finite (a singular matrix).
-fn solve_lu(lu: &PartialPivLu<f64>, b: &[f64]) -> Option<Vec<f64>> {
-    let b = Mat::from_fn(b.len(), 1, |i, _| b[i]);
-    let x = lu.solve(&b);
-    let x: Vec<f64> = (0..b.nrows()).map(|i| x[(i, 0)]).collect();
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    let b = Mat::from_fn(n + 1, 1, |i, _| rhs[i]);
+    let z = a.partial_piv_lu().solve(&b);
+    let z: Vec<f64> = (0..=n).map(|i| z[(i, 0)]).collect();
+    z.iter().all(|v| v.is_finite()).then_some(z)
 }
 
 /// The unit tangent at a point whose linearization is `lin`: the null vector of `[G_u G_p]`
@@ -199,7 +180,7 @@ pub fn tangent(
     let mut rhs = vec![0.0; n + 1];
     rhs[n] = 1.0;
     let ru: Vec<f64> = r_u.iter().map(|v| metric.wu * v).collect();
-    let z = solve_lu(&factor_bordered(lin, &ru, metric.wp * r_p), &rhs)
+    let z = bordered_solve(lin, &ru, metric.wp * r_p, &rhs)
         .ok_or_else(|| Error::Numerical("singular bordered matrix for the tangent".into()))?;
     let (tu, tp) = (&z[..n], z[n]);
     let len = metric.dot(tu, tp, tu, tp).sqrt();
@@ -211,9 +192,6 @@ pub struct Corrected {
     pub u: Vec<f64>,
     pub p: f64,
     pub iterations: usize,
-    /// The Newton steps among the iterations (the others were chord steps); each cost a
-    /// linearization and a factorization.
-    pub linearizations: usize,
     pub lin: Linearization,
     /// The size of the last Newton correction not applied, in units of `p` (0 when the
     /// residual met `tol`): the precision of the point, which the precision of an event located
@@ -221,17 +199,8 @@ pub struct Corrected {
     pub uncertainty: f64,
 }
 
-/// Largest ratio of a chord step (one made with the Jacobian of an earlier iterate) to the step
-/// before it; a chord step that shrinks less is replaced by a Newton step.
-const CHORD_RATE: f64 = 0.25;
-
 /// Newton's method on the bordered system (2), from the predicted point `(u, p)` on the
-/// hyperplane normal to `(t_u, t_p)`, keeping each Jacobian while it works: after a step, the
-/// next one is first solved with the same factorization (a chord step, costing a residual and
-/// two triangular solves), and kept if it is at most [`CHORD_RATE`] times the step before (the
-/// contraction test of Deuflhard's error-oriented Newton methods); otherwise the corrector
-/// linearizes where it stands and takes a Newton step. The point is returned with its own
-/// linearization.
+/// hyperplane normal to `(t_u, t_p)`.
 pub fn correct(
     problem: &impl Problem,
     mut u: Vec<f64>,
@@ -244,42 +213,22 @@ pub fn correct(
     let ru: Vec<f64> = t_u.iter().map(|v| metric.wu * v).collect();
     let rp = metric.wp * t_p;
     let (u_predicted, p_predicted) = (u.clone(), p);
-    let singular = || Error::Numerical("singular bordered matrix in the corrector".into());
-    let n = u.len();
-    let p_unit = 1.0 / metric.wp.sqrt();
-    let size = |z: &[f64]| metric.dot(&z[..n], z[n], &z[..n], z[n]).sqrt() * p_unit;
-    // The linearization at the current iterate (while the iterate has not moved since), the
-    // factorization in use, and the size of the last step taken.
-    let first = problem.linearize(&u, p)?;
-    let mut g = first.g.clone();
-    let mut here = Some(first);
-    let mut jacobian: Option<PartialPivLu<f64>> = None;
-    let mut previous: Option<f64> = None;
-    let mut after_chord = false;
-    let mut linearizations = 0;
-    // The point's own linearization.
-    let own = |here: Option<Linearization>, u: &[f64], p: f64| match here {
-        Some(lin) => Ok(lin),
-        None => problem.linearize(u, p),
-    };
     for iterations in 0..=settings.max_corrector {
-        let g_norm = norm(&g);
+        let lin = problem.linearize(&u, p)?;
+        let g_norm = norm(&lin.g);
         if !g_norm.is_finite() {
             return Err(Error::Numerical(
                 "non-finite residual in the corrector".into(),
             ));
         }
-        // Converged to `tol` after a Newton step (whose error is about the square of its
-        // size: far below), or (below) the correction is negligible against the precision of
-        // events. After a chord step, whose error is only a fraction of its size, the residual
-        // alone says too little: the next correction must be negligible.
-        if g_norm <= settings.tol && !after_chord {
+        // Converged to `tol`, or (below) the Newton correction is negligible against the
+        // precision of events.
+        if g_norm <= settings.tol {
             return Ok(Corrected {
-                lin: own(here, &u, p)?,
                 u,
                 p,
                 iterations,
-                linearizations,
+                lin,
                 uncertainty: 0.0,
             });
         }
@@ -291,48 +240,27 @@ pub fn correct(
             .map(|(r, (a, b))| r * (a - b))
             .sum::<f64>()
             + rp * (p - p_predicted);
-        let mut rhs: Vec<f64> = g.iter().map(|v| -v).collect();
+        let mut rhs: Vec<f64> = lin.g.iter().map(|v| -v).collect();
         rhs.push(-drift);
-        let chord = match (&jacobian, previous) {
-            (Some(lu), Some(before)) => {
-                let z = solve_lu(lu, &rhs).ok_or_else(singular)?;
-                (size(&z) <= CHORD_RATE * before).then_some(z)
-            }
-            _ => None,
-        };
-        after_chord = chord.is_some();
-        let z = match chord {
-            Some(z) => z,
-            None => {
-                let lin = match here.take() {
-                    Some(lin) => lin,
-                    None => problem.linearize(&u, p)?,
-                };
-                linearizations += 1;
-                let lu = factor_bordered(&lin, &ru, rp);
-                let z = solve_lu(&lu, &rhs).ok_or_else(singular)?;
-                jacobian = Some(lu);
-                here = Some(lin);
-                z
-            }
-        };
+        let z = bordered_solve(&lin, &ru, rp, &rhs)
+            .ok_or_else(|| Error::Numerical("singular bordered matrix in the corrector".into()))?;
         // A correction far below the precision asked of events: the point is known to a
-        // hundredth of `event_tol` in `p` (and to as much, in the metric's units, in `u`), and
-        // the error after this correction is a fraction of it (its square for a Newton step, at
-        // most `CHORD_RATE` times it for a chord step). This is what ends the iteration where
-        // the residual's round-off floor lies above `tol` (stiff stretching on fine, thin rods,
-        // amplified next to a branch point); a floor that noise holds above this is a failure,
-        // not a point.
-        let moved = size(&z);
+        // hundredth of `event_tol` in `p` (and to as much, in the metric's units, in `u`),
+        // and Newton's error after this correction is of the order of its square. This is
+        // what ends the iteration where the residual's round-off floor lies above `tol`
+        // (stiff stretching on fine, thin rods, amplified next to a branch point); a floor
+        // that noise holds above this is a failure, not a point.
+        let n = u.len();
+        let p_unit = 1.0 / metric.wp.sqrt();
+        let moved = metric.dot(&z[..n], z[n], &z[..n], z[n]).sqrt() * p_unit;
         let precise = 1e-2 * settings.event_tol * p.abs().max(1e-6 * p_unit);
         let at_floor = iterations == settings.max_corrector && g_norm <= FLOOR * settings.tol;
         if moved <= precise || norm(&z) <= ROUND_OFF * (1.0 + norm(&u) + p.abs()) || at_floor {
             return Ok(Corrected {
-                lin: own(here, &u, p)?,
                 u,
                 p,
                 iterations,
-                linearizations,
+                lin,
                 uncertainty: moved,
             });
         }
@@ -341,9 +269,6 @@ pub fn correct(
         }
         u = problem.retract(&u, &z[..n]);
         p += z[n];
-        previous = Some(moved);
-        g = problem.residual(&u, p)?;
-        here = None;
     }
     Err(Error::Numerical(format!(
         "the corrector did not converge to {:e} in {} iterations",
@@ -438,7 +363,6 @@ pub fn follow<P: Problem>(
         tangent_u: tu,
         tangent_p: tp,
         iterations: report.iterations,
-        linearizations: report.iterations,
         uncertainty: 0.0,
     };
     observer.point(&first);
@@ -514,7 +438,6 @@ pub fn follow<P: Problem>(
                 tangent_p: tp,
                 spectrum,
                 iterations: c.iterations,
-                linearizations: c.linearizations,
                 uncertainty: c.uncertainty,
             })
         });
@@ -586,9 +509,9 @@ pub fn follow<P: Problem>(
             branch.events.push(located);
         }
         let first_instability = last.spectrum.unstable == 0 && next.spectrum.unstable > 0;
-        ds = match (next.linearizations, next.iterations) {
-            (0..=EASY_NEWTON, 0..=EASY) => (ds * 1.5).min(settings.ds_max),
-            (HARD_NEWTON.., _) | (_, HARD..) => (ds * 0.7).max(settings.ds_min),
+        ds = match next.iterations {
+            0..=3 => (ds * 1.5).min(settings.ds_max),
+            6.. => (ds * 0.7).max(settings.ds_min),
             _ => ds,
         };
         let outside = next.p > limits.p_max || next.p < limits.p_min;

@@ -219,6 +219,27 @@ impl<'a, P: Problem> Sampler<'a, P> {
         }
     }
 
+    /// Adds `event` to `events`, as part of the last one when both are crossings of the same
+    /// kind closer in `p` than the tolerance: two eigenvalues that cross where the precision
+    /// asked cannot tell apart (the two bending planes of a round rod, equal but for round-off)
+    /// are one event of multiplicity two, not two events in an order set by round-off.
+    fn push(&self, events: &mut Vec<Event>, event: Event) {
+        if let Some(last) = events.last_mut()
+            && last.kind == event.kind
+            && (event.p - last.p).abs() <= self.p_tol(last.p)
+        {
+            last.multiplicity += event.multiplicity;
+            last.unstable_after = event.unstable_after;
+            last.bracket = (
+                last.bracket.0.min(event.bracket.0),
+                last.bracket.1.max(event.bracket.1),
+            );
+            last.precision = last.precision.max(event.precision);
+            return;
+        }
+        events.push(event);
+    }
+
     /// The tolerance on the width of a bracket in `p` around `p`.
     fn p_tol(&self, p: f64) -> f64 {
         self.settings.event_tol * p.abs().max(1e-6 * self.p_scale)
@@ -401,7 +422,7 @@ pub fn locate_crossings(
     for _ in 0..16 {
         if lo.spectrum.unstable != end.spectrum.unstable {
             let (event, beyond) = sampler.crossing(lo, end.clone())?;
-            events.push(event);
+            sampler.push(&mut events, event);
             lo = beyond;
             continue;
         }
@@ -429,7 +450,7 @@ pub fn locate_crossings(
                 // The first of two ordinary crossings lies between lo and mid; the next pass
                 // takes the rest of the step.
                 let (event, beyond) = sampler.crossing(lo, mid)?;
-                events.push(event);
+                sampler.push(&mut events, event);
                 lo = beyond;
                 break;
             }
