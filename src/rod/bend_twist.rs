@@ -126,6 +126,18 @@ fn material_strains<T: RealField + Copy>(
     (kappa1, kappa2, theta[1] - theta[0] + mref)
 }
 
+/// The unknowns of a stencil from its two edge vectors and two angles.
+pub fn unknowns(
+    e0: &Vector3<f64>,
+    e1: &Vector3<f64>,
+    theta0: f64,
+    theta1: f64,
+) -> SVector<f64, STENCIL> {
+    SVector::<f64, STENCIL>::from_column_slice(&[
+        e0.x, e0.y, e0.z, e1.x, e1.y, e1.z, theta0, theta1,
+    ])
+}
+
 /// Material curvatures `(kappa1, kappa2)` and twist `m` of a stencil.
 pub fn strains<T: RealField + Copy>(s: &BendTwist, v: &SVector<T, STENCIL>) -> (T, T, T) {
     let e0 = Vector3::new(v[0], v[1], v[2]);
@@ -233,16 +245,7 @@ mod tests {
             let r: Matrix3<f64> = rotation(Vector3::new(seed, 1.0, 0.4), turn).into();
             let e0 = r * t0 * 0.071;
             let e1 = r * rotation(Vector3::new(0.0, 0.3, 1.0), 0.4 * turn) * t1 * 0.066;
-            let v = SVector::<f64, STENCIL>::from_column_slice(&[
-                e0.x,
-                e0.y,
-                e0.z,
-                e1.x,
-                e1.y,
-                e1.z,
-                0.3 * seed,
-                -0.2 + turn,
-            ]);
+            let v = unknowns(&e0, &e1, 0.3 * seed, -0.2 + turn);
             // The strains against their definitions, term by term: the binormal from the edge
             // vectors, the material directors, the reference twist by explicit transport.
             let (k1, k2, m) = strains(&stencil, &v);

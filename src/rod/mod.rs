@@ -16,7 +16,7 @@ use nalgebra::{SVector, Vector3};
 
 use crate::dofs::Layout;
 use crate::shape::voronoi_lengths;
-use bend_twist::{BendTwist, STENCIL, strains};
+use bend_twist::{BendTwist, STENCIL, strains, unknowns};
 use frame::{Chart, unwrap_offset};
 
 /// Elastic stiffnesses, in the solver's units (`EI = 1` there).
@@ -122,16 +122,7 @@ impl Rod {
     ) -> (BendTwist, SVector<f64, STENCIL>) {
         let e0 = Self::edge_vector(config, i - 1);
         let e1 = Self::edge_vector(config, i);
-        let v = SVector::<f64, STENCIL>::from_column_slice(&[
-            e0.x,
-            e0.y,
-            e0.z,
-            e1.x,
-            e1.y,
-            e1.z,
-            config.theta[i - 1],
-            config.theta[i],
-        ]);
+        let v = unknowns(&e0, &e1, config.theta[i - 1], config.theta[i]);
         let mut stencil = BendTwist {
             source_t: [chart.tangents[i - 1], chart.tangents[i]],
             source_d: [chart.directors[i - 1], chart.directors[i]],
