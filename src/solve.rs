@@ -79,7 +79,7 @@ pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyStat
 
 /// Solves for the steady state at `omegabar`: first the shape hanging at rest, then the rotating
 /// state reached by ramping the rate from rest with adaptive steps (the motor spinning up). Each
-/// step starts from the tangent predictor at the last state ([`tangent_guess`]), so that Newton
+/// step starts from the tangent predictor at the last state ([`predict`]), so that Newton
 /// starts inside its (narrow) basin of quadratic convergence; a step whose Newton solve fails is
 /// halved, an easy one doubled. The report counts every Newton iteration of the ramp (not the
 /// one linearization per step that each prediction costs).
@@ -105,37 +105,49 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
     })
 }
 
-/// The state at load `value` predicted from the solution `current` along its tangent: the
-/// derivative `du/dv = -G_u^{-1} dG/dv` at `current`, the step `(value - v) du/dv` applied
-/// through the retraction (edges turned and stretched, not translated: a linear step would
-/// stretch turning edges at second order, which the stiff stretching turns into a large
-/// residual).
-fn tangent_guess(
-    model: &Model,
-    load: Load,
-    current: &SteadyState,
-    value: f64,
-) -> Result<crate::rod::Config> {
-    let problem = Steady {
+/// The problem whose solution `state` is, in the chart carried to it.
+fn problem_at<'a>(model: &'a Model, state: &SteadyState) -> Steady<'a> {
+    Steady {
         model,
-        omega: current.omega,
-        weight: current.weight,
-        chart: current.chart.clone(),
-    };
+        omega: state.omega,
+        weight: state.weight,
+        chart: state.chart.clone(),
+    }
+}
+
+/// The tangent of the ramp at its solution `current`: `du/dv = -G_u^{-1} dG/dv` (free unknowns,
+/// in the chart carried to `current`), or `None` where `G_u` is singular.
+fn ramp_tangent(model: &Model, load: Load, current: &SteadyState) -> Result<Option<Vec<f64>>> {
+    let problem = problem_at(model, current);
     let u = problem.free_vector(&current.config);
     let lin = problem.linearize(&u)?;
     let derivative = match load {
         Load::Omega => problem.rate_derivative(&lin)?,
         Load::Weight => problem.weight_derivative(),
     };
-    let dv = value - load.of(current);
-    let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -dv * derivative[i]);
+    let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -derivative[i]);
     let du = lin.jacobian.partial_piv_lu().solve(&rhs);
-    let step: Vec<f64> = (0..u.len()).map(|i| du[(i, 0)]).collect();
-    if step.iter().any(|v| !v.is_finite()) {
-        return Ok(current.config.clone());
-    }
-    Ok(problem.config(&newton::System::retract(&problem, &u, &step)))
+    let tangent: Vec<f64> = (0..u.len()).map(|i| du[(i, 0)]).collect();
+    Ok(tangent.iter().all(|v| v.is_finite()).then_some(tangent))
+}
+
+/// The state at load `v + dv` predicted from the solution `current` (at `v`) along its
+/// `tangent`: the step `dv du/dv` applied through the retraction (edges turned and stretched,
+/// not translated: a linear step would stretch turning edges at second order, which the stiff
+/// stretching turns into a large residual). Without a tangent, `current` itself.
+fn predict(
+    model: &Model,
+    current: &SteadyState,
+    tangent: Option<&[f64]>,
+    dv: f64,
+) -> crate::rod::Config {
+    let Some(tangent) = tangent else {
+        return current.config.clone();
+    };
+    let problem = problem_at(model, current);
+    let u = problem.free_vector(&current.config);
+    let step: Vec<f64> = tangent.iter().map(|t| dv * t).collect();
+    problem.config(&newton::System::retract(&problem, &u, &step))
 }
 
 /// Natural-parameter continuation of `load` from the state `start` to `target`, with the tangent
@@ -153,6 +165,16 @@ fn ramp(
         ..settings.clone()
     };
     let mut current = start.clone();
+    // The ramp's tangent at `current`, made once per state short of the target and shared by
+    // the retries from it.
+    let tangent_at = |state: &SteadyState| -> Result<Option<Vec<f64>>> {
+        if load.of(state) == target {
+            Ok(None)
+        } else {
+            ramp_tangent(model, load, state)
+        }
+    };
+    let mut tangent = tangent_at(&current)?;
     let mut step = target - load.of(start);
     let mut iterations = start.report.iterations;
     let mut history = start.report.history.clone();
@@ -164,7 +186,7 @@ fn ramp(
             here + step
         };
         let (omega, weight) = load.at(model, value);
-        let guess = tangent_guess(model, load, &current, value)?;
+        let guess = predict(model, &current, tangent.as_deref(), value - here);
         match steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
             Ok(next) => {
                 iterations += next.report.iterations;
@@ -175,6 +197,7 @@ fn ramp(
                     _ => {}
                 }
                 current = next;
+                tangent = tangent_at(&current)?;
             }
             Err(e) => {
                 step *= 0.5;
