@@ -26,7 +26,7 @@ use helixbif::params::{Physical, ShapeParams};
 
 /// The rod problem with a stopwatch on each call.
 struct Timed<'a> {
-    inner: RodProblem<'a>,
+    inner: RodProblem<&'a Model>,
     linearize: RefCell<(usize, f64)>,
     residual: RefCell<(usize, f64)>,
     stability: RefCell<(usize, f64)>,

@@ -1,6 +1,7 @@
 //! The rotating rod as a continuation problem (parameter `omegabar` or the weight `q`), and the
 //! drivers of `helixbif branch` and `helixbif locate`.
 
+use std::borrow::Borrow;
 use std::cell::RefCell;
 
 use faer::Mat;
@@ -50,8 +51,10 @@ const RECHART_COSINE: f64 = 0.5;
 /// The steady rod problem `G(u; p) = 0` with `p` the chosen [`Parameter`], its twist angles
 /// measured in a chart that starts as the natural one and follows the branch
 /// ([`Problem::rechart`]).
-pub struct RodProblem<'a> {
-    pub model: &'a Model,
+pub struct RodProblem<M: Borrow<Model>> {
+    /// The model, borrowed (a branch of one study) or owned (a member of a two-parameter
+    /// family, [`crate::boundary::RodFamily`]).
+    pub model: M,
     pub parameter: Parameter,
     /// The typical change of `p` (the parameter's unit in the arclength): [`omega_scale`] or
     /// [`WEIGHT_SCALE`].
@@ -62,21 +65,22 @@ pub struct RodProblem<'a> {
     resistance: RefCell<Option<(Vec<f64>, Resistance)>>,
 }
 
-impl<'a> RodProblem<'a> {
+impl<M: Borrow<Model>> RodProblem<M> {
     /// The problem in the model's natural chart.
-    pub fn new(model: &'a Model, parameter: Parameter, parameter_scale: f64) -> Self {
+    pub fn new(model: M, parameter: Parameter, parameter_scale: f64) -> Self {
+        let chart = RefCell::new(model.borrow().chart.clone());
         RodProblem {
             model,
             parameter,
             parameter_scale,
-            chart: RefCell::new(model.chart.clone()),
+            chart,
             resistance: RefCell::new(None),
         }
     }
 
     /// The steady problem at parameter value `p`, twist measured in the current chart.
-    pub fn steady(&self, p: f64) -> Steady<'a> {
-        let mut s = Steady::new(self.model, 0.0);
+    pub fn steady(&self, p: f64) -> Steady<'_> {
+        let mut s = Steady::new(self.model.borrow(), 0.0);
         s.chart = self.chart.borrow().clone();
         match self.parameter {
             Parameter::Omega => s.omega = p,
@@ -89,11 +93,16 @@ impl<'a> RodProblem<'a> {
     pub fn chart(&self) -> Chart {
         self.chart.borrow().clone()
     }
+
+    /// Measures the twist angles in `chart` from now on.
+    pub fn set_chart(&self, chart: Chart) {
+        *self.chart.borrow_mut() = chart;
+    }
 }
 
-impl Problem for RodProblem<'_> {
+impl<M: Borrow<Model>> Problem for RodProblem<M> {
     fn dim(&self) -> usize {
-        self.model.rod.layout.free_len()
+        self.model.borrow().rod.layout.free_len()
     }
 
     fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {

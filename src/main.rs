@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
+use helixbif::boundary::run_boundary;
 use helixbif::dynamics::{BisectSettings, DynamicsSettings, bisect};
 use helixbif::fit::power_law;
 use helixbif::model::Model;
@@ -119,6 +120,28 @@ enum Command {
         /// Node counts of the ladder (comma separated); default five inside the admissible range.
         #[arg(long, value_delimiter = ',', requires = "extrapolate")]
         nodes: Vec<usize>,
+    },
+    /// The stability boundary omega_b against a second study field (e.g. shape.R_over_lambda)
+    /// as a curve, by two-parameter continuation of the Hopf point from `locate` at --from;
+    /// double Hopf points (where the boundary switches mode) and turning points (where it
+    /// jumps) located: boundary.csv, points.csv, boundary.svg, m_loc.svg.
+    #[command(after_help = AFTER_HELP)]
+    Boundary {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// The study field to vary: a dotted key of a number, or shape.R_over_lambda,
+        /// shape.lambda_over_l.
+        #[arg(long, value_name = "KEY")]
+        vary: String,
+        /// First value of the field (the curve starts from locate there).
+        #[arg(long, allow_negative_numbers = true)]
+        from: f64,
+        /// Last value of the field.
+        #[arg(long, allow_negative_numbers = true)]
+        to: f64,
+        /// Output folder; default `output/<study name>.boundary-<KEY>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Do what the study's [study] table declares and write `output/<study name>/`. Kinds:
     /// `locate` (the default without a [study] table: omega_b, or a ladder of node counts),
@@ -396,6 +419,26 @@ fn locate_command(study: &StudyArgs, tol: Option<f64>, how: Resolution<'_>) -> O
     }
 }
 
+fn boundary_command(
+    args: &StudyArgs,
+    key: &str,
+    from: f64,
+    to: f64,
+    out: Option<&Path>,
+) -> Outcome {
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = out.map_or_else(
+        || {
+            let mut dir = default_output(&study.name, &args.set).into_os_string();
+            dir.push(format!(".boundary-{key}"));
+            PathBuf::from(dir)
+        },
+        Path::to_path_buf,
+    );
+    let report = run_boundary(&study, key, from, to, &dir)?;
+    Ok(Box::new(report))
+}
+
 fn run_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out);
@@ -631,6 +674,16 @@ fn main() -> ExitCode {
             (locate_command(study, *tol, how), study.json)
         }
         Command::Run { study, out } => (run_command(study, out.as_deref()), study.json),
+        Command::Boundary {
+            study,
+            vary,
+            from,
+            to,
+            out,
+        } => (
+            boundary_command(study, vary, *from, *to, out.as_deref()),
+            study.json,
+        ),
         Command::Sweep { study, shard, out } => (
             sweep_command(study, shard.as_deref(), out.as_deref()),
             study.json,

@@ -169,7 +169,7 @@ fn an_unstable_pair_beyond_the_krylov_budget_is_left_to_the_dense_solver() {
 /// The rod problem, recording every stability pair the engine asks for (each in the chart the
 /// branch is in at that moment: the chart moves along the branch, docs/model.md section 2).
 struct Recording<'a> {
-    inner: RodProblem<'a>,
+    inner: RodProblem<&'a Model>,
     pairs: RefCell<Vec<(Mat<f64>, Mat<f64>)>>,
 }
 

@@ -47,6 +47,12 @@ fn reduced(mut study: Study) -> Study {
             *ramp_time = 2.0;
         }
         Some(Plan::Branch { cases }) => cases.truncate(2),
+        Some(Plan::Boundary {
+            from, to, cases, ..
+        }) => {
+            cases.truncate(2);
+            *to = *from + 0.1 * (*to - *from);
+        }
         _ => {}
     }
     study

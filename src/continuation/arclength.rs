@@ -277,9 +277,9 @@ pub fn correct(
 }
 
 /// Adapter: the problem at a fixed parameter, as a square system for Newton's method.
-struct AtParameter<'a, P: Problem> {
-    problem: &'a P,
-    p: f64,
+pub struct AtParameter<'a, P: Problem> {
+    pub problem: &'a P,
+    pub p: f64,
 }
 
 impl<P: Problem> System for AtParameter<'_, P> {

@@ -9,6 +9,7 @@
 //! Brusselator) shared by the tests and the benchmarks.
 
 pub mod arclength;
+pub mod curve;
 pub mod events;
 pub mod krylov;
 pub mod newton;

@@ -115,3 +115,75 @@ pub fn brusselator(a: f64) -> Reference {
         g_p: Box::new(|u, _| vec![-u[0], u[0]]),
     }
 }
+
+/// A two-parameter family given by a closure `q -> member` (members solved from the same
+/// unknowns).
+pub struct Members<F>(pub F);
+
+impl<F: Fn(f64) -> Reference> super::curve::Family for Members<F> {
+    type Member = Reference;
+    fn member(&self, q: f64) -> Result<Reference> {
+        Ok((self.0)(q))
+    }
+}
+
+/// Two uncoupled Hopf normal forms `z_k' = (mu_k + i w_k) z_k - z_k |z_k|^2` with
+/// `mu_1 = p - q - 0.3 q^2`, `w_1 = 1` and `mu_2 = p + q - 1`, `w_2 = 2`, unknowns
+/// `(x_1, y_1, x_2, y_2)`. The origin's Hopf curves in `(p, q)` are `p = q + 0.3 q^2` and
+/// `p = 1 - q`; they cross at the double Hopf point `q = (sqrt(5.2) - 2)/0.6`. Below both
+/// curves the origin is stable, so the first loss of stability in `p` moves from the first
+/// curve to the second there.
+pub fn double_hopf(q: f64) -> Reference {
+    let mu = move |p: f64| [p - q - 0.3 * q * q, p + q - 1.0];
+    const W: [f64; 2] = [1.0, 2.0];
+    Analytic {
+        dim: 4,
+        g: Box::new(move |u, p| {
+            let mu = mu(p);
+            (0..2)
+                .flat_map(|k| {
+                    let (x, y) = (u[2 * k], u[2 * k + 1]);
+                    let r2 = x * x + y * y;
+                    [mu[k] * x - W[k] * y - x * r2, W[k] * x + mu[k] * y - y * r2]
+                })
+                .collect()
+        }),
+        g_u: Box::new(move |u, p| {
+            let mu = mu(p);
+            let mut j = vec![vec![0.0; 4]; 4];
+            for k in 0..2 {
+                let (x, y) = (u[2 * k], u[2 * k + 1]);
+                let (r, c) = (2 * k, 2 * k);
+                j[r][c] = mu[k] - 3.0 * x * x - y * y;
+                j[r][c + 1] = -W[k] - 2.0 * x * y;
+                j[r + 1][c] = W[k] - 2.0 * x * y;
+                j[r + 1][c + 1] = mu[k] - x * x - 3.0 * y * y;
+            }
+            j
+        }),
+        g_p: Box::new(|u, _| u.to_vec()),
+    }
+}
+
+/// A Hopf normal form with `mu = p^2 + q^2 - 1`, frequency 1: its Hopf curve is the unit circle
+/// in `(p, q)`, which turns back in `q` at `(0, +-1)`.
+pub fn hopf_circle(q: f64) -> Reference {
+    let mu = move |p: f64| p * p + q * q - 1.0;
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let r2 = u[0] * u[0] + u[1] * u[1];
+            let m = mu(p);
+            vec![m * u[0] - u[1] - u[0] * r2, u[0] + m * u[1] - u[1] * r2]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let m = mu(p);
+            vec![
+                vec![m - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
+                vec![1.0 - 2.0 * x * y, m - x * x - 3.0 * y * y],
+            ]
+        }),
+        g_p: Box::new(move |u, p| vec![2.0 * p * u[0], 2.0 * p * u[1]]),
+    }
+}

@@ -111,6 +111,19 @@ impl Chart {
         }
     }
 
+    /// This chart with the frame of the clamped edge 0 (tangent and director) taken from
+    /// `clamp`, the reference twist at node 1 recomputed near its old value. With the clamp's
+    /// angle `theta^0 = 0`, this sets the material frame at the clamp to `clamp`'s: how a
+    /// state carried to another member of a family of rods (whose clamp turns with the second
+    /// parameter) is held by that member's own clamp.
+    pub fn with_clamp_of(&self, clamp: &Chart) -> Chart {
+        let mut chart = self.clone();
+        chart.tangents[0] = clamp.tangents[0];
+        chart.directors[0] = clamp.directors[0];
+        chart.ref_twist = chart.twists_near(&self.ref_twist);
+        chart
+    }
+
     /// Reference twists of this chart's directors, each unwrapped near `near[i]`.
     fn twists_near(&self, near: &[f64]) -> Vec<f64> {
         let n = self.tangents.len() + 1;

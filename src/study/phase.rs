@@ -11,9 +11,10 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::Study;
 use super::plan::{Case, Plan, Vary};
 use super::sweep::variant;
+use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study};
+use crate::boundary::{RodFamily, read_rows, run_family};
 use crate::branch::{observables_at, rest_state, trace};
 use crate::continuation::arclength::Silent;
 use crate::model::Model;
@@ -279,14 +280,35 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
                 .map(|(wb, _)| (c.lambda_over_l, (wb * c.r_over_lambda.powf(m)).log10()))
         })
         .unzip();
-    let mut overlays = vec![Series {
-        label: "stability boundary (omega_b)".into(),
+    // The stability boundary as a curve in lambda/l (two-parameter continuation of the Hopf
+    // point, `R/lambda` held where the study holds it), the columns' own first losses of
+    // stability marked on it; the columns joined by a line where the curve cannot be followed.
+    let curve = boundary_curve(
+        study,
+        &values,
+        *r_over_lambda,
+        m,
+        &dir.join("boundary_curve"),
+    );
+    let mut overlays = match &curve {
+        Ok(lines) => lines.clone(),
+        Err(_) => vec![Series {
+            label: "stability boundary (first loss of each column)".into(),
+            x: bx.clone(),
+            y: by.clone(),
+            style: Style::Line,
+            stable: None,
+            err: None,
+        }],
+    };
+    overlays.push(Series {
+        label: "first loss of stability of a column (locate at its own N)".into(),
         x: bx,
         y: by,
-        style: Style::Line,
+        style: Style::Markers(MarkerShape::Circle),
         stable: None,
         err: None,
-    }];
+    });
     let mut skipped = Vec::new();
     if let Some(path) = bacteria {
         let (placed, missing) = flagella(path, m)?;
@@ -329,5 +351,53 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
         "m": m,
         "columns": columns.iter().map(|c| json!({"lambda_over_l": c.lambda_over_l, "R_over_lambda": c.r_over_lambda, "omegabar_b": c.boundary.as_ref().map(|b| b.0), "kind": c.boundary.as_ref().map(|b| b.1.clone()), "points": c.points.len()})).collect::<Vec<_>>(),
         "skipped_flagella": skipped,
+        "boundary_curve": match &curve {
+            Ok(_) => json!({ "out": dir.join("boundary_curve").display().to_string() }),
+            Err(e) => json!({ "error": e.to_string() }),
+        },
     }))
+}
+
+/// The boundary curve from the smallest to the largest `lambda/l` of the columns, as lines of
+/// `log10(omegabar_b (R/lambda)^m)` (one per segment of the curve), written to `dir`.
+fn boundary_curve(
+    study: &Study,
+    values: &[f64],
+    r_over_lambda: Option<f64>,
+    m: f64,
+    dir: &Path,
+) -> Result<Vec<Series>> {
+    let ShapeParams::Helix { l, radius, .. } = study.shape else {
+        return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
+    };
+    let mut family = RodFamily::new(study, LAMBDA_OVER_L)?;
+    if let Some(r) = r_over_lambda {
+        family = family.holding(R_OVER_LAMBDA, r);
+    }
+    let (from, to) = (values[0], values[values.len() - 1]);
+    run_family(study, &family, from, to, dir)?;
+    let rows = read_rows(&dir.join("boundary.csv"))?;
+    let segments = rows.last().map_or(0, |r| r.segment + 1);
+    Ok((0..segments)
+        .map(|k| {
+            let on: Vec<&crate::boundary::BoundaryRow> =
+                rows.iter().filter(|r| r.segment == k).collect();
+            let shape = |q: f64| r_over_lambda.unwrap_or(radius / (q * l)).powf(m);
+            Series {
+                label: if k == 0 {
+                    "stability boundary (curve)".into()
+                } else {
+                    String::new()
+                },
+                x: on.iter().map(|r| r.q).collect(),
+                y: on
+                    .iter()
+                    .map(|r| (r.omegabar_b * shape(r.q)).log10())
+                    .collect(),
+                style: Style::Line,
+                stable: None,
+                err: None,
+            }
+        })
+        .collect())
 }

@@ -2,7 +2,7 @@
 //!
 //! ```toml
 //! [study]
-//! kind = "sweep"                       # branch | locate | sweep | phase | shapes
+//! kind = "sweep"                       # branch | locate | sweep | phase | boundary | shapes | dynamics
 //! cases = [{ label = "E", set = {} }]  # variants of the base model (overrides by dotted key)
 //! vary = [{ key = "rod.E", range = { from = 0.8e6, to = 2e6, count = 5, log = true } }]
 //! ```
@@ -152,6 +152,19 @@ pub enum Plan {
         #[serde(default)]
         bacteria: Option<String>,
     },
+    /// The stability boundary `omega_b(q)` as a curve in the field `vary` from `from` to `to`,
+    /// one curve per case (e.g. a `lambda/l` each), by two-parameter continuation of the Hopf
+    /// point; the local exponent `m_loc` along each, its limit at the small end, and (with
+    /// `fit`) a power law over `fit = [a, b]` for comparison.
+    Boundary {
+        vary: String,
+        from: f64,
+        to: f64,
+        #[serde(default)]
+        cases: Vec<Case>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fit: Option<[f64; 2]>,
+    },
     /// Steady shapes at a few rates seen from two orthogonal sides, and the critical mode.
     Shapes { omegas: Vec<f64> },
     /// Simulations from rest at each rate (the motor spun up over `ramp_time` s, run to `t_end`
@@ -186,6 +199,7 @@ impl Plan {
             Plan::Locate { .. } => "locate",
             Plan::Sweep { .. } => "sweep",
             Plan::Phase { .. } => "phase",
+            Plan::Boundary { .. } => "boundary",
             Plan::Shapes { .. } => "shapes",
             Plan::Dynamics { .. } => "dynamics",
         }
@@ -335,6 +349,23 @@ impl Plan {
                         "study.accuracy",
                         "a refinement to an accuracy and an extrapolation over a ladder \
                          exclude each other: set one",
+                    ));
+                }
+                Ok(())
+            }
+            Plan::Boundary { from, to, fit, .. } => {
+                if !(from.is_finite() && to.is_finite() && from != to) {
+                    return Err(Error::input(
+                        "study.from",
+                        format!(
+                            "`from` and `to` must be two different finite values, got {from} and {to}"
+                        ),
+                    ));
+                }
+                if fit.is_some_and(|[a, b]| !(a.is_finite() && b.is_finite() && 0.0 < a && a < b)) {
+                    return Err(Error::input(
+                        "study.fit",
+                        "must be [a, b] with 0 < a < b (the range of the power-law fit)",
                     ));
                 }
                 Ok(())

@@ -123,6 +123,24 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
             json!({ "kind": "sweep", "summary": summary, "fits": fits })
         }
         Plan::Phase { .. } => super::phase::run_phase(study, dir)?,
+        Plan::Boundary {
+            vary,
+            from,
+            to,
+            cases: plan_cases,
+            fit,
+        } => {
+            let (value, failed) = crate::boundary::run_study(
+                study,
+                vary,
+                (*from, *to),
+                &cases(plan_cases),
+                *fit,
+                dir,
+            )?;
+            failures.extend(failed);
+            value
+        }
         Plan::Shapes { .. } => super::shapes::run_shapes(study, dir)?,
         Plan::Dynamics { .. } => {
             let (rows, failed) = super::simulate::run_dynamics(study, dir)?;

@@ -102,7 +102,13 @@ pub fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Resu
     let mut table = base.to_table()?;
     table.remove("study");
     for (key, value) in &case.set {
-        set_path(&mut table, key, value.clone())?;
+        match (
+            key.as_str(),
+            value.as_float().or(value.as_integer().map(|i| i as f64)),
+        ) {
+            (LAMBDA_OVER_L | R_OVER_LAMBDA, Some(x)) => set_ratio(&mut table, key, x)?,
+            _ => set_path(&mut table, key, value.clone())?,
+        }
     }
     let derived = [LAMBDA_OVER_L, R_OVER_LAMBDA, FACTOR];
     for (v, x) in vary

@@ -1,0 +1,836 @@
+//! Two-parameter continuation of a Hopf point: the stability boundary `p_H(q)` as a curve.
+//!
+//! A [`Family`] gives, for every value of a second parameter `q`, a one-parameter [`Problem`]
+//! in `p`. A Hopf point of the member `q` is a zero of the test function
+//!
+//! ```text
+//! h(p, q) = Re s(p, q),                                                       (1)
+//! ```
+//!
+//! `s` the tracked complex eigenvalue of the stability pencil `K v = s M v` at the solution
+//! `u(p, q)` of `G(u, p; q) = 0`. This is the minimally augmented Hopf system (docs/model.md
+//! section 11) with the state and the eigenvector eliminated: the state by Newton's method at
+//! fixed `(p, q)`, the eigenvalue by the eigensolver of the one-parameter engine (with its
+//! certified unstable count). What remains is one scalar equation in the plane `(p, q)`, whose
+//! zero set is the curve. It is followed by pseudo-arclength continuation in the plane, in the
+//! local coordinates
+//!
+//! ```text
+//! dz = (dp / |p_k|, dq / Q)                                                   (2)
+//! ```
+//!
+//! (`Q` the width of the range of `q` followed, `p_k` the parameter of the last point, at least
+//! the member's parameter scale [`Problem::scales`], so that a step is a fraction of `p`
+//! however far `p` moves along the curve, and `p` may pass zero). From the last point `z_k`
+//! with unit tangent `t_k` (the chord from the point before it), the predictor is
+//! `z_k + ds t_k`, and the corrector solves `h = 0` on the line through the predicted point
+//! normal to `t_k`, by the secant method whose first slope is the last corrector's. A point is
+//! accepted when the last secant correction moves `p` by less than `event_tol |p|` and `q` by
+//! less than `event_tol Q`. Turning points of the curve in `q` (where the crossing speed
+//! `dh/dp` vanishes) are passed as folds are in one-parameter continuation. The last step lands
+//! exactly on the end of the range (corrector at fixed `q`).
+//!
+//! The state at a predicted point starts from the last point's, carried to the new member
+//! ([`Family::carry`]: a rod moves its free nodes with its natural shape) plus the change it
+//! had over the last step, scaled to the new one. There is no second derivative of `G`: the
+//! price of a point is a few Newton solves from a close guess and as many spectra.
+//!
+//! Along the curve the rest of the spectrum (the tracked pair removed) is watched. A change of
+//! its unstable count is a codimension-two point, pinned down on the curve by the Illinois
+//! secant method on the real part of the eigenvalue that crossed (each sample a point of the
+//! curve): a **double Hopf** point when that eigenvalue is complex (a second oscillatory mode
+//! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
+//! `q` part of the tangent is a **turning point** of the curve; its place is the vertex of the
+//! parabola `q(s)` through the three points around it, corrected onto the curve.
+
+use std::rc::Rc;
+
+use faer::c64;
+
+use super::arclength::{AtParameter, stability};
+use super::events::Event;
+use super::newton::{self, NewtonSettings};
+use super::stability::{Spectrum, is_complex};
+use super::{ContinuationSettings, Problem};
+use crate::{Error, Result};
+
+/// How far from the predicted point, in steps, the corrector may go (the first step, taken
+/// along `q` before the curve's slope is known, needs it where the curve is steep).
+const REACH: f64 = 4.0;
+
+/// The start of the message of a failure to build a member (which ends the curve, since a
+/// shorter step cannot help where the family ends).
+const NO_MEMBER: &str = "no member of the family there: ";
+
+/// A family of one-parameter problems indexed by a second parameter `q`.
+pub trait Family {
+    type Member: Problem;
+    /// The problem at `q`.
+    fn member(&self, q: f64) -> Result<Self::Member>;
+    /// A first guess for a solution of `to` from the solution `u` of `from` (by default the same
+    /// unknowns).
+    fn carry(&self, u: &[f64], _from: &Self::Member, _to: &Self::Member) -> Vec<f64> {
+        u.to_vec()
+    }
+    /// Prepares the fresh member `to` to be solved from `guess`, carried from `from` (a rod takes
+    /// the chart of its twist angles from `from`'s). Nothing by default.
+    fn adopt(&self, _from: &Self::Member, _to: &Self::Member, _guess: &[f64]) {}
+}
+
+/// The range of `q` and the steps of a curve, in the units of (2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveSettings {
+    pub q_min: f64,
+    pub q_max: f64,
+    /// First, smallest and largest step.
+    pub ds: f64,
+    pub ds_min: f64,
+    pub ds_max: f64,
+    /// Largest number of points.
+    pub max_points: usize,
+    /// Steady solves allowed to one corrector before the step is halved.
+    pub max_evaluations: usize,
+}
+
+impl CurveSettings {
+    /// A curve over `[q_min, q_max]`: steps from a fiftieth to a twentieth of the range (or of
+    /// `p`), at most 1000 points.
+    pub fn new(q_min: f64, q_max: f64) -> Self {
+        CurveSettings {
+            q_min,
+            q_max,
+            ds: 0.02,
+            ds_min: 1e-6,
+            ds_max: 0.05,
+            max_points: 1000,
+            max_evaluations: 12,
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        let ok = self.q_min.is_finite()
+            && self.q_max.is_finite()
+            && self.q_min < self.q_max
+            && self.ds_min > 0.0
+            && self.ds_min <= self.ds
+            && self.ds <= self.ds_max
+            && self.max_points >= 1
+            && self.max_evaluations >= 2;
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::input(
+                "curve",
+                format!(
+                    "need q_min < q_max, 0 < ds_min <= ds <= ds_max, max_points >= 1 and \
+                     max_evaluations >= 2, got {self:?}"
+                ),
+            ))
+        }
+    }
+}
+
+/// A point of the curve: a Hopf point of the member `q` at `p`.
+#[derive(Clone, Debug)]
+pub struct CurvePoint {
+    pub p: f64,
+    pub q: f64,
+    /// Arclength from the start, in the units of (2).
+    pub s: f64,
+    /// The solution there.
+    pub u: Vec<f64>,
+    /// The tracked eigenvalue (real part near zero, imaginary part the frequency, positive).
+    pub eigenvalue: c64,
+    /// The leading spectrum there.
+    pub spectrum: Spectrum,
+    /// The last secant correction not applied, relative (`|dp|/|p|` or `|dq|/Q`, the larger).
+    pub precision: f64,
+    /// Steady solves the point took.
+    pub evaluations: usize,
+}
+
+impl CurvePoint {
+    /// The start of a curve at a Hopf point located on a branch of the member `q`.
+    pub fn at_event(event: Event, q: f64) -> Self {
+        CurvePoint {
+            p: event.p,
+            q,
+            s: 0.0,
+            u: event.u,
+            eigenvalue: event.eigenvalue,
+            spectrum: event.spectrum,
+            precision: event.precision,
+            evaluations: 0,
+        }
+    }
+}
+
+/// What a special point of the curve is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpecialKind {
+    /// A second complex pair on the imaginary axis.
+    DoubleHopf,
+    /// A real eigenvalue at zero (fold-Hopf).
+    ZeroHopf,
+    /// The curve turns back in `q`.
+    Turning,
+}
+
+impl SpecialKind {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            SpecialKind::DoubleHopf => "double_hopf",
+            SpecialKind::ZeroHopf => "zero_hopf",
+            SpecialKind::Turning => "turning",
+        }
+    }
+}
+
+/// A located special point.
+#[derive(Clone, Debug)]
+pub struct Special {
+    pub kind: SpecialKind,
+    /// The point of the curve where it lies.
+    pub point: CurvePoint,
+    /// The other eigenvalue on the axis (double Hopf, zero-Hopf); the tracked one at a turning
+    /// point.
+    pub other: c64,
+    /// True when the other mode is unstable beyond the point in the direction of travel: the
+    /// curve is no longer the first loss of stability there.
+    pub gains: bool,
+    /// Width of the final bracket along the curve (units of (2)); for a turning point, the
+    /// distance from the parabola's vertex to the corrected point.
+    pub precision: f64,
+}
+
+/// Why a curve ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CurveStop {
+    /// It reached an end of the range of `q`.
+    Range,
+    MaxPoints,
+    /// The step fell below `ds_min`; the reason of the last failure.
+    StepTooSmall(String),
+    /// The observer ended it at a special point (the curve's last point).
+    Observer,
+    /// The family has no member at the next value of `q` (why, in the member's words).
+    NoMember(String),
+}
+
+/// A followed curve.
+#[derive(Clone, Debug)]
+pub struct Curve {
+    pub points: Vec<CurvePoint>,
+    pub special: Vec<Special>,
+    pub stop: CurveStop,
+}
+
+/// Sees the points and special points of a curve as they come.
+pub trait CurveObserver {
+    fn point(&mut self, _point: &CurvePoint) {}
+    /// A special point; `true` ends the curve there.
+    fn special(&mut self, _special: &Special) -> bool {
+        false
+    }
+}
+
+/// Follows every curve to the end of its range.
+pub struct Through;
+impl CurveObserver for Through {}
+
+/// The eigenvalue of `spectrum` nearest `track`, with its imaginary part made positive; an error
+/// when a complex `track` finds only a real one (the pair has met on the real axis).
+fn tracked(spectrum: &Spectrum, track: c64) -> Result<c64> {
+    let s = spectrum.nearest(track);
+    if is_complex(track) && !is_complex(s) {
+        return Err(Error::Numerical(format!(
+            "the tracked pair {track} has become real (a Bogdanov-Takens point is near)"
+        )));
+    }
+    Ok(c64::new(s.re, s.im.abs()))
+}
+
+/// The spectrum without the tracked eigenvalue (and its conjugate), with its unstable count.
+pub fn others(spectrum: &Spectrum, track: c64) -> Spectrum {
+    let mut rest = spectrum.leading.clone();
+    let mut remove = |target: c64| {
+        if let Some(i) = (0..rest.len()).min_by(|&a, &b| {
+            (rest[a] - target)
+                .norm()
+                .total_cmp(&(rest[b] - target).norm())
+        }) {
+            rest.remove(i);
+        }
+    };
+    remove(track);
+    if is_complex(track) {
+        remove(track.conj());
+    }
+    let unstable = rest.iter().filter(|s| s.re > 0.0).count();
+    Spectrum {
+        leading: rest,
+        unstable,
+    }
+}
+
+/// A solved state of a member: the member, the parameters, the solution and its spectrum.
+struct At<M> {
+    member: Rc<M>,
+    p: f64,
+    q: f64,
+    u: Vec<f64>,
+    spectrum: Spectrum,
+    eigenvalue: c64,
+}
+
+impl<M> At<M> {
+    fn point(&self, s: f64, precision: f64, evaluations: usize) -> CurvePoint {
+        CurvePoint {
+            p: self.p,
+            q: self.q,
+            s,
+            u: self.u.clone(),
+            eigenvalue: self.eigenvalue,
+            spectrum: self.spectrum.clone(),
+            precision,
+            evaluations,
+        }
+    }
+}
+
+/// One step of the curve: from `z_k`, predictor `z_k + sigma t` and correction along `n`.
+#[derive(Clone, Copy)]
+struct Step {
+    /// The last point `(p, q)` and the scale of `p` in (2).
+    p0: f64,
+    q0: f64,
+    p_unit: f64,
+    t: (f64, f64),
+    n: (f64, f64),
+}
+
+impl Step {
+    fn at(&self, sigma: f64, offset: f64, q_unit: f64) -> (f64, f64) {
+        (
+            self.p0 + (sigma * self.t.0 + offset * self.n.0) * self.p_unit,
+            self.q0 + (sigma * self.t.1 + offset * self.n.1) * q_unit,
+        )
+    }
+}
+
+/// A corrected point with its cost.
+struct Corrected<M> {
+    at: At<M>,
+    evaluations: usize,
+    /// `dh/d offset` of the last secant.
+    slope: f64,
+    precision: f64,
+}
+
+struct Tracer<'a, F: Family> {
+    family: &'a F,
+    settings: &'a CurveSettings,
+    continuation: &'a ContinuationSettings,
+    newton: NewtonSettings,
+    /// `Q` of (2).
+    q_unit: f64,
+}
+
+impl<F: Family> Tracer<'_, F> {
+    /// The solution at `(p, q)` from the state `from` (plus `shift`), its spectrum and the
+    /// eigenvalue nearest `track`.
+    fn evaluate(
+        &self,
+        from: &At<F::Member>,
+        (p, q): (f64, f64),
+        shift: Option<&[f64]>,
+        track: c64,
+    ) -> Result<At<F::Member>> {
+        let member = Rc::new(
+            self.family
+                .member(q)
+                .map_err(|e| Error::Numerical(format!("{NO_MEMBER}{e}")))?,
+        );
+        let mut guess = self.family.carry(&from.u, &from.member, &member);
+        if let Some(shift) = shift {
+            guess.iter_mut().zip(shift).for_each(|(g, d)| *g += d);
+        }
+        self.family.adopt(&from.member, &member, &guess);
+        let system = AtParameter {
+            problem: &*member,
+            p,
+        };
+        let context = format!("on the curve at p = {p:e}, q = {q:e}");
+        let (u, _) = newton::solve(&system, guess, &self.newton, &context)?;
+        // A chart the state has moved far from is moved to it (the same state, new
+        // coordinates); every member is this evaluation's own.
+        member.rechart(&u);
+        let lin = member.linearize(&u, p)?;
+        let spectrum = stability(
+            &*member,
+            &u,
+            p,
+            &lin,
+            self.continuation,
+            Some(&from.spectrum),
+        )?;
+        let eigenvalue = tracked(&spectrum, track)?;
+        Ok(At {
+            member,
+            p,
+            q,
+            u,
+            spectrum,
+            eigenvalue,
+        })
+    }
+
+    /// Solves `h = 0` on the line `step.at(sigma, offset)`, offset from 0, by the secant method
+    /// (first slope `slope` if known), following the eigenvalue nearest `track` at first;
+    /// refuses a point farther than `reach` from the line's origin.
+    #[allow(clippy::too_many_arguments)]
+    fn correct(
+        &self,
+        from: &At<F::Member>,
+        step: &Step,
+        sigma: f64,
+        shift: Option<&[f64]>,
+        slope: Option<f64>,
+        track: c64,
+        reach: f64,
+    ) -> Result<Corrected<F::Member>> {
+        let tol = self.continuation.event_tol;
+        let mut a = self.evaluate(from, step.at(sigma, 0.0, self.q_unit), shift, track)?;
+        let (mut t0, mut h0) = (0.0, a.eigenvalue.re);
+        let mut t1 = match slope {
+            Some(g) if g.is_finite() && g != 0.0 => -h0 / g,
+            _ => 1e-3 * reach,
+        };
+        for evaluations in 2..=self.settings.max_evaluations {
+            if !(t1.is_finite() && t1.abs() <= reach) {
+                break;
+            }
+            let b = self.evaluate(&a, step.at(sigma, t1, self.q_unit), None, a.eigenvalue)?;
+            let h1 = b.eigenvalue.re;
+            let g = (h1 - h0) / (t1 - t0);
+            let t2 = t1 - h1 / g;
+            let dt = (t2 - t1).abs();
+            let precision = (dt * step.n.0.abs() * step.p_unit / b.p.abs().max(f64::MIN_POSITIVE))
+                .max(dt * step.n.1.abs());
+            if precision <= tol || h1 == 0.0 {
+                return Ok(Corrected {
+                    at: b,
+                    evaluations,
+                    slope: g,
+                    precision: if h1 == 0.0 { 0.0 } else { precision },
+                });
+            }
+            (t0, h0, a) = (t1, h1, b);
+            t1 = t2;
+        }
+        Err(Error::Numerical(format!(
+            "the Hopf test function has no zero within reach of the corrector ({} solves, \
+             offset {t1:e})",
+            self.settings.max_evaluations
+        )))
+    }
+}
+
+/// Follows the Hopf curve through `start` (a Hopf point of `member`, the member at `start.q`,
+/// in whose coordinates `start.u` is), first in the direction of increasing `q` if
+/// `direction > 0`, until it leaves `[q_min, q_max]`. Returns the curve and the member of its
+/// last point (a curve that goes on from there starts with it).
+pub fn follow_curve<F: Family>(
+    family: &F,
+    start: CurvePoint,
+    member: Rc<F::Member>,
+    direction: f64,
+    settings: &CurveSettings,
+    continuation: &ContinuationSettings,
+    observer: &mut impl CurveObserver,
+) -> Result<(Curve, Rc<F::Member>)> {
+    settings.validate()?;
+    continuation.validate()?;
+    if !is_complex(start.eigenvalue) {
+        return Err(Error::input(
+            "curve start",
+            format!(
+                "a Hopf curve starts from a complex pair, got {}",
+                start.eigenvalue
+            ),
+        ));
+    }
+    let tracer = Tracer {
+        family,
+        settings,
+        continuation,
+        newton: NewtonSettings {
+            tol: continuation.tol,
+            ..NewtonSettings::default()
+        },
+        q_unit: settings.q_max - settings.q_min,
+    };
+    let mut last = At {
+        member,
+        p: start.p,
+        q: start.q,
+        u: start.u.clone(),
+        spectrum: start.spectrum.clone(),
+        eigenvalue: start.eigenvalue,
+    };
+    observer.point(&start);
+    let mut curve = Curve {
+        points: vec![start],
+        special: Vec::new(),
+        stop: CurveStop::MaxPoints,
+    };
+    let mut t = (0.0, direction.signum());
+    let mut slope: Option<f64> = None;
+    // The change of the state over the last step not explained by carrying it, per unit step.
+    let mut drift: Option<Vec<f64>> = None;
+    // The rate of change of the tracked eigenvalue along the curve over the last step.
+    let mut rate: Option<c64> = None;
+    let mut ds = settings.ds;
+    while curve.points.len() < settings.max_points {
+        let p_unit = last.p.abs().max(last.member.scales().1);
+        let q_end = if t.1 > 0.0 {
+            settings.q_max
+        } else {
+            settings.q_min
+        };
+        let to_end = (q_end - last.q) / (t.1 * tracer.q_unit);
+        // The last step lands on the end of the range, corrected at fixed q.
+        let ending = t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
+        let step = Step {
+            p0: last.p,
+            q0: last.q,
+            p_unit,
+            t,
+            n: if ending { (1.0, 0.0) } else { (-t.1, t.0) },
+        };
+        let sigma = if ending { to_end } else { ds };
+        let shift: Option<Vec<f64>> = drift
+            .as_ref()
+            .map(|d| d.iter().map(|v| v * sigma).collect());
+        // The tracked eigenvalue moves with the curve (on a rod, with the rate): predicted
+        // along its rate of change over the last step.
+        let predicted = last.eigenvalue + rate.unwrap_or_default() * sigma;
+        let attempt = tracer
+            .correct(
+                &last,
+                &step,
+                sigma,
+                shift.as_deref(),
+                slope,
+                predicted,
+                REACH * sigma,
+            )
+            .and_then(|c| accept(&last, predicted, c, &step, tracer.q_unit));
+        let corrected = match attempt {
+            Ok(c) => c,
+            Err(e) => {
+                let reason = e.to_string();
+                if let Some(i) = reason.find(NO_MEMBER) {
+                    curve.stop = CurveStop::NoMember(reason[i + NO_MEMBER.len()..].to_string());
+                    return Ok((curve, last.member));
+                }
+                ds *= 0.5;
+                if ds < settings.ds_min {
+                    curve.stop = CurveStop::StepTooSmall(e.to_string());
+                    return Ok((curve, last.member));
+                }
+                continue;
+            }
+        };
+        let new = corrected.at;
+        let chord = ((new.p - last.p) / p_unit, (new.q - last.q) / tracer.q_unit);
+        let length = chord.0.hypot(chord.1);
+        let t_new = (chord.0 / length, chord.1 / length);
+        let s_last = curve.points.last().map_or(0.0, |p| p.s);
+        // Codimension-two points inside the step, then a turning point at its end.
+        let before = others(&last.spectrum, last.eigenvalue);
+        let after = others(&new.spectrum, new.eigenvalue);
+        let located = (|| -> Result<Vec<(Special, Rc<F::Member>)>> {
+            let mut found = Vec::new();
+            if before.unstable != after.unstable {
+                found.push(locate_codim2(
+                    &tracer, &last, &new, &step, sigma, &before, &after, s_last,
+                )?);
+            }
+            if t.1 * t_new.1 < 0.0
+                && let Some(previous) = curve.points.iter().rev().nth(1)
+            {
+                found.push(locate_turning(
+                    &tracer,
+                    previous,
+                    &last,
+                    &new,
+                    p_unit,
+                    s_last,
+                    s_last + length,
+                )?);
+            }
+            Ok(found)
+        })();
+        // A special point that cannot be pinned down is retried from a shorter step.
+        let specials = match located {
+            Ok(found) => found,
+            Err(e) => {
+                ds *= 0.5;
+                if ds < settings.ds_min {
+                    curve.stop = CurveStop::StepTooSmall(format!("locating a special point: {e}"));
+                    return Ok((curve, last.member));
+                }
+                continue;
+            }
+        };
+        for (special, member) in specials {
+            let stop = observer.special(&special);
+            curve.special.push(special.clone());
+            if stop {
+                observer.point(&special.point);
+                curve.points.push(special.point);
+                curve.stop = CurveStop::Observer;
+                return Ok((curve, member));
+            }
+        }
+        let point = new.point(s_last + length, corrected.precision, corrected.evaluations);
+        observer.point(&point);
+        curve.points.push(point);
+        let carried = family.carry(&last.u, &last.member, &new.member);
+        drift = Some(
+            new.u
+                .iter()
+                .zip(&carried)
+                .map(|(a, b)| (a - b) / sigma)
+                .collect(),
+        );
+        slope = Some(corrected.slope);
+        rate = Some((new.eigenvalue - last.eigenvalue) / length);
+        t = t_new;
+        ds = match corrected.evaluations {
+            0..=3 => (ds * 1.5).min(settings.ds_max),
+            6.. => (ds * 0.7).max(settings.ds_min),
+            _ => ds,
+        };
+        last = new;
+        if ending {
+            curve.stop = CurveStop::Range;
+            return Ok((curve, last.member));
+        }
+    }
+    Ok((curve, last.member))
+}
+
+/// Accepts a corrected point unless its tracked eigenvalue jumped (lies farther from its
+/// prediction than half the distance from the last point's to its nearest other eigenvalue)
+/// or it lies behind the last point along the tangent.
+fn accept<M>(
+    last: &At<M>,
+    predicted: c64,
+    c: Corrected<M>,
+    step: &Step,
+    q_unit: f64,
+) -> Result<Corrected<M>> {
+    let gap = others(&last.spectrum, last.eigenvalue)
+        .leading
+        .iter()
+        .map(|s| (s - last.eigenvalue).norm())
+        .fold(f64::INFINITY, f64::min);
+    let moved = (c.at.eigenvalue - predicted).norm();
+    let along = (c.at.p - last.p) / step.p_unit * step.t.0 + (c.at.q - last.q) / q_unit * step.t.1;
+    if moved > 0.5 * gap || along <= 0.0 {
+        return Err(Error::Numerical(format!(
+            "step rejected: the tracked eigenvalue is {moved:.3e} from its prediction (gap to \
+             the next {gap:.3e}), progress along the tangent {along:.3e}"
+        )));
+    }
+    Ok(c)
+}
+
+/// One sample of the search for a codimension-two point: the curve point at `sigma`.
+struct Sample<M> {
+    sigma: f64,
+    at: At<M>,
+    rest: Spectrum,
+    precision: f64,
+    evaluations: usize,
+}
+
+/// Pins down where the unstable count of the rest of the spectrum changes between `last`
+/// (`sigma = 0`) and `new` (`sigma = sigma_new`) by the Illinois variant of regula falsi on the
+/// real part of the eigenvalue that crossed (identified afresh in each bracket), each sample a
+/// corrected point of the curve.
+#[allow(clippy::too_many_arguments)]
+fn locate_codim2<F: Family>(
+    tracer: &Tracer<'_, F>,
+    last: &At<F::Member>,
+    new: &At<F::Member>,
+    step: &Step,
+    sigma_new: f64,
+    before: &Spectrum,
+    after: &Spectrum,
+    s_last: f64,
+) -> Result<(Special, Rc<F::Member>)> {
+    let clone = |a: &At<F::Member>| At {
+        member: a.member.clone(),
+        p: a.p,
+        q: a.q,
+        u: a.u.clone(),
+        spectrum: a.spectrum.clone(),
+        eigenvalue: a.eigenvalue,
+    };
+    let mut lo = Sample {
+        sigma: 0.0,
+        at: clone(last),
+        rest: before.clone(),
+        precision: 0.0,
+        evaluations: 0,
+    };
+    let mut hi = Sample {
+        sigma: sigma_new,
+        at: clone(new),
+        rest: after.clone(),
+        precision: 0.0,
+        evaluations: 0,
+    };
+    let base = before.unstable;
+    let growing = after.unstable > base;
+    let crossing = |l: &Spectrum, h: &Spectrum| super::events::crossing_eigenvalue(l, h);
+    let f = |s: &Sample<F::Member>, c: c64| {
+        let re = s.rest.nearest(c).re;
+        if growing { re } else { -re }
+    };
+    let tol = tracer.continuation.event_tol;
+    let (mut w_lo, mut w_hi, mut side) = (1.0, 1.0, 0i8);
+    let mut samples = 0;
+    while hi.sigma - lo.sigma > tol {
+        samples += 1;
+        if samples > 100 {
+            return Err(Error::Numerical(
+                "a codimension-two point not resolved within 100 samples".into(),
+            ));
+        }
+        let c = crossing(&lo.rest, &hi.rest);
+        let (f_lo, f_hi) = (f(&lo, c) * w_lo, f(&hi, c) * w_hi);
+        let margin = tol / 3.0;
+        let secant = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
+        let sigma = if f_lo <= 0.0 && f_hi > 0.0 && secant.is_finite() {
+            secant.clamp(lo.sigma + margin, hi.sigma - margin)
+        } else {
+            0.5 * (lo.sigma + hi.sigma)
+        };
+        let c_near = if sigma - lo.sigma < hi.sigma - sigma {
+            &lo
+        } else {
+            &hi
+        };
+        let along = (sigma - lo.sigma) / (hi.sigma - lo.sigma);
+        let track = lo.at.eigenvalue + (hi.at.eigenvalue - lo.at.eigenvalue) * along;
+        let corrected = tracer.correct(
+            &c_near.at,
+            step,
+            sigma,
+            None,
+            None,
+            track,
+            step.t.0.hypot(step.t.1) * sigma_new,
+        )?;
+        let rest = others(&corrected.at.spectrum, corrected.at.eigenvalue);
+        let sample = Sample {
+            sigma,
+            at: corrected.at,
+            rest,
+            precision: corrected.precision,
+            evaluations: corrected.evaluations,
+        };
+        if sample.rest.unstable != base {
+            hi = sample;
+            w_hi = 1.0;
+            if side == 1 {
+                w_lo *= 0.5;
+            }
+            side = 1;
+        } else {
+            lo = sample;
+            w_lo = 1.0;
+            if side == -1 {
+                w_hi *= 0.5;
+            }
+            side = -1;
+        }
+    }
+    let c = crossing(&lo.rest, &hi.rest);
+    let best = if f(&lo, c).abs() <= f(&hi, c).abs() {
+        lo
+    } else {
+        hi
+    };
+    let other = best.rest.nearest(c);
+    let kind = if is_complex(other) {
+        SpecialKind::DoubleHopf
+    } else {
+        SpecialKind::ZeroHopf
+    };
+    let special = Special {
+        kind,
+        point: best
+            .at
+            .point(s_last + best.sigma, best.precision, best.evaluations),
+        other: c64::new(other.re, other.im.abs()),
+        gains: growing,
+        precision: tol,
+    };
+    Ok((special, best.at.member))
+}
+
+/// The turning point of the curve in `q` near `last`: the vertex of the parabola `q(s)` through
+/// `a`, `last` and `new` (arclengths `a.s`, `s_last`, `s_new`), corrected onto the curve at
+/// fixed `p` (the curve crosses the line `p = p_vertex` transversally there).
+fn locate_turning<F: Family>(
+    tracer: &Tracer<'_, F>,
+    a: &CurvePoint,
+    last: &At<F::Member>,
+    new: &At<F::Member>,
+    p_unit: f64,
+    s_last: f64,
+    s_new: f64,
+) -> Result<(Special, Rc<F::Member>)> {
+    let (s0, s1, s2) = (a.s, s_last, s_new);
+    let vertex = |y0: f64, y1: f64, y2: f64| {
+        // Lagrange parabola through (s_i, y_i): its derivative's zero.
+        let d01 = (y1 - y0) / (s1 - s0);
+        let d12 = (y2 - y1) / (s2 - s1);
+        let curvature = (d12 - d01) / (s2 - s0);
+        let s_star = 0.5 * (s0 + s1) - 0.5 * d01 / curvature;
+        let value = move |s: f64| y0 + d01 * (s - s0) + curvature * (s - s0) * (s - s1);
+        (s_star, value(s_star), value)
+    };
+    let (s_star, q_star, _) = vertex(a.q, last.q, new.q);
+    let (_, _, p_of) = vertex(a.p, last.p, new.p);
+    let p_star = p_of(s_star);
+    let step = Step {
+        p0: p_star,
+        q0: q_star,
+        p_unit,
+        t: (1.0, 0.0),
+        n: (0.0, 1.0),
+    };
+    let from = if (s_star - s1).abs() <= (s_star - s2).abs() {
+        last
+    } else {
+        new
+    };
+    let corrected = tracer.correct(from, &step, 0.0, None, None, from.eigenvalue, 1.0)?;
+    let at = corrected.at;
+    let precision = (at.q - q_star).abs() / tracer.q_unit;
+    let special = Special {
+        kind: SpecialKind::Turning,
+        point: at.point(s_star, corrected.precision, corrected.evaluations),
+        other: at.eigenvalue,
+        gains: false,
+        precision,
+    };
+    Ok((special, at.member))
+}

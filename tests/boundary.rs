@@ -1,0 +1,101 @@
+//! `helixbif boundary` on the rod: every point of the curve is a first loss of stability that an
+//! independent `locate` at that parameter value finds again, and bad input is refused.
+
+mod common;
+
+use common::helixbif;
+use helixbif::boundary::run_boundary;
+use helixbif::model::Model;
+use helixbif::study::Study;
+use helixbif::study::runs::run_locate;
+
+/// The representative helix at `N = 30` from `R/lambda = 0.2` to `0.24`: the branch moves the
+/// chart of its twist angles before the Hopf point there (edges turn past 60 degrees), so the
+/// curve carries a moved chart from member to member with each member's own clamp.
+#[test]
+fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
+    let overrides = ["discretization.nodes=30".to_string()];
+    let study = Study::load(None, &overrides).unwrap();
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-{}", std::process::id()));
+    let report = run_boundary(&study, "shape.R_over_lambda", 0.2, 0.24, &dir).unwrap();
+    assert_eq!(report.segments, 1);
+    assert!(report.special.is_empty(), "{:?}", report.special);
+    let mut rows = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
+    let header = rows.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (q_col, w_col, m_col) = (col("q"), col("omega_b"), col("m_loc"));
+    let rows: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), report.points);
+    assert!(rows.len() >= 20, "{} points", rows.len());
+    let number = |r: &csv::StringRecord, c: usize| r[c].parse::<f64>().unwrap();
+    // The curve runs the whole range, and omega_b falls as the helix widens.
+    assert_eq!(number(&rows[0], q_col), 0.2);
+    assert!((number(rows.last().unwrap(), q_col) - 0.24).abs() < 1e-12);
+    for pair in rows.windows(2) {
+        assert!(number(&pair[1], w_col) < number(&pair[0], w_col));
+    }
+    // Five points spread over the curve, each against locate at the same R/lambda.
+    for k in 1..=5 {
+        let row = &rows[k * (rows.len() - 1) / 5];
+        let q = number(row, q_col);
+        let set = format!("shape.R_over_lambda={q:e}");
+        let at = Study::load(None, &[overrides[0].clone(), set]).unwrap();
+        let model = Model::new(&at.physical()).unwrap();
+        let located = run_locate(&at, &model).unwrap();
+        let expected = located.omega_b.unwrap();
+        let on_curve = number(row, w_col);
+        assert_eq!(located.kind, "hopf");
+        assert!(
+            (on_curve - expected).abs() <= 1e-7 * expected,
+            "R/lambda = {q}: curve {on_curve}, locate {expected}"
+        );
+        // The local exponent is that of the curve's own neighbours: positive, between 2 and 3
+        // here (the helix buckles later as it gets narrower, faster than (R/lambda)^-2).
+        let m = number(row, m_col);
+        assert!((2.0..3.0).contains(&m), "m_loc = {m} at {q}");
+    }
+    assert!(report.check_difference.unwrap() <= 1e-7);
+    for figure in ["boundary.svg", "m_loc.svg", "points.csv"] {
+        assert!(dir.join(figure).exists(), "{figure}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn boundary_refuses_bad_input_with_exit_code_2() {
+    for (args, field) in [
+        (
+            vec!["--vary", "rod.colour", "--from", "0.2", "--to", "0.3"],
+            "--vary",
+        ),
+        (
+            vec![
+                "--vary",
+                "shape.R_over_lambda",
+                "--from",
+                "0.3",
+                "--to",
+                "0.3",
+            ],
+            "--from/--to",
+        ),
+        (
+            vec![
+                "--vary",
+                "shape.R_over_lambda",
+                "--from",
+                "0.3",
+                "--to",
+                "-1",
+            ],
+            "shape",
+        ),
+    ] {
+        let mut all = vec!["boundary"];
+        all.extend(args);
+        let (code, _, stderr) = helixbif(&all);
+        assert_eq!(code, 2, "{all:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(field), "{all:?}: {stderr}");
+    }
+}

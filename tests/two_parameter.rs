@@ -1,0 +1,214 @@
+//! Two-parameter continuation of Hopf points (`continuation::curve`) on problems with exact
+//! curves: the Brusselator's Hopf curve, a double Hopf point where the first loss of stability
+//! changes mode, and a curve that turns back in the second parameter.
+
+use std::rc::Rc;
+
+use helixbif::continuation::arclength::{Limits, Silent, follow};
+use helixbif::continuation::curve::{
+    Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
+    follow_curve, others,
+};
+use helixbif::continuation::reference::{Members, brusselator, double_hopf, hopf_circle};
+use helixbif::continuation::{ContinuationSettings, Problem};
+
+fn settings() -> ContinuationSettings {
+    ContinuationSettings {
+        event_tol: 1e-10,
+        tol: 1e-12,
+        ..ContinuationSettings::default()
+    }
+}
+
+/// The first Hopf point of `problem` on its branch from `(u0, p0)`, located by the
+/// one-parameter engine, as the start of a curve at `q`.
+fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_max: f64, q: f64) -> CurvePoint {
+    let limits = Limits {
+        p_min: p0 - 1.0,
+        p_max,
+        stop_at_first_instability: true,
+    };
+    let branch = follow(problem, u0, p0, 1.0, &settings(), &limits, &mut Silent).unwrap();
+    let event = branch
+        .first_loss_of_stability()
+        .expect("a Hopf point")
+        .clone();
+    CurvePoint::at_event(event, q)
+}
+
+#[test]
+fn the_brusselator_hopf_curve_is_b_equals_one_plus_a_squared() {
+    // Members in a, parameter b; steady state (a, b/a); Hopf at b = 1 + a^2, frequency a.
+    let family = Members(brusselator);
+    let a0 = 0.5;
+    let first = start(&brusselator(a0), vec![a0, 1.0 / a0], 1.0, 3.0, a0);
+    let (curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(brusselator(a0)),
+        1.0,
+        &CurveSettings::new(0.5, 3.0),
+        &settings(),
+        &mut Through,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Range);
+    assert!(curve.points.len() >= 20, "{} points", curve.points.len());
+    let end = curve.points.last().unwrap();
+    assert!((end.q - 3.0).abs() <= 1e-14, "ends at a = {}", end.q);
+    for point in &curve.points {
+        let (a, b) = (point.q, point.p);
+        let exact = 1.0 + a * a;
+        assert!(
+            (b - exact).abs() <= 1e-8 * exact,
+            "a = {a}: b = {b}, exact {exact}"
+        );
+        assert!(
+            (point.eigenvalue.im - a).abs() <= 1e-8 * a,
+            "a = {a}: frequency {}, exact {a}",
+            point.eigenvalue.im
+        );
+        assert!((point.u[0] - a).abs() <= 1e-9 && (point.u[1] - b / a).abs() <= 1e-9);
+    }
+    assert!(curve.special.is_empty(), "{:?}", curve.special);
+}
+
+/// Ends the curve at a double Hopf point past which the other mode is unstable (where the first
+/// loss of stability switches curve), as the boundary driver does.
+struct FirstLoss {
+    found: Vec<Special>,
+}
+
+impl CurveObserver for FirstLoss {
+    fn special(&mut self, special: &Special) -> bool {
+        self.found.push(special.clone());
+        special.kind == SpecialKind::DoubleHopf && special.gains
+    }
+}
+
+fn double_hopf_q() -> f64 {
+    (5.2f64.sqrt() - 2.0) / 0.6
+}
+
+#[test]
+fn a_double_hopf_point_is_located_and_the_first_loss_of_stability_moves_to_the_other_curve() {
+    let family = Members(double_hopf);
+    let settings_curve = CurveSettings::new(0.0, 1.0);
+    let first = start(&double_hopf(0.0), vec![0.0; 4], -0.5, 2.0, 0.0);
+    assert!((first.p - 0.0).abs() < 1e-9 && (first.eigenvalue.im - 1.0).abs() < 1e-9);
+    let mut observer = FirstLoss { found: Vec::new() };
+    let (curve, member): (Curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(double_hopf(0.0)),
+        1.0,
+        &settings_curve,
+        &settings(),
+        &mut observer,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Observer);
+    // The first curve: p = q + 0.3 q^2, frequency 1, up to the double Hopf point.
+    for point in &curve.points {
+        let exact = point.q + 0.3 * point.q * point.q;
+        assert!(
+            (point.p - exact).abs() <= 1e-8,
+            "q = {}: p = {}",
+            point.q,
+            point.p
+        );
+        assert!((point.eigenvalue.im - 1.0).abs() <= 1e-8);
+    }
+    let special = curve.special.last().unwrap();
+    assert_eq!(special.kind, SpecialKind::DoubleHopf);
+    assert!(special.gains);
+    let q_star = double_hopf_q();
+    let (q, p) = (special.point.q, special.point.p);
+    assert!(
+        (q - q_star).abs() <= 1e-6,
+        "double Hopf at q = {q}, exact {q_star}"
+    );
+    assert!((p - (1.0 - q_star)).abs() <= 1e-6, "double Hopf at p = {p}");
+    assert!(
+        (special.other.im - 2.0).abs() <= 1e-6,
+        "second frequency {}",
+        special.other
+    );
+
+    // From there the first loss of stability is the second mode: p = 1 - q, frequency 2.
+    let mut second = special.point.clone();
+    second.eigenvalue = special.other;
+    let (next, _) = follow_curve(
+        &family,
+        second,
+        member,
+        1.0,
+        &settings_curve,
+        &settings(),
+        &mut Through,
+    )
+    .unwrap();
+    assert_eq!(next.stop, CurveStop::Range);
+    assert!(next.points.len() >= 5);
+    for point in &next.points[1..] {
+        assert!(
+            (point.p - (1.0 - point.q)).abs() <= 1e-8,
+            "q = {}: p = {}",
+            point.q,
+            point.p
+        );
+        assert!((point.eigenvalue.im - 2.0).abs() <= 1e-8);
+        // Past the switch the first curve's mode is stable on this one.
+        assert_eq!(
+            others(&point.spectrum, point.eigenvalue).unstable,
+            0,
+            "q = {}",
+            point.q
+        );
+    }
+}
+
+#[test]
+fn a_curve_that_turns_back_in_q_is_passed_and_its_turning_point_located() {
+    // The unit circle from (p, q) = (1, 0), q increasing: it turns back at (0, 1).
+    let family = Members(hopf_circle);
+    let first = start(&hopf_circle(0.0), vec![0.0; 2], 0.0, 2.0, 0.0);
+    assert!((first.p - 1.0).abs() < 1e-9);
+    let mut observer = FirstLoss { found: Vec::new() };
+    let (curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(hopf_circle(0.0)),
+        1.0,
+        &CurveSettings::new(-0.5, 1.5),
+        &settings(),
+        &mut observer,
+    )
+    .unwrap();
+    // Past the turning point the curve comes back down to q = -0.5 on the side p < 0.
+    assert_eq!(curve.stop, CurveStop::Range);
+    let end = curve.points.last().unwrap();
+    assert!(
+        (end.q + 0.5).abs() <= 1e-14 && end.p < 0.0,
+        "ends at {:?}",
+        (end.p, end.q)
+    );
+    for point in &curve.points {
+        let r = point.p.hypot(point.q);
+        assert!(
+            (r - 1.0).abs() <= 1e-8,
+            "{:?} off the circle by {}",
+            (point.p, point.q),
+            r - 1.0
+        );
+    }
+    let turning: Vec<&Special> = curve
+        .special
+        .iter()
+        .filter(|s| s.kind == SpecialKind::Turning)
+        .collect();
+    assert_eq!(turning.len(), 1, "{:?}", curve.special);
+    let t = &turning[0].point;
+    assert!((t.q - 1.0).abs() <= 1e-6, "turning at q = {}", t.q);
+    assert!(t.p.abs() <= 1e-3, "turning at p = {}", t.p);
+}
