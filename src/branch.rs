@@ -348,6 +348,12 @@ pub fn locate(
                  no instability found"
             )));
         }
+        Stop::Rule(reason) => {
+            return Err(crate::Error::Numerical(format!(
+                "the continuation was ended by a stop rule at omega = {reached_omega:.6e} rad/s: \
+                 {reason}"
+            )));
+        }
         Stop::MaxPoints => {
             return Err(crate::Error::Numerical(format!(
                 "the continuation used all {points} points (continuation.max_points) by omega = \

@@ -1,9 +1,16 @@
 //! The continuation engine alone, on canonical problems with exact answers: the event kind is
 //! right and its location error is below the tolerance asked.
 
-use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
-use helixbif::continuation::events::EventKind;
-use helixbif::continuation::reference::{brusselator, fold, hopf_normal_form, pitchfork};
+use std::ops::ControlFlow;
+
+use helixbif::continuation::arclength::{
+    Continuation, Detector, Limits, Metric, Outcome, Point, Silent, Stop, StopRule, follow,
+    follow_with,
+};
+use helixbif::continuation::events::{Event, EventKind};
+use helixbif::continuation::reference::{
+    Reference, brusselator, fold, hopf_normal_form, pitchfork,
+};
 use helixbif::continuation::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
@@ -340,4 +347,83 @@ fn crossings_closer_than_the_tolerance_are_one_event_with_their_multiplicity() {
         (2, 0, 2)
     );
     assert!((e.p - 1.0).abs() <= 1e-8, "at {}", e.p);
+}
+
+/// A user event: the branch's `u` passes a level, placed by linear interpolation on the step
+/// (enough for this test; the engine's own detectors sample corrected points).
+struct LevelCrossing(f64);
+
+impl Detector<Reference> for LevelCrossing {
+    fn detect(&self, a: &Point, b: &Point) -> bool {
+        (a.u[0] - self.0) * (b.u[0] - self.0) < 0.0
+    }
+    fn locate(
+        &self,
+        _problem: &Reference,
+        a: &Point,
+        b: &Point,
+        _metric: &Metric,
+        _settings: &ContinuationSettings,
+    ) -> helixbif::Result<Vec<Event>> {
+        let t = (self.0 - a.u[0]) / (b.u[0] - a.u[0]);
+        Ok(vec![Event {
+            kind: EventKind::User("level"),
+            u: vec![self.0],
+            p: a.p + t * (b.p - a.p),
+            s: a.s + t * (b.s - a.s),
+            eigenvalue: a.spectrum.leading[0],
+            bracket: (a.p.min(b.p), a.p.max(b.p)),
+            precision: 0.0,
+            multiplicity: 1,
+            unstable_before: a.spectrum.unstable,
+            unstable_after: b.spectrum.unstable,
+            spectrum: a.spectrum.clone(),
+        }])
+    }
+}
+
+/// A user stop rule: ends the run once the state passes `u = 0.5`.
+struct PastHalf;
+
+impl StopRule for PastHalf {
+    fn step(&mut self, _before: &Point, after: &Point) -> ControlFlow<Stop> {
+        if after.u[0] > 0.5 {
+            ControlFlow::Break(Stop::Rule("u passed 0.5".into()))
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+}
+
+#[test]
+fn the_run_is_an_iterator_of_typed_steps_that_takes_user_detectors_and_stop_rules() {
+    // u^2 = p from (-1, 1) towards smaller p, around the fold at p = 0 and up the other side.
+    let problem = fold();
+    let s = settings();
+    let l = limits(-1.0, 1.0);
+    let mut run = Continuation::start(&problem, vec![-1.0], 1.0, -1.0, &s, &l).unwrap();
+    let mut kinds = Vec::new();
+    for outcome in run.by_ref().take(40) {
+        if let Outcome::Accepted { events, .. } = outcome.unwrap() {
+            kinds.extend(events.iter().map(|e| e.kind));
+        }
+    }
+    // Forty steps pass the fold (p back above 0, on the u > 0 side).
+    assert_eq!(kinds, vec![EventKind::Fold]);
+    assert!(run.current().u[0] > 0.0 && run.current().p > 0.0);
+
+    // The same run with a detector of its own and a stop rule of its own.
+    let run = Continuation::start(&problem, vec![-1.0], 1.0, -1.0, &s, &l)
+        .unwrap()
+        .with_detector(Box::new(LevelCrossing(0.25)));
+    let mut rule = PastHalf;
+    let branch = follow_with(run, &mut [&mut rule], &mut Silent).unwrap();
+    assert_eq!(branch.stop, Stop::Rule("u passed 0.5".into()));
+    let names: Vec<&str> = branch.events.iter().map(|e| e.kind.name()).collect();
+    assert_eq!(names, ["fold", "level"]);
+    let level = &branch.events[1];
+    // On u^2 = p the level u = 0.25 lies at p = 1/16 (to the chord's interpolation error).
+    assert!((level.p - 0.0625).abs() < 1e-2, "{}", level.p);
+    assert!(branch.points.last().unwrap().u[0] > 0.5);
+    assert!(branch.points[branch.points.len() - 2].u[0] <= 0.5);
 }

@@ -40,6 +40,14 @@
 //! stability, or at once when the starting point is already unstable. After every accepted point
 //! the problem may move its chart there ([`Problem::rechart`]); the point's tangent is then
 //! recomputed in the new coordinates.
+//!
+//! The run is an iterator ([`Continuation`]): its state (the last point, the step, what the step
+//! control remembers) advances by one step per `next`, which yields a typed [`Outcome`]
+//! (accepted with its events, rejected, or shortened); event kinds are [`Detector`] objects
+//! (fold, crossings), and the ends of a run are [`StopRule`]s ([`ParameterRange`],
+//! [`FirstInstability`]) that [`follow_with`] consults after every accepted point.
+
+use std::ops::ControlFlow;
 
 use faer::Mat;
 use faer::prelude::Solve;
@@ -93,6 +101,8 @@ pub enum Stop {
     /// The corrector failed down to the smallest step; the reason of the last failure (a
     /// mobility that is not positive definite, when any attempt met one: it names the state).
     StepTooSmall(String),
+    /// A stop rule of the caller's ended the run (its reason).
+    Rule(String),
 }
 
 /// Where a continuation stops.
@@ -328,8 +338,373 @@ fn crossing(a: &Spectrum, b: &Spectrum) -> std::result::Result<bool, usize> {
     }
 }
 
+/// What one step of a [`Continuation`] did.
+#[derive(Clone, Debug)]
+pub enum Outcome {
+    /// A point was accepted, with the events pinned down between it and the point before.
+    Accepted { point: Point, events: Vec<Event> },
+    /// The step was refused (the corrector failed, the step jumped, or an event in it could not
+    /// be pinned down) and is retried from the same point with `ds`.
+    Rejected { ds: f64, reason: String },
+    /// The step spanned crossings that one event cannot explain and is retried with `ds`, so
+    /// that they separate.
+    Shortened { ds: f64 },
+}
+
+/// Detects one kind of event between two consecutive points and pins it down.
+pub trait Detector<P: Problem> {
+    /// Whether the step from `a` to `b` holds such an event.
+    fn detect(&self, a: &Point, b: &Point) -> bool;
+    /// The events of the step, located.
+    fn locate(
+        &self,
+        problem: &P,
+        a: &Point,
+        b: &Point,
+        metric: &Metric,
+        settings: &ContinuationSettings,
+    ) -> Result<Vec<Event>>;
+}
+
+/// Folds: the `p` part of the tangent changes sign ([`events::locate_fold`]).
+pub struct FoldDetector;
+
+impl<P: Problem> Detector<P> for FoldDetector {
+    fn detect(&self, a: &Point, b: &Point) -> bool {
+        a.tangent_p * b.tangent_p < 0.0
+    }
+    fn locate(
+        &self,
+        problem: &P,
+        a: &Point,
+        b: &Point,
+        metric: &Metric,
+        settings: &ContinuationSettings,
+    ) -> Result<Vec<Event>> {
+        Ok(vec![events::locate_fold(problem, a, b, metric, settings)?])
+    }
+}
+
+/// Branch and Hopf points, and mode exchanges: the unstable count changes, or two modes trade
+/// stability ([`events::locate_crossings`]).
+pub struct CrossingDetector;
+
+impl<P: Problem> Detector<P> for CrossingDetector {
+    fn detect(&self, a: &Point, b: &Point) -> bool {
+        a.spectrum.unstable != b.spectrum.unstable || modes_exchanged(&a.spectrum, &b.spectrum)
+    }
+    fn locate(
+        &self,
+        problem: &P,
+        a: &Point,
+        b: &Point,
+        metric: &Metric,
+        settings: &ContinuationSettings,
+    ) -> Result<Vec<Event>> {
+        events::locate_crossings(problem, a, b, metric, settings)
+    }
+}
+
+/// A stop rule: sees the first point and every accepted step, and may end the run.
+pub trait StopRule {
+    fn start(&mut self, _first: &Point) -> ControlFlow<Stop> {
+        ControlFlow::Continue(())
+    }
+    fn step(&mut self, before: &Point, after: &Point) -> ControlFlow<Stop>;
+}
+
+/// Ends the run once a point lies outside `[p_min, p_max]` (that point included).
+pub struct ParameterRange {
+    pub p_min: f64,
+    pub p_max: f64,
+}
+
+impl StopRule for ParameterRange {
+    fn step(&mut self, _before: &Point, after: &Point) -> ControlFlow<Stop> {
+        if after.p > self.p_max || after.p < self.p_min {
+            ControlFlow::Break(Stop::ParameterLimit)
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+}
+
+/// Ends the run at the first loss of stability, or at once when the first point is unstable.
+pub struct FirstInstability;
+
+impl StopRule for FirstInstability {
+    fn start(&mut self, first: &Point) -> ControlFlow<Stop> {
+        if first.spectrum.unstable > 0 {
+            ControlFlow::Break(Stop::UnstableAtStart)
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+    fn step(&mut self, before: &Point, after: &Point) -> ControlFlow<Stop> {
+        if before.spectrum.unstable == 0 && after.spectrum.unstable > 0 {
+            ControlFlow::Break(Stop::FirstInstability)
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+}
+
+/// The state of a continuation run: the last accepted point, the step, and what the step
+/// control remembers; [`Iterator::next`] advances it by one step. The run itself (problem,
+/// settings, metric, detectors, largest change of `p` per step) does not change. The iterator
+/// ends (`None`) when the step falls below `ds_min`, with [`Continuation::stop`] saying why.
+pub struct Continuation<'a, P: Problem> {
+    problem: &'a P,
+    settings: &'a ContinuationSettings,
+    metric: Metric,
+    detectors: Vec<Box<dyn Detector<P> + 'a>>,
+    /// Largest change of the parameter in one step.
+    dp_max: f64,
+    last: Point,
+    ds: f64,
+    /// Consecutive shortenings of the step (at most four).
+    halvings: usize,
+    /// The first failure since the last accepted point that names a mobility that is not
+    /// positive definite: when the step runs out, it is the reason given.
+    indefinite: Option<String>,
+    /// Whether the last point may move the chart before the next step.
+    rechart: bool,
+    stop: Option<Stop>,
+}
+
+impl<'a, P: Problem> Continuation<'a, P> {
+    /// Corrects `(u0, p0)` at fixed `p0` and starts the branch there, in the direction of
+    /// increasing `p` if `direction > 0`; no step moves `p` by more than `max_parameter_step`
+    /// of `limits`' range.
+    pub fn start(
+        problem: &'a P,
+        u0: Vec<f64>,
+        p0: f64,
+        direction: f64,
+        settings: &'a ContinuationSettings,
+        limits: &Limits,
+    ) -> Result<Self> {
+        settings.validate()?;
+        let metric = Metric::new(problem);
+        let newton_settings = NewtonSettings {
+            tol: settings.tol,
+            ..NewtonSettings::default()
+        };
+        let system = AtParameter { problem, p: p0 };
+        let (u0, report) = newton::solve(
+            &system,
+            u0,
+            &newton_settings,
+            &format!("at the start p = {p0:e}"),
+        )?;
+        let lin = problem.linearize(&u0, p0)?;
+        let zero = vec![0.0; u0.len()];
+        let (tu, tp) = tangent(&lin, &metric, &zero, direction.signum() / metric.wp)?;
+        let first = Point {
+            spectrum: stability(problem, &u0, p0, &lin, settings, None)?,
+            u: u0,
+            p: p0,
+            s: 0.0,
+            tangent_u: tu,
+            tangent_p: tp,
+            iterations: report.iterations,
+            uncertainty: 0.0,
+        };
+        Ok(Continuation {
+            problem,
+            settings,
+            metric,
+            detectors: vec![Box::new(FoldDetector), Box::new(CrossingDetector)],
+            dp_max: settings.max_parameter_step * (limits.p_max - limits.p_min),
+            last: first,
+            ds: settings.ds,
+            halvings: 0,
+            indefinite: None,
+            rechart: false,
+            stop: None,
+        })
+    }
+
+    /// The run with one more kind of event (a user's, or a codimension-two test), detected and
+    /// located after the built-in ones.
+    pub fn with_detector(mut self, detector: Box<dyn Detector<P> + 'a>) -> Self {
+        self.detectors.push(detector);
+        self
+    }
+
+    /// The last accepted point.
+    pub fn current(&self) -> &Point {
+        &self.last
+    }
+
+    /// Why the iterator ended, once it has.
+    pub fn stop(&self) -> Option<&Stop> {
+        self.stop.as_ref()
+    }
+
+    /// Halves the step after a failure; ends the run below `ds_min`.
+    fn refuse(&mut self, e: Error) -> Option<Result<Outcome>> {
+        if matches!(e, Error::NotPositiveDefinite { .. }) && self.indefinite.is_none() {
+            self.indefinite = Some(e.to_string());
+        }
+        self.ds *= 0.5;
+        if self.ds < self.settings.ds_min {
+            let reason = self.indefinite.clone().unwrap_or_else(|| e.to_string());
+            self.stop = Some(Stop::StepTooSmall(reason));
+            return None;
+        }
+        Some(Ok(Outcome::Rejected {
+            ds: self.ds,
+            reason: e.to_string(),
+        }))
+    }
+
+    /// Predictor and corrector from the last point with the current step.
+    fn attempt(&self) -> Result<Point> {
+        let (problem, metric, last, ds) = (self.problem, &self.metric, &self.last, self.ds);
+        let step: Vec<f64> = last.tangent_u.iter().map(|t| ds * t).collect();
+        let predicted = problem.retract(&last.u, &step);
+        let p_predicted = last.p + ds * last.tangent_p;
+        let c = correct(
+            problem,
+            predicted.clone(),
+            p_predicted,
+            &last.tangent_u,
+            last.tangent_p,
+            metric,
+            self.settings,
+        )?;
+        // Reject a step whose corrector travelled far from the predicted point or whose chord
+        // turned sharply from the tangent: it may have jumped to another branch.
+        let du: Vec<f64> = c.u.iter().zip(&predicted).map(|(a, b)| a - b).collect();
+        let dp = c.p - p_predicted;
+        let travel = metric.dot(&du, dp, &du, dp).sqrt();
+        let chord_u: Vec<f64> = c.u.iter().zip(&last.u).map(|(a, b)| a - b).collect();
+        let chord_p = c.p - last.p;
+        let chord = metric.dot(&chord_u, chord_p, &chord_u, chord_p).sqrt();
+        let (chord_u, chord_p): (Vec<f64>, f64) =
+            (chord_u.iter().map(|v| v / chord).collect(), chord_p / chord);
+        let cosine = metric.dot(&chord_u, chord_p, &last.tangent_u, last.tangent_p);
+        if travel > 0.5 * ds || cosine < MIN_TANGENT_COSINE {
+            return Err(Error::Numerical(format!(
+                "step rejected (corrector travel {:.2} ds, chord turned by {:.0} degrees)",
+                travel / ds,
+                cosine.clamp(-1.0, 1.0).acos().to_degrees()
+            )));
+        }
+        let (tu, tp) = tangent(&c.lin, metric, &last.tangent_u, last.tangent_p)?;
+        let spectrum = stability(
+            problem,
+            &c.u,
+            c.p,
+            &c.lin,
+            self.settings,
+            Some(&last.spectrum),
+        )?;
+        Ok(Point {
+            u: c.u,
+            p: c.p,
+            s: last.s + ds,
+            tangent_u: tu,
+            tangent_p: tp,
+            spectrum,
+            iterations: c.iterations,
+            uncertainty: c.uncertainty,
+        })
+    }
+
+    /// The events between the last point and `next`, by every detector, in arclength order. A
+    /// fold's own real eigenvalue, which passes zero there, is not also a branch point.
+    fn events(&self, next: &Point) -> Result<Vec<Event>> {
+        let (a, b) = (&self.last, next);
+        let mut found = Vec::new();
+        let mut fold = false;
+        for detector in &self.detectors {
+            if detector.detect(a, b) {
+                let located = detector.locate(self.problem, a, b, &self.metric, self.settings)?;
+                fold |= located.iter().any(|e| e.kind == EventKind::Fold);
+                found.extend(located);
+            }
+        }
+        if fold
+            && let Some(own) = found
+                .iter()
+                .position(|e| e.kind == EventKind::BranchPoint && e.multiplicity == 1)
+        {
+            found.remove(own);
+        }
+        found.sort_by(|x, y| x.s.total_cmp(&y.s));
+        Ok(found)
+    }
+}
+
+impl<P: Problem> Iterator for Continuation<'_, P> {
+    type Item = Result<Outcome>;
+
+    fn next(&mut self) -> Option<Result<Outcome>> {
+        if self.stop.is_some() {
+            return None;
+        }
+        if std::mem::take(&mut self.rechart) && self.problem.rechart(&self.last.u) {
+            // The same point in new coordinates: its tangent, oriented as before.
+            let last = &mut self.last;
+            let moved = self
+                .problem
+                .linearize(&last.u, last.p)
+                .and_then(|lin| tangent(&lin, &self.metric, &last.tangent_u, last.tangent_p));
+            match moved {
+                Ok((tu, tp)) => (last.tangent_u, last.tangent_p) = (tu, tp),
+                Err(e) => return Some(Err(e)),
+            }
+        }
+        // No step moves the parameter by more than a fraction of the range followed, so that a
+        // stable window between two events is not stepped over.
+        if (self.ds * self.last.tangent_p).abs() > self.dp_max {
+            self.ds = (self.dp_max / self.last.tangent_p.abs()).max(self.settings.ds_min);
+        }
+        let next = match self.attempt() {
+            Ok(next) => next,
+            Err(e) => return self.refuse(e),
+        };
+        // A step across which the count changes in a way one event cannot explain, or two
+        // modes exchange stability, is shortened first so that the events separate.
+        let ambiguous = crossing(&self.last.spectrum, &next.spectrum).is_err()
+            || modes_exchanged(&self.last.spectrum, &next.spectrum);
+        if ambiguous && self.halvings < 4 && self.ds * 0.5 >= self.settings.ds_min {
+            self.halvings += 1;
+            self.ds *= 0.5;
+            return Some(Ok(Outcome::Shortened { ds: self.ds }));
+        }
+        self.halvings = 0;
+        let events = match self.events(&next) {
+            Ok(events) => events,
+            Err(e) => {
+                let e = match e {
+                    e @ Error::NotPositiveDefinite { .. } => e,
+                    e => Error::Numerical(format!("locating an event: {e}")),
+                };
+                return self.refuse(e);
+            }
+        };
+        self.indefinite = None;
+        self.ds = match next.iterations {
+            0..=3 => (self.ds * 1.5).min(self.settings.ds_max),
+            6.. => (self.ds * 0.7).max(self.settings.ds_min),
+            _ => self.ds,
+        };
+        self.last = next.clone();
+        self.rechart = true;
+        Some(Ok(Outcome::Accepted {
+            point: next,
+            events,
+        }))
+    }
+}
+
 /// Traces the branch through the solution `(u0, p0)` (corrected first at fixed `p0`), starting in
-/// the direction of increasing `p` if `direction > 0`.
+/// the direction of increasing `p` if `direction > 0`: runs a [`Continuation`] with the stop
+/// rules of `limits` ([`ParameterRange`], and [`FirstInstability`] when asked) and at most
+/// `max_points` points, telling `observer` every point and event.
 pub fn follow<P: Problem>(
     problem: &P,
     u0: Vec<f64>,
@@ -339,198 +714,63 @@ pub fn follow<P: Problem>(
     limits: &Limits,
     observer: &mut impl Observer,
 ) -> Result<Branch> {
-    settings.validate()?;
-    let metric = Metric::new(problem);
-    let newton_settings = NewtonSettings {
-        tol: settings.tol,
-        ..NewtonSettings::default()
+    let mut range = ParameterRange {
+        p_min: limits.p_min,
+        p_max: limits.p_max,
     };
-    let system = AtParameter { problem, p: p0 };
-    let (u0, report) = newton::solve(
-        &system,
-        u0,
-        &newton_settings,
-        &format!("at the start p = {p0:e}"),
-    )?;
-    let lin = problem.linearize(&u0, p0)?;
-    let zero = vec![0.0; u0.len()];
-    let (tu, tp) = tangent(&lin, &metric, &zero, direction.signum() / metric.wp)?;
-    let first = Point {
-        spectrum: stability(problem, &u0, p0, &lin, settings, None)?,
-        u: u0,
-        p: p0,
-        s: 0.0,
-        tangent_u: tu,
-        tangent_p: tp,
-        iterations: report.iterations,
-        uncertainty: 0.0,
-    };
+    let mut first_instability = FirstInstability;
+    let mut rules: Vec<&mut dyn StopRule> = Vec::new();
+    if limits.stop_at_first_instability {
+        rules.push(&mut first_instability);
+    }
+    rules.push(&mut range);
+    let run = Continuation::start(problem, u0, p0, direction, settings, limits)?;
+    follow_with(run, &mut rules, observer)
+}
+
+/// Runs `run` to its end under the stop rules `rules` (in order; the first to break ends the
+/// run) and at most `max_points` points, telling `observer` every point and event.
+pub fn follow_with<P: Problem>(
+    mut run: Continuation<'_, P>,
+    rules: &mut [&mut dyn StopRule],
+    observer: &mut impl Observer,
+) -> Result<Branch> {
+    let max_points = run.settings.max_points;
+    let first = run.current().clone();
     observer.point(&first);
-    let unstable_at_start = first.spectrum.unstable > 0;
     let mut branch = Branch {
         points: vec![first],
         events: Vec::new(),
         stop: Stop::MaxPoints,
     };
-    if unstable_at_start && limits.stop_at_first_instability {
-        branch.stop = Stop::UnstableAtStart;
+    if let Some(stop) = rules
+        .iter_mut()
+        .find_map(|r| r.start(&branch.points[0]).break_value())
+    {
+        branch.stop = stop;
         return Ok(branch);
     }
-    let mut ds = settings.ds;
-    let mut halvings = 0;
-    // The first failure since the last accepted point that names a mobility that is not
-    // positive definite: when the step runs out, it is the reason given.
-    let mut indefinite: Option<String> = None;
-    let shrink = |ds: &mut f64, e: Error, indefinite: &mut Option<String>| {
-        if matches!(e, Error::NotPositiveDefinite { .. }) && indefinite.is_none() {
-            *indefinite = Some(e.to_string());
-        }
-        *ds *= 0.5;
-        (*ds < settings.ds_min).then(|| indefinite.clone().unwrap_or_else(|| e.to_string()))
-    };
-    while branch.points.len() < settings.max_points {
-        let last = branch.points.last().expect("the branch has a first point");
-        // No step moves the parameter by more than a fraction of the range followed, so that a
-        // stable window between two events is not stepped over.
-        let dp_max = settings.max_parameter_step * (limits.p_max - limits.p_min);
-        if (ds * last.tangent_p).abs() > dp_max {
-            ds = (dp_max / last.tangent_p.abs()).max(settings.ds_min);
-        }
-        let step: Vec<f64> = last.tangent_u.iter().map(|t| ds * t).collect();
-        let predicted = problem.retract(&last.u, &step);
-        let p_predicted = last.p + ds * last.tangent_p;
-        let attempt = correct(
-            problem,
-            predicted.clone(),
-            p_predicted,
-            &last.tangent_u,
-            last.tangent_p,
-            &metric,
-            settings,
-        )
-        .and_then(|c| {
-            // Reject a step whose corrector travelled far from the predicted point or
-            // whose chord turned sharply from the tangent: it may have jumped to another
-            // branch.
-            let du: Vec<f64> = c.u.iter().zip(&predicted).map(|(a, b)| a - b).collect();
-            let dp = c.p - p_predicted;
-            let travel = metric.dot(&du, dp, &du, dp).sqrt();
-            let chord_u: Vec<f64> = c.u.iter().zip(&last.u).map(|(a, b)| a - b).collect();
-            let chord_p = c.p - last.p;
-            let chord = metric.dot(&chord_u, chord_p, &chord_u, chord_p).sqrt();
-            let (chord_u, chord_p): (Vec<f64>, f64) =
-                (chord_u.iter().map(|v| v / chord).collect(), chord_p / chord);
-            let cosine = metric.dot(&chord_u, chord_p, &last.tangent_u, last.tangent_p);
-            if travel > 0.5 * ds || cosine < MIN_TANGENT_COSINE {
-                return Err(Error::Numerical(format!(
-                    "step rejected (corrector travel {:.2} ds, chord turned by {:.0} degrees)",
-                    travel / ds,
-                    cosine.clamp(-1.0, 1.0).acos().to_degrees()
-                )));
-            }
-            let (tu, tp) = tangent(&c.lin, &metric, &last.tangent_u, last.tangent_p)?;
-            let spectrum = stability(problem, &c.u, c.p, &c.lin, settings, Some(&last.spectrum))?;
-            Ok(Point {
-                u: c.u,
-                p: c.p,
-                s: last.s + ds,
-                tangent_u: tu,
-                tangent_p: tp,
-                spectrum,
-                iterations: c.iterations,
-                uncertainty: c.uncertainty,
-            })
-        });
-        let next = match attempt {
-            Ok(next) => next,
-            Err(e) => {
-                if let Some(reason) = shrink(&mut ds, e, &mut indefinite) {
-                    branch.stop = Stop::StepTooSmall(reason);
-                    return Ok(branch);
-                }
-                continue;
-            }
+    while branch.points.len() < max_points {
+        let Some(outcome) = run.next() else {
+            branch.stop = run.stop().cloned().unwrap_or(Stop::MaxPoints);
+            return Ok(branch);
         };
-        // A step across which the count changes in a way one event cannot explain, or two
-        // modes exchange stability, is shortened first so that the events separate.
-        let exchanged = modes_exchanged(&last.spectrum, &next.spectrum);
-        let ambiguous = crossing(&last.spectrum, &next.spectrum).is_err() || exchanged;
-        if ambiguous && halvings < 4 && ds * 0.5 >= settings.ds_min {
-            halvings += 1;
-            ds *= 0.5;
+        let Outcome::Accepted { point, events } = outcome? else {
             continue;
-        }
-        halvings = 0;
-        // A fold shows as the parameter turning; a change of the unstable count is a branch or
-        // Hopf point unless it is the fold's own real eigenvalue.
-        let fold = last.tangent_p * next.tangent_p < 0.0;
-        let count_change = last.spectrum.unstable != next.spectrum.unstable;
-        let located = (|| -> Result<Vec<Event>> {
-            let mut found = Vec::new();
-            if fold {
-                found.push(events::locate_fold(
-                    problem, last, &next, &metric, settings,
-                )?);
-            }
-            if count_change || exchanged {
-                let mut crossings =
-                    events::locate_crossings(problem, last, &next, &metric, settings)?;
-                if fold {
-                    // The real eigenvalue that passes zero at the fold is the fold's own.
-                    if let Some(own) = crossings
-                        .iter()
-                        .position(|e| e.kind == EventKind::BranchPoint && e.multiplicity == 1)
-                    {
-                        crossings.remove(own);
-                    }
-                }
-                found.extend(crossings);
-            }
-            Ok(found)
-        })();
-        let mut found = match located {
-            Ok(found) => found,
-            Err(e) => {
-                let e = match e {
-                    e @ Error::NotPositiveDefinite { .. } => e,
-                    e => Error::Numerical(format!("locating an event: {e}")),
-                };
-                if let Some(reason) = shrink(&mut ds, e, &mut indefinite) {
-                    branch.stop = Stop::StepTooSmall(reason);
-                    return Ok(branch);
-                }
-                continue;
-            }
         };
-        indefinite = None;
-        found.sort_by(|x, y| x.s.total_cmp(&y.s));
-        for located in found {
-            observer.event(&located);
-            branch.events.push(located);
+        for event in events {
+            observer.event(&event);
+            branch.events.push(event);
         }
-        let first_instability = last.spectrum.unstable == 0 && next.spectrum.unstable > 0;
-        ds = match next.iterations {
-            0..=3 => (ds * 1.5).min(settings.ds_max),
-            6.. => (ds * 0.7).max(settings.ds_min),
-            _ => ds,
-        };
-        let outside = next.p > limits.p_max || next.p < limits.p_min;
-        observer.point(&next);
-        branch.points.push(next);
-        if first_instability && limits.stop_at_first_instability {
-            branch.stop = Stop::FirstInstability;
+        observer.point(&point);
+        let before = branch.points.last().expect("the branch has a first point");
+        let stop = rules
+            .iter_mut()
+            .find_map(|r| r.step(before, &point).break_value());
+        branch.points.push(point);
+        if let Some(stop) = stop {
+            branch.stop = stop;
             return Ok(branch);
-        }
-        if outside {
-            branch.stop = Stop::ParameterLimit;
-            return Ok(branch);
-        }
-        let last = branch.points.last_mut().expect("a point was just pushed");
-        if problem.rechart(&last.u) {
-            // The same point in new coordinates: its tangent, oriented as before.
-            let lin = problem.linearize(&last.u, last.p)?;
-            (last.tangent_u, last.tangent_p) =
-                tangent(&lin, &metric, &last.tangent_u, last.tangent_p)?;
         }
     }
     Ok(branch)

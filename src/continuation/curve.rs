@@ -40,8 +40,8 @@
 //! secant method on the real part of the eigenvalue that crossed (each sample a point of the
 //! curve): a **double Hopf** point when that eigenvalue is complex (a second oscillatory mode
 //! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
-//! `q` part of the tangent is a **turning point** of the curve; its place is the vertex of the
-//! parabola `q(s)` through the three points around it, corrected onto the curve.
+//! `q` part of the tangent is a **turning point** of the curve, the extremum of `q(p)` found by
+//! successive parabolic interpolation (each sample a point of the curve at fixed `p`).
 
 use std::rc::Rc;
 
@@ -199,8 +199,8 @@ pub struct Special {
     /// True when the other mode is unstable beyond the point in the direction of travel: the
     /// curve is no longer the first loss of stability there.
     pub gains: bool,
-    /// Width of the final bracket along the curve (units of (2)); for a turning point, the
-    /// distance from the parabola's vertex to the corrected point.
+    /// Width of the final bracket along the curve (units of (2)); for a turning point, that of
+    /// `p` (its `q`, stationary there, is known to about `event_tol`).
     pub precision: f64,
 }
 
@@ -282,6 +282,20 @@ struct At<M> {
     u: Vec<f64>,
     spectrum: Spectrum,
     eigenvalue: c64,
+}
+
+// By hand: the member is shared, so `M` need not be `Clone`.
+impl<M> Clone for At<M> {
+    fn clone(&self) -> Self {
+        At {
+            member: self.member.clone(),
+            p: self.p,
+            q: self.q,
+            u: self.u.clone(),
+            spectrum: self.spectrum.clone(),
+            eigenvalue: self.eigenvalue,
+        }
+    }
 }
 
 impl<M> At<M> {
@@ -562,13 +576,7 @@ pub fn follow_curve<F: Family>(
                 && let Some(previous) = curve.points.iter().rev().nth(1)
             {
                 found.push(locate_turning(
-                    &tracer,
-                    previous,
-                    &last,
-                    &new,
-                    p_unit,
-                    s_last,
-                    s_last + length,
+                    &tracer, previous, &last, &new, p_unit, s_last,
                 )?);
             }
             Ok(found)
@@ -673,24 +681,16 @@ fn locate_codim2<F: Family>(
     after: &Spectrum,
     s_last: f64,
 ) -> Result<(Special, Rc<F::Member>)> {
-    let clone = |a: &At<F::Member>| At {
-        member: a.member.clone(),
-        p: a.p,
-        q: a.q,
-        u: a.u.clone(),
-        spectrum: a.spectrum.clone(),
-        eigenvalue: a.eigenvalue,
-    };
     let mut lo = Sample {
         sigma: 0.0,
-        at: clone(last),
+        at: last.clone(),
         rest: before.clone(),
         precision: 0.0,
         evaluations: 0,
     };
     let mut hi = Sample {
         sigma: sigma_new,
-        at: clone(new),
+        at: new.clone(),
         rest: after.clone(),
         precision: 0.0,
         evaluations: 0,
@@ -785,9 +785,12 @@ fn locate_codim2<F: Family>(
     Ok((special, best.at.member))
 }
 
-/// The turning point of the curve in `q` near `last`: the vertex of the parabola `q(s)` through
-/// `a`, `last` and `new` (arclengths `a.s`, `s_last`, `s_new`), corrected onto the curve at
-/// fixed `p` (the curve crosses the line `p = p_vertex` transversally there).
+/// The turning point of the curve in `q` near `last`: the extremum of `q(p)` along the curve
+/// (which crosses every line `p = const` near it transversally), by successive parabolic
+/// interpolation through `a`, `last` and `new`, each new sample the curve's point at the
+/// parabola's vertex `p*` (corrected at fixed `p`). It stops when `p*` moves by less than
+/// `sqrt(event_tol)` in the units of (2): `q` is then known to about `event_tol`, since it is
+/// stationary there.
 fn locate_turning<F: Family>(
     tracer: &Tracer<'_, F>,
     a: &CurvePoint,
@@ -795,42 +798,56 @@ fn locate_turning<F: Family>(
     new: &At<F::Member>,
     p_unit: f64,
     s_last: f64,
-    s_new: f64,
 ) -> Result<(Special, Rc<F::Member>)> {
-    let (s0, s1, s2) = (a.s, s_last, s_new);
-    let vertex = |y0: f64, y1: f64, y2: f64| {
-        // Lagrange parabola through (s_i, y_i): its derivative's zero.
-        let d01 = (y1 - y0) / (s1 - s0);
-        let d12 = (y2 - y1) / (s2 - s1);
-        let curvature = (d12 - d01) / (s2 - s0);
-        let s_star = 0.5 * (s0 + s1) - 0.5 * d01 / curvature;
-        let value = move |s: f64| y0 + d01 * (s - s0) + curvature * (s - s0) * (s - s1);
-        (s_star, value(s_star), value)
-    };
-    let (s_star, q_star, _) = vertex(a.q, last.q, new.q);
-    let (_, _, p_of) = vertex(a.p, last.p, new.p);
-    let p_star = p_of(s_star);
-    let step = Step {
-        p0: p_star,
-        q0: q_star,
-        p_unit,
-        t: (1.0, 0.0),
-        n: (0.0, 1.0),
-    };
-    let from = if (s_star - s1).abs() <= (s_star - s2).abs() {
-        last
+    // The three latest samples (p, q), and the solved state nearest the vertex.
+    let mut samples = [(a.p, a.q), (last.p, last.q), (new.p, new.q)];
+    let mut best = if (new.q - last.q) * (new.q - a.q) > 0.0 {
+        new.clone()
     } else {
-        new
+        last.clone()
     };
-    let corrected = tracer.correct(from, &step, 0.0, None, None, from.eigenvalue, 1.0)?;
-    let at = corrected.at;
-    let precision = (at.q - q_star).abs() / tracer.q_unit;
+    let (mut evaluations, mut precision) = (0, 0.0);
+    let tol = tracer.continuation.event_tol.sqrt();
+    let mut moved = f64::INFINITY;
+    let mut rounds = 0;
+    while moved > tol {
+        rounds += 1;
+        if rounds > 30 {
+            return Err(Error::Numerical(
+                "a turning point of the curve not resolved within 30 samples".into(),
+            ));
+        }
+        let [(p0, q0), (p1, q1), (p2, q2)] = samples;
+        let d01 = (q1 - q0) / (p1 - p0);
+        let d12 = (q2 - q1) / (p2 - p1);
+        let curvature = (d12 - d01) / (p2 - p0);
+        let p_star = 0.5 * (p0 + p1) - 0.5 * d01 / curvature;
+        let q_star = q0 + d01 * (p_star - p0) + curvature * (p_star - p0) * (p_star - p1);
+        if !(p_star.is_finite() && q_star.is_finite()) {
+            return Err(Error::Numerical(
+                "no parabola through the samples near a turning point".into(),
+            ));
+        }
+        moved = (p_star - best.p).abs() / p_unit;
+        let step = Step {
+            p0: p_star,
+            q0: q_star,
+            p_unit,
+            t: (1.0, 0.0),
+            n: (0.0, 1.0),
+        };
+        let c = tracer.correct(&best, &step, 0.0, None, None, best.eigenvalue, 1.0)?;
+        evaluations += c.evaluations;
+        precision = c.precision;
+        samples = [samples[1], samples[2], (c.at.p, c.at.q)];
+        best = c.at;
+    }
     let special = Special {
         kind: SpecialKind::Turning,
-        point: at.point(s_star, corrected.precision, corrected.evaluations),
-        other: at.eigenvalue,
+        point: best.point(s_last, precision, evaluations),
+        other: best.eigenvalue,
         gains: false,
-        precision,
+        precision: tol,
     };
-    Ok((special, at.member))
+    Ok((special, best.member))
 }

@@ -44,6 +44,8 @@ pub enum EventKind {
     Hopf,
     /// Two modes crossed the axis in opposite directions within the event tolerance.
     ModeExchange,
+    /// An event of a caller's own [`super::arclength::Detector`], by its name.
+    User(&'static str),
 }
 
 impl EventKind {
@@ -54,6 +56,7 @@ impl EventKind {
             EventKind::BranchPoint => "branch_point",
             EventKind::Hopf => "hopf",
             EventKind::ModeExchange => "mode_exchange",
+            EventKind::User(name) => name,
         }
     }
 }

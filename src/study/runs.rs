@@ -214,6 +214,7 @@ pub fn run_branch(
         Stop::FirstInstability => "first instability".to_string(),
         Stop::UnstableAtStart => "unstable at rest".to_string(),
         Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
+        Stop::Rule(reason) => format!("stop rule: {reason}"),
     };
     let report = BranchReport {
         stalled: matches!(branch.stop, Stop::StepTooSmall(_)),
