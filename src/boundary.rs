@@ -461,6 +461,13 @@ pub fn run_family(
                      admissible model: {reason}"
                 )));
             }
+            CurveStop::Ended => {
+                let q = curve.points.last().map_or(from, |p| p.q);
+                break Err(Error::Numerical(format!(
+                    "the Hopf curve ends at a Bogdanov-Takens point at {key} = {q:.6e}: past it \
+                     the boundary is a fold curve, which boundary does not follow"
+                )));
+            }
             CurveStop::Observer => {}
         }
         let special = curve

@@ -9,7 +9,9 @@ use helixbif::continuation::curve::{
     Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
     follow_curve, others,
 };
-use helixbif::continuation::reference::{Members, brusselator, double_hopf, hopf_circle};
+use helixbif::continuation::reference::{
+    Members, bogdanov_takens, brusselator, double_hopf, hopf_circle,
+};
 use helixbif::continuation::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
@@ -20,15 +22,25 @@ fn settings() -> ContinuationSettings {
     }
 }
 
-/// The first Hopf point of `problem` on its branch from `(u0, p0)`, located by the
-/// one-parameter engine, as the start of a curve at `q`.
-fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_max: f64, q: f64) -> CurvePoint {
+/// The first Hopf point of `problem` on its branch from `(u0, p0)` towards `p_end`, located by
+/// the one-parameter engine, as the start of a curve at `q`.
+fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_end: f64, q: f64) -> CurvePoint {
     let limits = Limits {
-        p_min: p0 - 1.0,
-        p_max,
+        p_min: p0.min(p_end) - 1.0,
+        p_max: p0.max(p_end),
         stop_at_first_instability: true,
     };
-    let branch = follow(problem, u0, p0, 1.0, &settings(), &limits, &mut Silent).unwrap();
+    let direction = (p_end - p0).signum();
+    let branch = follow(
+        problem,
+        u0,
+        p0,
+        direction,
+        &settings(),
+        &limits,
+        &mut Silent,
+    )
+    .unwrap();
     let event = branch
         .first_loss_of_stability()
         .expect("a Hopf point")
@@ -228,4 +240,48 @@ fn a_curve_that_turns_back_in_q_is_passed_and_its_turning_point_located() {
     // q is stationary there: known to the event tolerance; p to its square root.
     assert!((t.q - 1.0).abs() <= 1e-9, "turning at q = {}", t.q);
     assert!(t.p.abs() <= 1e-4, "turning at p = {}", t.p);
+}
+
+#[test]
+fn a_hopf_curve_ends_at_its_bogdanov_takens_point() {
+    // From q = -1 (Hopf at p = 0, frequency 1) towards q > 0: the pair meets at zero at q = 0.
+    let family = Members(bogdanov_takens);
+    let x0 = (1.0 - 0.2f64.sqrt()) / 2.0;
+    // The stable equilibrium at p = 0.2, followed down in p to its Hopf point.
+    let first = start(&bogdanov_takens(-1.0), vec![x0, 0.0], 0.2, -1.0, -1.0);
+    assert!(first.p.abs() < 1e-9 && (first.eigenvalue.im - 1.0).abs() < 1e-9);
+    let mut observer = FirstLoss { found: Vec::new() };
+    let (curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(bogdanov_takens(-1.0)),
+        1.0,
+        &CurveSettings::new(-1.0, 0.5),
+        &settings(),
+        &mut observer,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Ended);
+    for point in &curve.points[..curve.points.len() - 1] {
+        assert!(point.p.abs() <= 1e-8, "q = {}: p = {}", point.q, point.p);
+        let w = (-point.q).sqrt();
+        assert!(
+            (point.eigenvalue.im - w).abs() <= 1e-8 * (1.0 + w),
+            "q = {}",
+            point.q
+        );
+    }
+    let bt = curve.special.last().unwrap();
+    assert_eq!(bt.kind, SpecialKind::BogdanovTakens);
+    println!(
+        "Bogdanov-Takens at (p, q) = ({:e}, {:e}), stated precision {:e}, {} points before it",
+        bt.point.p,
+        bt.point.q,
+        bt.precision,
+        curve.points.len() - 1
+    );
+    assert!(bt.point.q.abs() <= 1e-6 && bt.point.p.abs() <= 1e-6);
+    // The error lies within the stated precision (a distance along the curve, q's unit 1.5).
+    assert!(bt.point.q.abs() <= 1.5 * bt.precision + 1e-12);
+    assert_eq!(observer.found.len(), 1);
 }

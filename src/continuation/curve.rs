@@ -25,8 +25,8 @@
 //! with unit tangent `t_k` (the chord from the point before it), the predictor is
 //! `z_k + ds t_k`, and the corrector solves `h = 0` on the line through the predicted point
 //! normal to `t_k`, by the secant method whose first slope is the last corrector's. A point is
-//! accepted when the last secant correction moves `p` by less than `event_tol |p|` and `q` by
-//! less than `event_tol Q`. Turning points of the curve in `q` (where the crossing speed
+//! accepted when the next secant correction would move `p` by less than `event_tol |p|` (`|p|`
+//! at least the member's parameter scale) and `q` by less than `event_tol Q`. Turning points of the curve in `q` (where the crossing speed
 //! `dh/dp` vanishes) are passed as folds are in one-parameter continuation. The last step lands
 //! exactly on the end of the range (corrector at fixed `q`).
 //!
@@ -41,7 +41,9 @@
 //! curve): a **double Hopf** point when that eigenvalue is complex (a second oscillatory mode
 //! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
 //! `q` part of the tangent is a **turning point** of the curve, the extremum of `q(p)` found by
-//! successive parabolic interpolation (each sample a point of the curve at fixed `p`).
+//! successive parabolic interpolation (each sample a point of the curve at fixed `p`). Where the
+//! tracked pair meets on the real axis the Hopf curve ends at a **Bogdanov-Takens** point, the
+//! zero of `w^2` along the curve (secant, bracketed by the first sample whose pair is real).
 
 use std::rc::Rc;
 
@@ -61,6 +63,9 @@ const REACH: f64 = 4.0;
 /// The start of the message of a failure to build a member (which ends the curve, since a
 /// shorter step cannot help where the family ends).
 const NO_MEMBER: &str = "no member of the family there: ";
+
+/// The start of the message of an evaluation whose tracked pair has met on the real axis.
+const BECAME_REAL: &str = "the tracked pair has become real: ";
 
 /// A family of one-parameter problems indexed by a second parameter `q`.
 pub trait Family {
@@ -174,6 +179,8 @@ pub enum SpecialKind {
     ZeroHopf,
     /// The curve turns back in `q`.
     Turning,
+    /// The tracked pair meets on the real axis at zero: the Hopf curve ends.
+    BogdanovTakens,
 }
 
 impl SpecialKind {
@@ -183,6 +190,7 @@ impl SpecialKind {
             SpecialKind::DoubleHopf => "double_hopf",
             SpecialKind::ZeroHopf => "zero_hopf",
             SpecialKind::Turning => "turning",
+            SpecialKind::BogdanovTakens => "bogdanov_takens",
         }
     }
 }
@@ -216,6 +224,8 @@ pub enum CurveStop {
     Observer,
     /// The family has no member at the next value of `q` (why, in the member's words).
     NoMember(String),
+    /// The Hopf curve ends at a Bogdanov-Takens point (its last point and special point).
+    Ended,
 }
 
 /// A followed curve.
@@ -245,7 +255,7 @@ fn tracked(spectrum: &Spectrum, track: c64) -> Result<c64> {
     let s = spectrum.nearest(track);
     if is_complex(track) && !is_complex(s) {
         return Err(Error::Numerical(format!(
-            "the tracked pair {track} has become real (a Bogdanov-Takens point is near)"
+            "{BECAME_REAL}{track} (a Bogdanov-Takens point is near)"
         )));
     }
     Ok(c64::new(s.re, s.im.abs()))
@@ -415,33 +425,47 @@ impl<F: Family> Tracer<'_, F> {
         reach: f64,
     ) -> Result<Corrected<F::Member>> {
         let tol = self.continuation.event_tol;
+        // The size of a move `dt` along the line in the acceptance test's units: relative to
+        // |p| (or to the member's parameter scale where p is near zero) and to Q.
+        let size = |dt: f64, at: &At<F::Member>| {
+            let p_scale = at.p.abs().max(at.member.scales().1);
+            (dt * step.n.0.abs() * step.p_unit / p_scale).max(dt * step.n.1.abs())
+        };
         let mut a = self.evaluate(from, step.at(sigma, 0.0, self.q_unit), shift, track)?;
         let (mut t0, mut h0) = (0.0, a.eigenvalue.re);
-        let mut t1 = match slope {
-            Some(g) if g.is_finite() && g != 0.0 => -h0 / g,
-            _ => 1e-3 * reach,
-        };
-        for evaluations in 2..=self.settings.max_evaluations {
-            if !(t1.is_finite() && t1.abs() <= reach) {
+        let mut g = slope.filter(|g| g.is_finite() && *g != 0.0);
+        let mut t1 = g.map_or(1e-3 * reach, |g| -h0 / g);
+        for evaluations in 1..=self.settings.max_evaluations {
+            // A proposed move below the tolerance: the last point is the answer.
+            if let Some(g) = g
+                && size((t1 - t0).abs(), &a) <= tol
+            {
+                return Ok(Corrected {
+                    precision: size((t1 - t0).abs(), &a),
+                    at: a,
+                    evaluations,
+                    slope: g,
+                });
+            }
+            if !(t1.is_finite() && t1.abs() <= reach)
+                || evaluations == self.settings.max_evaluations
+            {
                 break;
             }
             let b = self.evaluate(&a, step.at(sigma, t1, self.q_unit), None, a.eigenvalue)?;
             let h1 = b.eigenvalue.re;
-            let g = (h1 - h0) / (t1 - t0);
-            let t2 = t1 - h1 / g;
-            let dt = (t2 - t1).abs();
-            let precision = (dt * step.n.0.abs() * step.p_unit / b.p.abs().max(f64::MIN_POSITIVE))
-                .max(dt * step.n.1.abs());
-            if precision <= tol || h1 == 0.0 {
+            let secant = (h1 - h0) / (t1 - t0);
+            if h1 == 0.0 {
                 return Ok(Corrected {
                     at: b,
-                    evaluations,
-                    slope: g,
-                    precision: if h1 == 0.0 { 0.0 } else { precision },
+                    evaluations: evaluations + 1,
+                    slope: secant,
+                    precision: 0.0,
                 });
             }
+            g = Some(secant);
             (t0, h0, a) = (t1, h1, b);
-            t1 = t2;
+            t1 = t0 - h0 / secant;
         }
         Err(Error::Numerical(format!(
             "the Hopf test function has no zero within reach of the corrector ({} solves, \
@@ -548,6 +572,25 @@ pub fn follow_curve<F: Family>(
                 if let Some(i) = reason.find(NO_MEMBER) {
                     curve.stop = CurveStop::NoMember(reason[i + NO_MEMBER.len()..].to_string());
                     return Ok((curve, last.member));
+                }
+                // The pair turned real within the step: the curve ends at a Bogdanov-Takens
+                // point there, if one can be pinned down (else the step is only too long).
+                if reason.contains(BECAME_REAL)
+                    && let Some(previous) = curve.points.iter().rev().nth(1)
+                    && let Ok((special, member)) = locate_bogdanov_takens(
+                        &tracer,
+                        previous,
+                        &last,
+                        &step,
+                        curve.points.last().map_or(0.0, |p| p.s),
+                    )
+                {
+                    observer.special(&special);
+                    curve.special.push(special.clone());
+                    observer.point(&special.point);
+                    curve.points.push(special.point);
+                    curve.stop = CurveStop::Ended;
+                    return Ok((curve, member));
                 }
                 ds *= 0.5;
                 if ds < settings.ds_min {
@@ -850,4 +893,85 @@ fn locate_turning<F: Family>(
         precision: tol,
     };
     Ok((special, best.member))
+}
+
+/// The Bogdanov-Takens point ahead of `last` (`sigma = 0` on `step`) where the tracked pair
+/// meets on the real axis. Near it `w^2` is linear in the arclength (`w` vanishes like a square
+/// root), so its secant zero through the last two complex points predicts the place; the
+/// search samples the curve nine tenths of the way there, again and again (a sample that finds
+/// the pair real, or no state, is retried nearer), until the predicted zero lies within
+/// `event_tol` of the last sample, or no sample nearer it can be solved: the equilibrium itself
+/// ceases to exist beyond a fold of the branch that meets the Hopf curve there, in a sliver
+/// that narrows quadratically towards the point. The point reported lies at the predicted
+/// zero, `p` and `q` extrapolated linearly from the last two samples (the state is the last
+/// sample's); its precision is the distance extrapolated.
+fn locate_bogdanov_takens<F: Family>(
+    tracer: &Tracer<'_, F>,
+    previous: &CurvePoint,
+    last: &At<F::Member>,
+    step: &Step,
+    s_last: f64,
+) -> Result<(Special, Rc<F::Member>)> {
+    let tol = tracer.continuation.event_tol;
+    let w2 = |s: c64| s.im * s.im;
+    // (sigma, p, q, w^2) of the sample before the last one; the last one.
+    let mut before = (
+        previous.s - s_last,
+        previous.p,
+        previous.q,
+        w2(previous.eigenvalue),
+    );
+    let (mut lo, mut lo_at) = (0.0, last.clone());
+    let (mut evaluations, mut precision) = (0, 0.0);
+    let mut fraction: f64 = 0.9;
+    let zero_of = |before: (f64, f64, f64, f64), lo: f64, at: &At<F::Member>| {
+        let (s0, _, _, y0) = before;
+        let y1 = w2(at.eigenvalue);
+        lo - y1 * (lo - s0) / (y1 - y0)
+    };
+    for _ in 0..200 {
+        let zero = zero_of(before, lo, &lo_at);
+        if !(zero.is_finite() && zero > lo) {
+            return Err(Error::Numerical(
+                "the pair turned real, but w^2 does not fall towards zero ahead".into(),
+            ));
+        }
+        if zero - lo <= tol || fraction < 1e-3 {
+            break;
+        }
+        let sigma = lo + fraction * (zero - lo);
+        match tracer.correct(
+            &lo_at,
+            step,
+            sigma,
+            None,
+            None,
+            lo_at.eigenvalue,
+            REACH * sigma,
+        ) {
+            Ok(c) => {
+                evaluations += c.evaluations;
+                precision = c.precision;
+                before = (lo, lo_at.p, lo_at.q, w2(lo_at.eigenvalue));
+                (lo, lo_at) = (sigma, c.at);
+                fraction = 0.9;
+            }
+            Err(_) => fraction *= 0.5,
+        }
+    }
+    let zero = zero_of(before, lo, &lo_at);
+    let (s0, p0, q0, _) = before;
+    let along = (zero - lo) / (lo - s0);
+    let mut point = lo_at.point(s_last + zero, precision, evaluations);
+    point.p = lo_at.p + along * (lo_at.p - p0);
+    point.q = lo_at.q + along * (lo_at.q - q0);
+    point.eigenvalue = c64::new(lo_at.eigenvalue.re, 0.0);
+    let special = Special {
+        kind: SpecialKind::BogdanovTakens,
+        point,
+        other: c64::new(0.0, 0.0),
+        gains: false,
+        precision: zero - lo,
+    };
+    Ok((special, lo_at.member))
 }

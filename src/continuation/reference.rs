@@ -187,3 +187,22 @@ pub fn hopf_circle(q: f64) -> Reference {
         g_p: Box::new(move |u, p| vec![2.0 * p * u[0], 2.0 * p * u[1]]),
     }
 }
+
+/// Bogdanov-Takens normal form `x' = y`, `y' = p + q x + x^2 - x y`. Its equilibria `(x0, 0)`,
+/// `x0^2 + q x0 + p = 0`, have trace `-x0` and determinant `-(q + 2 x0)`: a Hopf curve `p = 0`
+/// (`x0 = 0`) for `q < 0` with frequency `sqrt(-q)`, which ends at the Bogdanov-Takens point
+/// `p = q = 0`.
+pub fn bogdanov_takens(q: f64) -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            vec![y, p + q * x + x * x - x * y]
+        }),
+        g_u: Box::new(move |u, _| {
+            let (x, y) = (u[0], u[1]);
+            vec![vec![0.0, 1.0], vec![q + 2.0 * x - y, -x]]
+        }),
+        g_p: Box::new(|_, _| vec![0.0, 1.0]),
+    }
+}
