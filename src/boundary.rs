@@ -26,6 +26,7 @@ use crate::continuation::arclength::Silent;
 use crate::continuation::curve::{
     CurveObserver, CurvePoint, CurveSettings, CurveStop, Family, Special, SpecialKind, follow_curve,
 };
+use crate::continuation::event_curve::{EventPoint, follow_event_curve};
 use crate::continuation::events::EventKind;
 use crate::dofs::Layout;
 use crate::fit::{PowerLaw, common_power_law, power_law};
@@ -209,6 +210,8 @@ struct Writer<'a> {
     evaluations: usize,
     bar: ProgressBar,
     range: (f64, f64),
+    /// The kind of the curve being followed.
+    kind: &'static str,
     error: Option<Error>,
 }
 
@@ -224,7 +227,7 @@ impl Writer<'_> {
             q: point.q,
             omega_b: o.omega,
             omegabar_b: point.p,
-            kind: EventKind::Hopf.name().into(),
+            kind: self.kind.into(),
             w: model.scales.omega_from_bar(wbar),
             wbar,
             fpbar: o.fpbar,
@@ -337,12 +340,28 @@ fn log_slope(pts: &[(f64, f64)], i: usize) -> Option<f64> {
 
 /// The first loss of stability of the member at `q`, as the start of a curve, and the member
 /// in the chart the branch reached it in.
+/// How a boundary starts: on a Hopf curve, or on a fold or branch-point curve.
+enum Start {
+    Hopf(CurvePoint),
+    Event(EventPoint),
+}
+
+impl Start {
+    /// `omegabar` of the starting event.
+    fn omegabar(&self) -> f64 {
+        match self {
+            Start::Hopf(c) => c.p,
+            Start::Event(e) => e.event.p,
+        }
+    }
+}
+
 fn start_at(
     family: &RodFamily,
     study: &Study,
     q: f64,
     omega_max: f64,
-) -> Result<(CurvePoint, Rc<RodProblem<Model>>)> {
+) -> Result<(Start, Rc<RodProblem<Model>>)> {
     let member = family.member(q)?;
     let model = &member.model;
     let (located, critical) = locate(
@@ -359,16 +378,66 @@ fn start_at(
         ))
     })?;
     let event = critical.event;
-    if event.kind != EventKind::Hopf {
-        return Err(Error::Numerical(format!(
-            "at {} = {q} the first loss of stability is a {} point: boundary follows Hopf \
-             points only",
-            family.key,
-            event.kind.name()
-        )));
-    }
+    let start = match event.kind {
+        EventKind::Hopf => Start::Hopf(CurvePoint::at_event(event, q)),
+        EventKind::Fold | EventKind::BranchPoint => Start::Event(EventPoint {
+            q,
+            event,
+            lead: critical.lead,
+            iterations: 0,
+        }),
+        kind => {
+            return Err(Error::Numerical(format!(
+                "at {} = {q} the first loss of stability is a {}: no curve to follow",
+                family.key,
+                kind.name()
+            )));
+        }
+    };
     member.set_chart(critical.chart);
-    Ok((CurvePoint::at_event(event, q), Rc::new(member)))
+    Ok((start, Rc::new(member)))
+}
+
+/// Follows the fold or branch-point curve from `start` to the end of the range, its points into
+/// `writer`.
+fn follow_events(
+    writer: &mut Writer<'_>,
+    start: EventPoint,
+    member: Rc<RodProblem<Model>>,
+    direction: f64,
+    settings: &CurveSettings,
+) -> Result<()> {
+    let (family, study) = (writer.family, writer.study);
+    let kind = start.event.kind;
+    let curve = follow_event_curve(
+        family,
+        start,
+        member,
+        study.branch.omega_max.signum(),
+        direction,
+        settings,
+        &study.continuation,
+    )?;
+    writer.kind = kind.name();
+    for point in &curve.points {
+        let on_curve = CurvePoint {
+            evaluations: point.iterations,
+            ..CurvePoint::at_event(point.event.clone(), point.q)
+        };
+        writer.point(&on_curve);
+    }
+    if let Some(e) = writer.error.take() {
+        return Err(e);
+    }
+    match curve.stop {
+        CurveStop::Range => Ok(()),
+        stop => Err(Error::Numerical(format!(
+            "the {} curve stopped at {} = {:.6e}: {stop:?}",
+            kind.name(),
+            family.key,
+            curve.points.last().map_or(f64::NAN, |p| p.q)
+        ))),
+    }
 }
 
 /// Follows the boundary of `study` in `key` from `from` to `to` and writes `boundary.csv`,
@@ -419,15 +488,21 @@ pub fn run_family(
         evaluations: 0,
         bar,
         range: (from, to),
+        kind: EventKind::Hopf.name(),
         error: None,
     };
     let settings = CurveSettings::new(from.min(to), from.max(to));
     let direction = (to - from).signum();
     let (mut start, mut member) = start_at(family, study, from, study.branch.omega_max)?;
     let outcome = loop {
+        let hopf = match start {
+            Start::Hopf(c) => c,
+            Start::Event(e) => break follow_events(&mut writer, e, member, direction, &settings),
+        };
+        writer.kind = EventKind::Hopf.name();
         let (curve, last) = match follow_curve(
             family,
-            start,
+            hopf,
             member,
             direction,
             &settings,
@@ -496,7 +571,7 @@ pub fn run_family(
             let mut next = special.point.clone();
             next.eigenvalue = special.other;
             member = last;
-            next
+            Start::Hopf(next)
         } else {
             break Err(Error::Numerical(format!(
                 "at {key} = {:.6e} a real eigenvalue reaches zero on the Hopf curve (zero-Hopf \
@@ -527,7 +602,7 @@ pub fn run_family(
     let check_omega_b = check.map(|(c, _)| {
         family
             .member(last.q)
-            .map(|m| m.model.scales.omega_from_bar(c.p))
+            .map(|m| m.model.scales.omega_from_bar(c.omegabar()))
             .unwrap_or(f64::NAN)
     });
     Ok(BoundaryReport {

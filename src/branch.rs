@@ -280,6 +280,9 @@ impl Located {
 pub struct Critical {
     pub event: Event,
     pub chart: Chart,
+    /// The last point of the branch before the event, `(u, omegabar)` (a start for following
+    /// the event in a second parameter).
+    pub lead: (Vec<f64>, f64),
 }
 
 impl Critical {
@@ -385,5 +388,11 @@ pub fn locate(
         precision: Some(event.precision),
         ..none
     };
-    Ok((located, Some(Critical { event, chart })))
+    let before = branch
+        .points
+        .iter()
+        .rfind(|p| p.s < event.s)
+        .unwrap_or(&branch.points[0]);
+    let lead = (before.u.clone(), before.p);
+    Ok((located, Some(Critical { event, chart, lead })))
 }

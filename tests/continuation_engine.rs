@@ -386,7 +386,7 @@ impl Detector<Reference> for LevelCrossing {
 struct PastHalf;
 
 impl StopRule for PastHalf {
-    fn step(&mut self, _before: &Point, after: &Point) -> ControlFlow<Stop> {
+    fn step(&mut self, _before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
         if after.u[0] > 0.5 {
             ControlFlow::Break(Stop::Rule("u passed 0.5".into()))
         } else {

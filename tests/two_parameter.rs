@@ -9,8 +9,10 @@ use helixbif::continuation::curve::{
     Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
     follow_curve, others,
 };
+use helixbif::continuation::event_curve::{EventPoint, follow_event_curve};
+use helixbif::continuation::events::EventKind;
 use helixbif::continuation::reference::{
-    Members, bogdanov_takens, brusselator, double_hopf, hopf_circle,
+    Members, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle, shifted_pitchfork,
 };
 use helixbif::continuation::{ContinuationSettings, Problem};
 
@@ -284,4 +286,90 @@ fn a_hopf_curve_ends_at_its_bogdanov_takens_point() {
     // The error lies within the stated precision (a distance along the curve, q's unit 1.5).
     assert!(bt.point.q.abs() <= 1.5 * bt.precision + 1e-12);
     assert_eq!(observer.found.len(), 1);
+}
+
+/// The first loss of stability of `problem` from `(u0, p0)` with `p` increasing, as the start
+/// of an event curve at `q`.
+fn start_event(problem: &impl Problem, u0: Vec<f64>, p0: f64, q: f64) -> EventPoint {
+    let limits = Limits {
+        p_min: p0 - 1.0,
+        p_max: p0 + 10.0,
+        stop_at_first_instability: true,
+    };
+    let branch = follow(problem, u0, p0, 1.0, &settings(), &limits, &mut Silent).unwrap();
+    let event = branch.first_loss_of_stability().unwrap().clone();
+    let before = branch
+        .points
+        .iter()
+        .rfind(|p| p.s < event.s)
+        .expect("a point before the event");
+    EventPoint {
+        q,
+        lead: (before.u.clone(), before.p),
+        event,
+        iterations: 0,
+    }
+}
+
+#[test]
+fn the_fold_curve_of_the_cusp_is_p_equals_two_thirds_q_to_the_three_halves() {
+    // From q = 1 (fold at p = 2 (1/3)^(3/2)) to q = 3, on the branch from u = -2.
+    let first = start_event(&cusp(1.0), vec![-2.0], -6.0, 1.0);
+    assert_eq!(first.event.kind, EventKind::Fold);
+    let curve = follow_event_curve(
+        &Members(cusp),
+        first,
+        Rc::new(cusp(1.0)),
+        1.0,
+        1.0,
+        &CurveSettings::new(1.0, 3.0),
+        &settings(),
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Range);
+    assert!(curve.points.len() >= 10, "{} points", curve.points.len());
+    assert!((curve.points.last().unwrap().q - 3.0).abs() < 1e-15);
+    let mut worst: f64 = 0.0;
+    for point in &curve.points {
+        let exact = 2.0 * (point.q / 3.0).powf(1.5);
+        worst = worst.max((point.event.p - exact).abs() / exact);
+        assert_eq!(point.event.kind, EventKind::Fold);
+        assert!(
+            (point.event.u[0] + (point.q / 3.0).sqrt()).abs() < 1e-4,
+            "u at q = {}",
+            point.q
+        );
+    }
+    println!(
+        "cusp: {} fold points, worst relative error of p {worst:e}",
+        curve.points.len()
+    );
+    assert!(worst <= 1e-8, "{worst}");
+}
+
+#[test]
+fn the_branch_point_curve_of_the_shifted_pitchfork_is_p_equals_q() {
+    let first = start_event(&shifted_pitchfork(0.0), vec![0.0], -1.0, 0.0);
+    assert_eq!(first.event.kind, EventKind::BranchPoint);
+    let curve = follow_event_curve(
+        &Members(shifted_pitchfork),
+        first,
+        Rc::new(shifted_pitchfork(0.0)),
+        1.0,
+        1.0,
+        &CurveSettings::new(0.0, 1.0),
+        &settings(),
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Range);
+    for point in &curve.points {
+        assert_eq!(point.event.kind, EventKind::BranchPoint);
+        assert!(
+            (point.event.p - point.q).abs() <= 1e-8,
+            "q = {}: p = {}",
+            point.q,
+            point.event.p
+        );
+    }
+    assert!(curve.points.len() >= 10);
 }

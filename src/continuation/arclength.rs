@@ -405,12 +405,13 @@ impl<P: Problem> Detector<P> for CrossingDetector {
     }
 }
 
-/// A stop rule: sees the first point and every accepted step, and may end the run.
+/// A stop rule: sees the first point and every accepted step (its two ends and the events
+/// located in it), and may end the run.
 pub trait StopRule {
     fn start(&mut self, _first: &Point) -> ControlFlow<Stop> {
         ControlFlow::Continue(())
     }
-    fn step(&mut self, before: &Point, after: &Point) -> ControlFlow<Stop>;
+    fn step(&mut self, before: &Point, after: &Point, events: &[Event]) -> ControlFlow<Stop>;
 }
 
 /// Ends the run once a point lies outside `[p_min, p_max]` (that point included).
@@ -420,7 +421,7 @@ pub struct ParameterRange {
 }
 
 impl StopRule for ParameterRange {
-    fn step(&mut self, _before: &Point, after: &Point) -> ControlFlow<Stop> {
+    fn step(&mut self, _before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
         if after.p > self.p_max || after.p < self.p_min {
             ControlFlow::Break(Stop::ParameterLimit)
         } else {
@@ -440,7 +441,7 @@ impl StopRule for FirstInstability {
             ControlFlow::Continue(())
         }
     }
-    fn step(&mut self, before: &Point, after: &Point) -> ControlFlow<Stop> {
+    fn step(&mut self, before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
         if before.spectrum.unstable == 0 && after.spectrum.unstable > 0 {
             ControlFlow::Break(Stop::FirstInstability)
         } else {
@@ -758,15 +759,15 @@ pub fn follow_with<P: Problem>(
         let Outcome::Accepted { point, events } = outcome? else {
             continue;
         };
-        for event in events {
-            observer.event(&event);
-            branch.events.push(event);
+        for event in &events {
+            observer.event(event);
         }
         observer.point(&point);
         let before = branch.points.last().expect("the branch has a first point");
         let stop = rules
             .iter_mut()
-            .find_map(|r| r.step(before, &point).break_value());
+            .find_map(|r| r.step(before, &point, &events).break_value());
+        branch.events.extend(events);
         branch.points.push(point);
         if let Some(stop) = stop {
             branch.stop = stop;

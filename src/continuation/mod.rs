@@ -10,6 +10,7 @@
 
 pub mod arclength;
 pub mod curve;
+pub mod event_curve;
 pub mod events;
 pub mod krylov;
 pub mod newton;

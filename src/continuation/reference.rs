@@ -206,3 +206,26 @@ pub fn bogdanov_takens(q: f64) -> Reference {
         g_p: Box::new(|_, _| vec![0.0, 1.0]),
     }
 }
+
+/// Cusp normal form `u' = p + q u - u^3`. For `q > 0` its equilibria `p = u^3 - q u` fold where
+/// `q = 3 u^2`: at `p = +-2 (q/3)^(3/2)`; the branch from large negative `u` (stable) loses
+/// stability at the fold `p = 2 (q/3)^(3/2)`, `u = -sqrt(q/3)`.
+pub fn cusp(q: f64) -> Reference {
+    Analytic {
+        dim: 1,
+        g: Box::new(move |u, p| vec![p + q * u[0] - u[0].powi(3)]),
+        g_u: Box::new(move |u, _| vec![vec![q - 3.0 * u[0] * u[0]]]),
+        g_p: Box::new(|_, _| vec![1.0]),
+    }
+}
+
+/// Pitchfork `u' = (p - q) u - u^3`: the trivial branch loses stability at the branch point
+/// `p = q`.
+pub fn shifted_pitchfork(q: f64) -> Reference {
+    Analytic {
+        dim: 1,
+        g: Box::new(move |u, p| vec![(p - q) * u[0] - u[0].powi(3)]),
+        g_u: Box::new(move |u, p| vec![vec![p - q - 3.0 * u[0] * u[0]]]),
+        g_p: Box::new(|u, _| vec![u[0]]),
+    }
+}
