@@ -50,7 +50,7 @@ use std::rc::Rc;
 use faer::c64;
 
 use super::arclength::{AtParameter, stability};
-use super::events::Event;
+use super::events::{Event, Illinois};
 use super::newton::{self, NewtonSettings};
 use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
@@ -746,7 +746,7 @@ fn locate_codim2<F: Family>(
         if growing { re } else { -re }
     };
     let tol = tracer.continuation.event_tol;
-    let (mut w_lo, mut w_hi, mut side) = (1.0, 1.0, 0i8);
+    let mut weights = Illinois::new();
     let mut samples = 0;
     while hi.sigma - lo.sigma > tol {
         samples += 1;
@@ -756,7 +756,7 @@ fn locate_codim2<F: Family>(
             ));
         }
         let c = crossing(&lo.rest, &hi.rest);
-        let (f_lo, f_hi) = (f(&lo, c) * w_lo, f(&hi, c) * w_hi);
+        let (f_lo, f_hi) = weights.weighted(f(&lo, c), f(&hi, c));
         let margin = tol / 3.0;
         let secant = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
         let sigma = if f_lo <= 0.0 && f_hi > 0.0 && secant.is_finite() {
@@ -788,21 +788,13 @@ fn locate_codim2<F: Family>(
             precision: corrected.precision,
             evaluations: corrected.evaluations,
         };
-        if sample.rest.unstable != base {
+        let beyond = sample.rest.unstable != base;
+        if beyond {
             hi = sample;
-            w_hi = 1.0;
-            if side == 1 {
-                w_lo *= 0.5;
-            }
-            side = 1;
         } else {
             lo = sample;
-            w_lo = 1.0;
-            if side == -1 {
-                w_hi *= 0.5;
-            }
-            side = -1;
         }
+        weights.replaced(beyond);
     }
     let c = crossing(&lo.rest, &hi.rest);
     let best = if f(&lo, c).abs() <= f(&hi, c).abs() {

@@ -128,6 +128,48 @@ pub fn modes_exchanged(a: &Spectrum, b: &Spectrum) -> bool {
     a.unstable == b.unstable && a.unstable > 0 && newly(a, b) && newly(b, a)
 }
 
+/// The Illinois weights of regula falsi: an end of the bracket that stays put twice in a row
+/// has its function value halved, so that the secant does not stall against it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Illinois {
+    w_lo: f64,
+    w_hi: f64,
+    /// Which end the last sample replaced: 1 the far one, -1 the near one, 0 none yet.
+    side: i8,
+}
+
+impl Illinois {
+    pub(crate) fn new() -> Self {
+        Illinois {
+            w_lo: 1.0,
+            w_hi: 1.0,
+            side: 0,
+        }
+    }
+
+    /// The function values at the two ends, weighted.
+    pub(crate) fn weighted(&self, f_lo: f64, f_hi: f64) -> (f64, f64) {
+        (f_lo * self.w_lo, f_hi * self.w_hi)
+    }
+
+    /// Records that the new sample replaced the far end (`beyond`) or the near one.
+    pub(crate) fn replaced(&mut self, beyond: bool) {
+        if beyond {
+            self.w_hi = 1.0;
+            if self.side == 1 {
+                self.w_lo *= 0.5;
+            }
+            self.side = 1;
+        } else {
+            self.w_lo = 1.0;
+            if self.side == -1 {
+                self.w_hi *= 0.5;
+            }
+            self.side = -1;
+        }
+    }
+}
+
 /// One evaluation inside the bracket.
 #[derive(Clone)]
 struct Sample {
@@ -272,8 +314,7 @@ impl<'a, P: Problem> Sampler<'a, P> {
         beyond: impl Fn(&Sample) -> bool,
         f: impl Fn(&Sample, &Sample, &Sample) -> f64,
     ) -> Result<(Sample, Sample)> {
-        let (mut w_lo, mut w_hi) = (1.0, 1.0);
-        let mut last_side = 0i8;
+        let mut weights = Illinois::new();
         let mut iterations = 0;
         while !self.converged(&lo, &hi) {
             iterations += 1;
@@ -283,24 +324,16 @@ impl<'a, P: Problem> Sampler<'a, P> {
                     self.settings.event_tol, lo.p, hi.p
                 )));
             }
-            let (f_lo, f_hi) = (f(&lo, &lo, &hi) * w_lo, f(&hi, &lo, &hi) * w_hi);
+            let (f_lo, f_hi) = weights.weighted(f(&lo, &lo, &hi), f(&hi, &lo, &hi));
             let sigma = secant(&lo, &hi, f_lo, f_hi, self.margin(&lo));
             let s = self.at(sigma)?;
-            if beyond(&s) {
+            let past = beyond(&s);
+            if past {
                 hi = s;
-                w_hi = 1.0;
-                if last_side == 1 {
-                    w_lo *= 0.5;
-                }
-                last_side = 1;
             } else {
                 lo = s;
-                w_lo = 1.0;
-                if last_side == -1 {
-                    w_hi *= 0.5;
-                }
-                last_side = -1;
             }
+            weights.replaced(past);
         }
         Ok((lo, hi))
     }
