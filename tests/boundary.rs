@@ -99,3 +99,46 @@ fn boundary_refuses_bad_input_with_exit_code_2() {
         assert!(stderr.contains(field), "{all:?}: {stderr}");
     }
 }
+
+/// Where the study has no admissible model (Lighthill's node spacing limit moves as the helix
+/// narrows at a fixed node count), the curve comes to within the smallest step of that end and
+/// stops with a numerical failure that says where and why, its points kept on disk.
+#[test]
+fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/exponent_m.toml");
+    let overrides = [
+        "shape.lambda_over_l=0.125".to_string(),
+        "discretization.per_turn=12".to_string(),
+    ];
+    let study = Study::from_path(Some(std::path::Path::new(path)), &overrides).unwrap();
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-end-{}", std::process::id()));
+    let err = run_boundary(&study, "shape.R_over_lambda", 0.14, 0.1, &dir).unwrap_err();
+    assert!(!err.is_input(), "{err}");
+    let message = err.to_string();
+    assert!(message.contains("admissible range"), "{message}");
+    let rows = helixbif::boundary::read_rows(&dir.join("boundary.csv")).unwrap();
+    assert!(rows.len() >= 5, "{} rows kept", rows.len());
+    let end = rows.last().unwrap().q;
+    // The model at the last point is admissible at the study's N, and one that lies a
+    // thousandth of the range further is not.
+    let nodes = study.discretization.nodes;
+    let admissible = |q: f64| {
+        let at = Study::from_path(
+            Some(std::path::Path::new(path)),
+            &[
+                overrides[0].clone(),
+                format!("shape.R_over_lambda={q:e}"),
+                format!("discretization={{nodes={nodes}}}"),
+            ],
+        )
+        .unwrap();
+        helixbif::model::admissible_max_nodes(&at.physical()).is_none_or(|max| nodes <= max)
+    };
+    assert!(admissible(end), "{end}");
+    assert!(
+        !admissible(end - 4e-5),
+        "stopped at {end}, short of the end"
+    );
+    assert!(dir.join("boundary.svg").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

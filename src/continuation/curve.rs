@@ -60,8 +60,8 @@ use crate::{Error, Result};
 /// along `q` before the curve's slope is known, needs it where the curve is steep).
 const REACH: f64 = 4.0;
 
-/// The start of the message of a failure to build a member (which ends the curve, since a
-/// shorter step cannot help where the family ends).
+/// The start of the message of a failure to build a member: where the family ends, the curve
+/// comes to within the smallest step of that end and stops there.
 const NO_MEMBER: &str = "no member of the family there: ";
 
 /// The start of the message of an evaluation whose tracked pair has met on the real axis.
@@ -222,7 +222,8 @@ pub enum CurveStop {
     StepTooSmall(String),
     /// The observer ended it at a special point (the curve's last point).
     Observer,
-    /// The family has no member at the next value of `q` (why, in the member's words).
+    /// The family has no member within the smallest step past the last point (why, in the
+    /// member's words).
     NoMember(String),
     /// The Hopf curve ends at a Bogdanov-Takens point (its last point and special point).
     Ended,
@@ -569,10 +570,6 @@ pub fn follow_curve<F: Family>(
             Ok(c) => c,
             Err(e) => {
                 let reason = e.to_string();
-                if let Some(i) = reason.find(NO_MEMBER) {
-                    curve.stop = CurveStop::NoMember(reason[i + NO_MEMBER.len()..].to_string());
-                    return Ok((curve, last.member));
-                }
                 // The pair turned real within the step: the curve ends at a Bogdanov-Takens
                 // point there, if one can be pinned down (else the step is only too long).
                 if reason.contains(BECAME_REAL)
@@ -592,9 +589,14 @@ pub fn follow_curve<F: Family>(
                     curve.stop = CurveStop::Ended;
                     return Ok((curve, member));
                 }
+                // A shorter step, also where the family ends (to come as near that end as the
+                // smallest step allows).
                 ds *= 0.5;
                 if ds < settings.ds_min {
-                    curve.stop = CurveStop::StepTooSmall(e.to_string());
+                    curve.stop = match reason.find(NO_MEMBER) {
+                        Some(i) => CurveStop::NoMember(reason[i + NO_MEMBER.len()..].to_string()),
+                        None => CurveStop::StepTooSmall(reason),
+                    };
                     return Ok((curve, last.member));
                 }
                 continue;
