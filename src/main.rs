@@ -122,9 +122,10 @@ enum Command {
         nodes: Vec<usize>,
     },
     /// The stability boundary omega_b against a second study field (e.g. shape.R_over_lambda)
-    /// as a curve, by two-parameter continuation of the Hopf point from `locate` at --from;
-    /// double Hopf points (where the boundary switches mode) and turning points (where it
-    /// jumps) located: boundary.csv, points.csv, boundary.svg, m_loc.svg.
+    /// as a curve, by two-parameter continuation of the first loss of stability that `locate`
+    /// finds at --from (a Hopf point; a fold or branch point); double Hopf points (where the
+    /// boundary switches mode), turning points (where it jumps), zero-Hopf and
+    /// Bogdanov-Takens points located: boundary.csv, points.csv, boundary.svg, m_loc.svg.
     #[command(after_help = AFTER_HELP)]
     Boundary {
         #[command(flatten)]
@@ -146,7 +147,8 @@ enum Command {
     /// Do what the study's [study] table declares and write `output/<study name>/`. Kinds:
     /// `locate` (the default without a [study] table: omega_b, or a ladder of node counts),
     /// `branch` (branches from rest, one per case, drawn together), `sweep` (omega_b over a
-    /// parameter grid, fits), `phase` (propulsive force over lambda/l and omegabar
+    /// parameter grid, fits), `boundary` (omega_b as curves in one field, one per case, the
+    /// local exponent m_loc along them), `phase` (propulsive force over lambda/l and omegabar
     /// (R/lambda)^m with the stability boundary and natural flagella), `shapes` (steady
     /// shapes and the critical mode), `dynamics` (simulations from rest: time averages over
     /// the branch).
