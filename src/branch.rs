@@ -388,11 +388,7 @@ pub fn locate(
         precision: Some(event.precision),
         ..none
     };
-    let before = branch
-        .points
-        .iter()
-        .rfind(|p| p.s < event.s)
-        .unwrap_or(&branch.points[0]);
+    let before = branch.point_before(&event);
     let lead = (before.u.clone(), before.p);
     Ok((located, Some(Critical { event, chart, lead })))
 }

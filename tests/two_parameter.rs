@@ -4,7 +4,7 @@
 
 use std::rc::Rc;
 
-use helixbif::continuation::arclength::{Limits, Silent, follow};
+use helixbif::continuation::arclength::{Branch, Limits, Silent, follow};
 use helixbif::continuation::curve::{
     Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
     follow_curve, others,
@@ -24,16 +24,15 @@ fn settings() -> ContinuationSettings {
     }
 }
 
-/// The first Hopf point of `problem` on its branch from `(u0, p0)` towards `p_end`, located by
-/// the one-parameter engine, as the start of a curve at `q`.
-fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_end: f64, q: f64) -> CurvePoint {
+/// The branch of `problem` from `(u0, p0)` towards `p_end`, up to its first loss of stability.
+fn to_first_loss(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_end: f64) -> Branch {
     let limits = Limits {
         p_min: p0.min(p_end) - 1.0,
         p_max: p0.max(p_end),
         stop_at_first_instability: true,
     };
     let direction = (p_end - p0).signum();
-    let branch = follow(
+    follow(
         problem,
         u0,
         p0,
@@ -42,7 +41,13 @@ fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_end: f64, q: f64) -> C
         &limits,
         &mut Silent,
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// The first Hopf point of `problem` on its branch from `(u0, p0)` towards `p_end`, located by
+/// the one-parameter engine, as the start of a curve at `q`.
+fn start(problem: &impl Problem, u0: Vec<f64>, p0: f64, p_end: f64, q: f64) -> CurvePoint {
+    let branch = to_first_loss(problem, u0, p0, p_end);
     let event = branch
         .first_loss_of_stability()
         .expect("a Hopf point")
@@ -291,18 +296,9 @@ fn a_hopf_curve_ends_at_its_bogdanov_takens_point() {
 /// The first loss of stability of `problem` from `(u0, p0)` with `p` increasing, as the start
 /// of an event curve at `q`.
 fn start_event(problem: &impl Problem, u0: Vec<f64>, p0: f64, q: f64) -> EventPoint {
-    let limits = Limits {
-        p_min: p0 - 1.0,
-        p_max: p0 + 10.0,
-        stop_at_first_instability: true,
-    };
-    let branch = follow(problem, u0, p0, 1.0, &settings(), &limits, &mut Silent).unwrap();
+    let branch = to_first_loss(problem, u0, p0, p0 + 10.0);
     let event = branch.first_loss_of_stability().unwrap().clone();
-    let before = branch
-        .points
-        .iter()
-        .rfind(|p| p.s < event.s)
-        .expect("a point before the event");
+    let before = branch.point_before(&event);
     EventPoint {
         q,
         lead: (before.u.clone(), before.p),

@@ -47,6 +47,7 @@
 //! (fold, crossings), and the ends of a run are [`StopRule`]s ([`ParameterRange`],
 //! [`FirstInstability`]) that [`follow_with`] consults after every accepted point.
 
+use std::cell::RefCell;
 use std::ops::ControlFlow;
 
 use faer::Mat;
@@ -126,6 +127,14 @@ impl Branch {
     /// The first event along the branch at which a stable state becomes unstable.
     pub fn first_loss_of_stability(&self) -> Option<&Event> {
         self.events.iter().find(|e| e.loses_stability())
+    }
+
+    /// The last point of the branch before `event` (the first point if there is none).
+    pub fn point_before(&self, event: &Event) -> &Point {
+        self.points
+            .iter()
+            .rfind(|p| p.s < event.s)
+            .unwrap_or(&self.points[0])
     }
 }
 
@@ -286,10 +295,31 @@ pub fn correct(
     )))
 }
 
-/// Adapter: the problem at a fixed parameter, as a square system for Newton's method.
+/// Adapter: the problem at a fixed parameter, as a square system for Newton's method. It keeps
+/// the latest linearization, so that the one Newton's method ended with (at the solution it
+/// returns) need not be made again.
 pub struct AtParameter<'a, P: Problem> {
-    pub problem: &'a P,
-    pub p: f64,
+    problem: &'a P,
+    p: f64,
+    last: RefCell<Option<(Vec<f64>, Linearization)>>,
+}
+
+impl<'a, P: Problem> AtParameter<'a, P> {
+    pub fn new(problem: &'a P, p: f64) -> Self {
+        AtParameter {
+            problem,
+            p,
+            last: RefCell::new(None),
+        }
+    }
+
+    /// The linearization at `u`: the latest one if it was made at `u`, else a new one.
+    pub fn linearization_at(&self, u: &[f64]) -> Result<Linearization> {
+        match self.last.take() {
+            Some((at, lin)) if at == u => Ok(lin),
+            _ => self.problem.linearize(u, self.p),
+        }
+    }
 }
 
 impl<P: Problem> System for AtParameter<'_, P> {
@@ -298,7 +328,9 @@ impl<P: Problem> System for AtParameter<'_, P> {
     }
     fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
         let lin = self.problem.linearize(u, self.p)?;
-        Ok((lin.g, lin.g_u))
+        let out = (lin.g.clone(), lin.g_u.clone());
+        *self.last.borrow_mut() = Some((u.to_vec(), lin));
+        Ok(out)
     }
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         self.problem.retract(u, du)
@@ -491,14 +523,14 @@ impl<'a, P: Problem> Continuation<'a, P> {
             tol: settings.tol,
             ..NewtonSettings::default()
         };
-        let system = AtParameter { problem, p: p0 };
+        let system = AtParameter::new(problem, p0);
         let (u0, report) = newton::solve(
             &system,
             u0,
             &newton_settings,
             &format!("at the start p = {p0:e}"),
         )?;
-        let lin = problem.linearize(&u0, p0)?;
+        let lin = system.linearization_at(&u0)?;
         let zero = vec![0.0; u0.len()];
         let (tu, tp) = tangent(&lin, &metric, &zero, direction.signum() / metric.wp)?;
         let first = Point {

@@ -382,16 +382,16 @@ impl<F: Family> Tracer<'_, F> {
             guess.iter_mut().zip(shift).for_each(|(g, d)| *g += d);
         }
         self.family.adopt(&from.member, &member, &guess);
-        let system = AtParameter {
-            problem: &*member,
-            p,
-        };
+        let system = AtParameter::new(&*member, p);
         let context = format!("on the curve at p = {p:e}, q = {q:e}");
         let (u, _) = newton::solve(&system, guess, &self.newton, &context)?;
         // A chart the state has moved far from is moved to it (the same state, new
-        // coordinates); every member is this evaluation's own.
-        member.rechart(&u);
-        let lin = member.linearize(&u, p)?;
+        // coordinates, so linearized afresh); every member is this evaluation's own.
+        let lin = if member.rechart(&u) {
+            member.linearize(&u, p)?
+        } else {
+            system.linearization_at(&u)?
+        };
         let spectrum = stability(
             &*member,
             &u,
