@@ -108,7 +108,6 @@
 
 use std::ops::ControlFlow;
 
-use faer::linalg::solvers::PartialPivLu;
 use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side, c64};
@@ -116,7 +115,9 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::branch::rest_state;
-use crate::continuation::newton::{NewtonSettings, System, norm};
+use crate::continuation::newton::{
+    Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, System, norm,
+};
 use crate::continuation::stability::reduce_with_factor;
 use crate::dofs::Layout;
 use crate::error::ensure;
@@ -480,40 +481,66 @@ pub fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
 
 /// [`slave_twist`] with the twist measured in `chart` (the source chart of the energy).
 pub fn slave_twist_in(model: &Model, chart: &Chart, u: &[f64]) -> Result<Vec<f64>> {
-    let still = Steady {
-        chart: chart.clone(),
-        ..Steady::new(model, 0.0)
+    let block = TwistBlock {
+        still: Steady {
+            chart: chart.clone(),
+            ..Steady::new(model, 0.0)
+        },
+        u: u.to_vec(),
+        nx: model.rod.layout.free_positions(),
     };
-    let nx = model.rod.layout.free_positions();
-    let nt = u.len() - nx;
-    let mut u = u.to_vec();
-    let mut last = f64::INFINITY;
-    for _ in 0..50 {
-        let lin = still.linearize(&u)?;
-        let r = &lin.residual[nx..];
-        let r_norm = norm(r);
-        if r_norm <= 1e-11 {
-            return Ok(u);
-        }
-        let j = Mat::from_fn(nt, nt, |a, b| lin.jacobian[(nx + a, nx + b)]);
-        let rhs = Mat::from_fn(nt, 1, |a, _| -r[a]);
-        let d = j.partial_piv_lu().solve(&rhs);
-        let step: Vec<f64> = (0..nt).map(|a| d[(a, 0)]).collect();
-        let s_norm = norm(&step);
-        if !s_norm.is_finite() {
-            break;
-        }
-        for (t, s) in u[nx..].iter_mut().zip(&step) {
-            *t += s;
-        }
-        if s_norm <= 1e-14 * (1.0 + norm(&u[nx..])) || (s_norm > 0.5 * last && r_norm < 1e-8) {
-            return Ok(u);
-        }
-        last = s_norm;
+    let newton = Newton {
+        tol: 1e-11,
+        max_iter: 50,
+        globalization: Globalization::Full,
+    };
+    let (twist, _) = newton
+        .run(&block, u[block.nx..].to_vec(), Jacobians::Fresh, "")
+        .map_err(|_| {
+            Error::Numerical(
+                "the twist could not be slaved to the positions (Newton on R_theta = 0 failed)"
+                    .into(),
+            )
+        })?;
+    Ok(block.with_twist(&twist))
+}
+
+/// The twist equations `R_theta(x, theta) = 0` at the fixed positions of `u`, in the twist
+/// angles alone (the twist block of the steady Jacobian).
+struct TwistBlock<'a> {
+    still: Steady<'a>,
+    u: Vec<f64>,
+    nx: usize,
+}
+
+impl TwistBlock<'_> {
+    /// The free unknowns of `u` with the twist angles `twist`.
+    fn with_twist(&self, twist: &[f64]) -> Vec<f64> {
+        let mut u = self.u.clone();
+        u[self.nx..].copy_from_slice(twist);
+        u
     }
-    Err(Error::Numerical(
-        "the twist could not be slaved to the positions (Newton on R_theta = 0 failed)".into(),
-    ))
+}
+
+impl System for TwistBlock<'_> {
+    fn residual(&self, twist: &[f64]) -> Result<Vec<f64>> {
+        Ok(self.residual_and_jacobian(twist)?.0)
+    }
+
+    fn residual_and_jacobian(&self, twist: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        let lin = self.still.linearize(&self.with_twist(twist))?;
+        let (nx, nt) = (self.nx, twist.len());
+        let jacobian = Mat::from_fn(nt, nt, |a, b| lin.jacobian[(nx + a, nx + b)]);
+        Ok((lin.residual[nx..].to_vec(), jacobian))
+    }
+
+    /// Round-off: the step is negligible, or it stopped shrinking with the residual below
+    /// `1e-8`.
+    fn settled(&self, it: &Iterate) -> Option<f64> {
+        let round_off = it.step <= 1e-14 * (1.0 + norm(it.u));
+        let stalled = it.step > 0.5 * it.previous_step && it.residual < 1e-8;
+        (round_off || stalled).then_some(it.step)
+    }
 }
 
 /// The free unknowns of `config`, whose twist is measured in `chart` (at `config.x`, e.g. a
@@ -634,85 +661,66 @@ impl History {
     }
 }
 
-/// A factorized step Jacobian and the `c0` of the step it was built for.
+/// A factorized step Jacobian kept across steps, and the `c0` of the step it was built for.
+#[derive(Default)]
 struct Factored {
-    lu: PartialPivLu<f64>,
+    chord: Chord,
     c0: f64,
 }
 
-/// Newton's method on one step; `Ok(None)` when it does not converge (the step is retried
-/// shorter). With `reuse_jacobian`, the factorization in `cache` serves while it converges
-/// (it is rebuilt when `c0` changed by more than 20%, when the residual falls by less than a
-/// factor 3 in an iteration, and once more from the start of the step if the solve fails).
+/// Newton's method on one step (full steps, the one solver of [`crate::continuation::newton`]);
+/// `Ok(None)` when it does not converge (the step is retried shorter). With `reuse_jacobian`, the
+/// factorization in `cache` serves while it converges (the chord method: it is rebuilt when `c0`
+/// changed by more than 20%, when the residual falls by less than a factor 3 in an iteration,
+/// and once more from the start of the step if the solve fails).
 fn newton_step(
     step: &ImplicitStep,
     guess: &[f64],
     settings: &DynamicsSettings,
-    cache: &mut Option<Factored>,
+    cache: &mut Factored,
     trajectory: &mut Trajectory,
 ) -> Result<Option<Vec<f64>>> {
+    let newton = Newton {
+        tol: settings.newton_tol,
+        max_iter: settings.max_newton,
+        globalization: Globalization::Full,
+    };
+    if (cache.c0 / step.c0 - 1.0).abs() > 0.2 {
+        cache.chord.clear();
+    }
     loop {
-        // True when the first iteration used a factorization from an earlier step: a failure
-        // then deserves a retry with a fresh one.
-        let mut inherited = false;
-        let mut u = guess.to_vec();
-        let mut previous = f64::INFINITY;
-        for k in 0..=settings.max_newton {
-            let g = match step.residual(&u) {
-                Ok(g) => g,
-                Err(Error::NotPositiveDefinite { .. }) => break,
-                Err(e) => return Err(e),
-            };
-            let g_norm = norm(&g);
-            if !g_norm.is_finite() {
-                break;
-            }
-            if g_norm <= settings.newton_tol {
-                return Ok(Some(u));
-            }
-            if k == settings.max_newton {
-                break;
-            }
-            let stale = match cache.as_ref() {
-                None => true,
-                Some(f) => {
-                    !settings.reuse_jacobian
-                        || (f.c0 / step.c0 - 1.0).abs() > 0.2
-                        || g_norm > previous / 3.0
-                }
-            };
-            if stale {
-                let j = match step.residual_and_jacobian(&u) {
-                    Ok((_, j)) => j,
-                    Err(Error::NotPositiveDefinite { .. }) => break,
-                    Err(e) => return Err(e),
-                };
-                trajectory.jacobians += 1;
-                *cache = Some(Factored {
-                    lu: j.partial_piv_lu(),
-                    c0: step.c0,
-                });
-            } else if k == 0 {
-                inherited = true;
-            }
-            let lu = &cache.as_ref().expect("a factorization").lu;
-            let d = lu.solve(Mat::from_fn(g.len(), 1, |i, _| -g[i]));
-            trajectory.newton_iterations += 1;
-            let du: Vec<f64> = (0..g.len()).map(|i| d[(i, 0)]).collect();
-            let du_norm = norm(&du);
-            if !du_norm.is_finite() {
-                break;
-            }
-            u = step.retract(&u, &du);
-            previous = g_norm;
-            if du_norm <= 1e-13 * (1.0 + norm(&u)) {
-                return Ok(Some(u));
-            }
+        // A solve that starts from a factorization of an earlier step deserves a retry with a
+        // fresh one when it fails.
+        let inherited = settings.reuse_jacobian && cache.chord.holds();
+        let before = cache.chord.built;
+        let jacobians = if settings.reuse_jacobian {
+            Jacobians::Reuse(&mut cache.chord)
+        } else {
+            Jacobians::Fresh
+        };
+        let solved = newton.run(step, guess.to_vec(), jacobians, "in the time step");
+        let (solution, steps) = match solved {
+            Ok((u, report)) => (Some(u), report.iterations),
+            Err(Error::NewtonFailed { iterations, .. }) => (None, iterations),
+            Err(Error::NotPositiveDefinite { .. }) => (None, 0),
+            Err(e) => return Err(e),
+        };
+        trajectory.newton_iterations += steps;
+        trajectory.jacobians += if settings.reuse_jacobian {
+            cache.chord.built - before
+        } else {
+            steps + 1
+        };
+        if cache.chord.built > before {
+            cache.c0 = step.c0;
         }
-        *cache = None;
-        if !inherited {
-            return Ok(None);
+        if solution.is_some() || !inherited {
+            if solution.is_none() {
+                cache.chord.clear();
+            }
+            return Ok(solution);
         }
+        cache.chord.clear();
     }
 }
 
@@ -803,7 +811,7 @@ fn run(
         .then(|| ((t_end / settings.dt0) * (1.0 - 1e-12)).ceil().max(1.0) as usize);
     let mut h = settings.dt0.min(t_end);
     let mut just_rejected = false;
-    let mut cache = None;
+    let mut cache = Factored::default();
     while t < t_end {
         if trajectory.steps >= settings.max_steps {
             return Err(Error::Numerical(format!(

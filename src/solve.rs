@@ -211,6 +211,7 @@ fn ramp(
         iterations,
         residual_norm: current.report.residual_norm,
         history,
+        precision: current.report.precision,
     };
     Ok(current)
 }

@@ -54,13 +54,12 @@ use faer::Mat;
 use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
-use super::newton::{self, NewtonSettings, System, norm};
+use super::newton::{
+    self, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System, norm,
+};
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
 use crate::{Error, Result};
-
-/// Relative size of a Newton correction at round-off level.
-const ROUND_OFF: f64 = 1e-13;
 
 /// A corrector that has used all its iterations with the residual within this many times `tol`
 /// (its round-off floor, next to a singular point where Newton converges only linearly)
@@ -169,8 +168,8 @@ impl Metric {
     }
 }
 
-/// Solves the bordered system `[G_u G_p; r_u^T r_p] z = rhs`.
-fn bordered_solve(lin: &Linearization, r_u: &[f64], r_p: f64, rhs: &[f64]) -> Option<Vec<f64>> {
+/// The bordered matrix `[G_u G_p; r_u^T r_p]`.
+fn bordered_matrix(lin: &Linearization, r_u: &[f64], r_p: f64) -> Mat<f64> {
     let n = lin.g.len();
     let mut a = Mat::zeros(n + 1, n + 1);
     for j in 0..n {
@@ -181,8 +180,14 @@ fn bordered_solve(lin: &Linearization, r_u: &[f64], r_p: f64, rhs: &[f64]) -> Op
         a[(n, j)] = r_u[j];
     }
     a[(n, n)] = r_p;
+    a
+}
+
+/// Solves the bordered system `[G_u G_p; r_u^T r_p] z = rhs`.
+fn bordered_solve(lin: &Linearization, r_u: &[f64], r_p: f64, rhs: &[f64]) -> Option<Vec<f64>> {
+    let n = lin.g.len();
     let b = Mat::from_fn(n + 1, 1, |i, _| rhs[i]);
-    let z = a.partial_piv_lu().solve(&b);
+    let z = bordered_matrix(lin, r_u, r_p).partial_piv_lu().solve(&b);
     let z: Vec<f64> = (0..=n).map(|i| z[(i, 0)]).collect();
     z.iter().all(|v| v.is_finite()).then_some(z)
 }
@@ -219,80 +224,121 @@ pub struct Corrected {
 }
 
 /// Newton's method on the bordered system (2), from the predicted point `(u, p)` on the
-/// hyperplane normal to `(t_u, t_p)`.
+/// hyperplane normal to `(t_u, t_p)`: full steps, a fresh Jacobian at every iterate.
 pub fn correct(
     problem: &impl Problem,
-    mut u: Vec<f64>,
-    mut p: f64,
+    u: Vec<f64>,
+    p: f64,
     t_u: &[f64],
     t_p: f64,
     metric: &Metric,
     settings: &ContinuationSettings,
 ) -> Result<Corrected> {
-    let ru: Vec<f64> = t_u.iter().map(|v| metric.wu * v).collect();
-    let rp = metric.wp * t_p;
-    let (u_predicted, p_predicted) = (u.clone(), p);
-    for iterations in 0..=settings.max_corrector {
-        let lin = problem.linearize(&u, p)?;
-        let g_norm = norm(&lin.g);
-        if !g_norm.is_finite() {
-            return Err(Error::Numerical(
-                "non-finite residual in the corrector".into(),
-            ));
-        }
-        // Converged to `tol`, or (below) the Newton correction is negligible against the
-        // precision of events.
-        if g_norm <= settings.tol {
-            return Ok(Corrected {
-                u,
-                p,
-                iterations,
-                lin,
-                uncertainty: 0.0,
-            });
-        }
-        // The hyperplane row: bring the iterate back onto the hyperplane through the predicted
-        // point (the nonlinear update leaves it at second order).
-        let drift: f64 = ru
+    let system = Bordered {
+        problem,
+        r_u: t_u.iter().map(|v| metric.wu * v).collect(),
+        r_p: metric.wp * t_p,
+        predicted: (u.clone(), p),
+        metric,
+        settings,
+        last: RefCell::new(None),
+    };
+    let newton = Newton {
+        tol: settings.tol,
+        max_iter: settings.max_corrector,
+        globalization: Globalization::Full,
+    };
+    let mut z = u;
+    z.push(p);
+    let (mut z, report) = newton.run(&system, z, Jacobians::Fresh, "in the corrector")?;
+    let p = z.pop().expect("the parameter");
+    let lin = system
+        .last
+        .take()
+        .expect("Newton's method ends at a linearized iterate");
+    Ok(Corrected {
+        u: z,
+        p,
+        iterations: report.iterations,
+        lin,
+        uncertainty: report.precision,
+    })
+}
+
+/// The corrector's system in the unknowns `z = (u, p)`: `G(u, p) = 0` and the hyperplane row
+/// `<r, z - z_predicted> = 0` through the predicted point (`r = (w_u t_u, w_p t_p)`). The
+/// nonlinear update (the retraction) leaves the hyperplane at second order; the row brings the
+/// iterate back. It keeps the linearization of `G` at its latest iterate.
+struct Bordered<'a, P: Problem> {
+    problem: &'a P,
+    r_u: Vec<f64>,
+    r_p: f64,
+    predicted: (Vec<f64>, f64),
+    metric: &'a Metric,
+    settings: &'a ContinuationSettings,
+    last: RefCell<Option<Linearization>>,
+}
+
+impl<P: Problem> Bordered<'_, P> {
+    /// `<r, z - z_predicted>`.
+    fn drift(&self, u: &[f64], p: f64) -> f64 {
+        let (u0, p0) = &self.predicted;
+        self.r_u
             .iter()
-            .zip(u.iter().zip(&u_predicted))
+            .zip(u.iter().zip(u0))
             .map(|(r, (a, b))| r * (a - b))
             .sum::<f64>()
-            + rp * (p - p_predicted);
-        let mut rhs: Vec<f64> = lin.g.iter().map(|v| -v).collect();
-        rhs.push(-drift);
-        let z = bordered_solve(&lin, &ru, rp, &rhs)
-            .ok_or_else(|| Error::Numerical("singular bordered matrix in the corrector".into()))?;
-        // A correction far below the precision asked of events: the point is known to a
-        // hundredth of `event_tol` in `p` (and to as much, in the metric's units, in `u`),
-        // and Newton's error after this correction is of the order of its square. This is
-        // what ends the iteration where the residual's round-off floor lies above `tol`
-        // (stiff stretching on fine, thin rods, amplified next to a branch point); a floor
-        // that noise holds above this is a failure, not a point.
-        let n = u.len();
-        let p_unit = 1.0 / metric.wp.sqrt();
-        let moved = metric.dot(&z[..n], z[n], &z[..n], z[n]).sqrt() * p_unit;
-        let precise = 1e-2 * settings.event_tol * p.abs().max(1e-6 * p_unit);
-        let at_floor = iterations == settings.max_corrector && g_norm <= FLOOR * settings.tol;
-        if moved <= precise || norm(&z) <= ROUND_OFF * (1.0 + norm(&u) + p.abs()) || at_floor {
-            return Ok(Corrected {
-                u,
-                p,
-                iterations,
-                lin,
-                uncertainty: moved,
-            });
-        }
-        if iterations == settings.max_corrector {
-            break;
-        }
-        u = problem.retract(&u, &z[..n]);
-        p += z[n];
+            + self.r_p * (p - p0)
     }
-    Err(Error::Numerical(format!(
-        "the corrector did not converge to {:e} in {} iterations",
-        settings.tol, settings.max_corrector
-    )))
+}
+
+impl<P: Problem> System for Bordered<'_, P> {
+    fn residual(&self, z: &[f64]) -> Result<Vec<f64>> {
+        let (u, p) = z.split_at(z.len() - 1);
+        let mut g = self.problem.residual(u, p[0])?;
+        g.push(self.drift(u, p[0]));
+        Ok(g)
+    }
+
+    fn residual_and_jacobian(&self, z: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        let (u, p) = z.split_at(z.len() - 1);
+        let lin = self.problem.linearize(u, p[0])?;
+        let jacobian = bordered_matrix(&lin, &self.r_u, self.r_p);
+        let mut g = lin.g.clone();
+        g.push(self.drift(u, p[0]));
+        *self.last.borrow_mut() = Some(lin);
+        Ok((g, jacobian))
+    }
+
+    fn retract(&self, z: &[f64], dz: &[f64]) -> Vec<f64> {
+        let n = z.len() - 1;
+        let mut next = self.problem.retract(&z[..n], &dz[..n]);
+        next.push(z[n] + dz[n]);
+        next
+    }
+
+    /// The residual of `G` alone: the hyperplane row is linear and met by every step.
+    fn size(&self, g: &[f64]) -> f64 {
+        norm(&g[..g.len() - 1])
+    }
+
+    /// A correction far below the precision asked of events: the point is known to a
+    /// hundredth of `event_tol` in `p` (and to as much, in the metric's units, in `u`), and
+    /// Newton's error after this correction is of the order of its square. This is what ends the
+    /// iteration where the residual's round-off floor lies above `tol` (stiff stretching on fine,
+    /// thin rods, amplified next to a branch point); a floor that noise holds above this is a
+    /// failure, not a point. The precision is the size of the correction in units of `p`.
+    fn settled(&self, it: &Iterate) -> Option<f64> {
+        let n = it.u.len() - 1;
+        let (u, p) = (&it.u[..n], it.u[n]);
+        let p_unit = 1.0 / self.metric.wp.sqrt();
+        let (du, dp) = (&it.du[..n], it.du[n]);
+        let moved = self.metric.dot(du, dp, du, dp).sqrt() * p_unit;
+        let precise = 1e-2 * self.settings.event_tol * p.abs().max(1e-6 * p_unit);
+        let round_off = it.step <= ROUND_OFF * (1.0 + norm(u) + p.abs());
+        let at_floor = it.last && it.residual <= FLOOR * self.settings.tol;
+        (moved <= precise || round_off || at_floor).then_some(moved)
+    }
 }
 
 /// Adapter: the problem at a fixed parameter, as a square system for Newton's method. It keeps

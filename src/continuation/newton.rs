@@ -1,9 +1,23 @@
-//! Damped Newton's method for `G(u) = 0` with a backtracking line search on the residual norm
-//! that tolerates the transient rise caused by stiffness.
+//! Newton's method for `G(u) = 0`: the one solver of the steady solve, the continuation
+//! corrector, the implicit time step and the twist slave, each choosing its globalization, its
+//! Jacobian policy and its stopping test.
 //!
-//! Step: `du = -G'(u)^{-1} G(u)` (dense LU with partial pivoting, faer); the trial point is
-//! `retract(u, a du)` for `a = 1, 1/2, 1/4, ...` (see [`System::retract`]), accepted when `G` can
-//! be evaluated there and
+//! Step: `du = -G'(u)^{-1} G(u)` (dense LU with partial pivoting, faer), applied through the
+//! system's retraction ([`System::retract`]). The iteration ends at `u` when `|G(u)| <= tol`, or
+//! when the system judges the step `du` negligible ([`System::settled`]: round-off size by
+//! default); it fails after `max_iter` steps, on a residual that is not finite and on a singular
+//! Jacobian.
+//!
+//! **Jacobians** ([`Jacobians`]): a fresh one at every iterate (Newton's method proper), or one
+//! factorization kept across iterations and solves and rebuilt only when the residual falls by
+//! less than a factor 3 in an iteration (the chord method of the time step, whose Jacobian
+//! changes little from one step to the next).
+//!
+//! **Globalization** ([`Globalization`]): full steps, for callers that shorten their own step on
+//! failure (the continuation corrector, the time step); or the damped step of the steady solve, a
+//! backtracking line search on the residual norm that tolerates the transient rise caused by
+//! stiffness. The trial point is `retract(u, a du)` for `a = 1, 1/2, 1/4, ...`, accepted when
+//! `G` can be evaluated there and
 //!
 //! ```text
 //! |G(trial)| <= growth |G(u)|     (growth = 1e6 by default).               (1)
@@ -38,6 +52,97 @@ pub trait System {
     /// keeps its quadratic convergence, and a well-chosen map removes a stiff nonlinearity.
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         u.iter().zip(du).map(|(a, b)| a + b).collect()
+    }
+    /// The size of a residual, tested against the tolerance and by the line search: the
+    /// Euclidean norm by default.
+    fn size(&self, g: &[f64]) -> f64 {
+        norm(g)
+    }
+    /// Whether the iteration may end at `it.u` without taking the step `it.du`, and if so the
+    /// precision of `it.u` (in the system's own units). Default: the step is at round-off size,
+    /// `|du| <= 1e-13 (1 + |u|)`.
+    fn settled(&self, it: &Iterate) -> Option<f64> {
+        (it.step <= ROUND_OFF * (1.0 + norm(it.u))).then_some(it.step)
+    }
+}
+
+/// A Newton step at round-off size, relative to `1 + |u|`.
+pub const ROUND_OFF: f64 = 1e-13;
+
+/// One iterate, as [`System::settled`] sees it.
+pub struct Iterate<'a> {
+    /// The iterate and the Newton step from it.
+    pub u: &'a [f64],
+    pub du: &'a [f64],
+    /// `size(G(u))`.
+    pub residual: f64,
+    /// `|du|` and the norm of the step before (infinite at the first iterate).
+    pub step: f64,
+    pub previous_step: f64,
+    /// True at the last iterate allowed: the iteration fails unless it is settled here.
+    pub last: bool,
+}
+
+/// How the Newton step is made safe far from the solution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Globalization {
+    /// Full steps.
+    Full,
+    /// The largest of `du, du/2, du/4, ...` (down to `min_damping du`) after which `G` can be
+    /// evaluated and `|G| <= max_growth |G(u)|`, eq. (1).
+    Backtrack { min_damping: f64, max_growth: f64 },
+}
+
+/// Where the factorized Jacobian of each iterate comes from.
+pub enum Jacobians<'c> {
+    /// A fresh Jacobian at every iterate.
+    Fresh,
+    /// The factorization held by the [`Chord`], kept while the residual falls by at least a
+    /// factor 3 per iteration.
+    Reuse(&'c mut Chord),
+}
+
+/// A factorized Jacobian kept across iterations and across solves, and the count of the
+/// factorizations made.
+#[derive(Default)]
+pub struct Chord {
+    lu: Option<PartialPivLu<f64>>,
+    /// Factorizations made so far.
+    pub built: usize,
+}
+
+impl Chord {
+    /// Drops the factorization (the next iterate builds a fresh one).
+    pub fn clear(&mut self) {
+        self.lu = None;
+    }
+    /// Whether a factorization is held.
+    pub fn holds(&self) -> bool {
+        self.lu.is_some()
+    }
+}
+
+/// The Newton iteration: tolerance, step limit and globalization.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Newton {
+    /// Converged when `size(G) <= tol`.
+    pub tol: f64,
+    /// Steps allowed.
+    pub max_iter: usize,
+    pub globalization: Globalization,
+}
+
+impl From<&NewtonSettings> for Newton {
+    /// The damped iteration of the steady solve, with the user's settings.
+    fn from(settings: &NewtonSettings) -> Self {
+        Newton {
+            tol: settings.tol,
+            max_iter: settings.max_iter,
+            globalization: Globalization::Backtrack {
+                min_damping: settings.min_damping,
+                max_growth: settings.max_growth,
+            },
+        }
     }
 }
 
@@ -107,6 +212,9 @@ pub struct NewtonReport {
     pub residual_norm: f64,
     /// Residual norm before each step and at the end (length `iterations + 1`).
     pub history: Vec<f64>,
+    /// The precision [`System::settled`] gave the solution (0 when the residual met `tol`).
+    #[serde(skip)]
+    pub precision: f64,
 }
 
 /// Euclidean norm.
@@ -122,85 +230,151 @@ fn newton_step(lu: &PartialPivLu<f64>, g: &[f64]) -> Option<Vec<f64>> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// Solves `G(u) = 0` from `u0`; `context` names the problem in error messages.
+/// Solves `G(u) = 0` from `u0` by the damped iteration with `settings` and a fresh Jacobian at
+/// every iterate (the steady solve); `context` names the problem in error messages.
 pub fn solve(
     system: &impl System,
     u0: Vec<f64>,
     settings: &NewtonSettings,
     context: &str,
 ) -> Result<(Vec<f64>, NewtonReport)> {
-    let mut u = u0;
-    let mut history = Vec::new();
-    let fail = |reason: String, history: &[f64]| Error::NewtonFailed {
-        context: context.to_string(),
-        reason,
-        iterations: history.len().saturating_sub(1),
-        residual: history.last().copied().unwrap_or(f64::NAN),
-    };
-    loop {
-        let (g, jac) = system.residual_and_jacobian(&u)?;
-        let g_norm = norm(&g);
-        history.push(g_norm);
-        if !g_norm.is_finite() {
-            return Err(fail("the residual is not finite".into(), &history));
-        }
-        let done = |u: Vec<f64>, history: Vec<f64>| {
-            let report = NewtonReport {
+    Newton::from(settings).run(system, u0, Jacobians::Fresh, context)
+}
+
+impl Newton {
+    /// Solves `G(u) = 0` from `u0`; `context` names the problem in error messages
+    /// ([`Error::NewtonFailed`]). Errors of the system's evaluation at an iterate are returned as
+    /// they are; a trial point of the line search that cannot be evaluated is a shorter step.
+    pub fn run(
+        &self,
+        system: &impl System,
+        u0: Vec<f64>,
+        jacobians: Jacobians,
+        context: &str,
+    ) -> Result<(Vec<f64>, NewtonReport)> {
+        let mut u = u0;
+        let mut history: Vec<f64> = Vec::new();
+        let mut previous_step = f64::INFINITY;
+        let fail = |reason: String, history: &[f64]| Error::NewtonFailed {
+            context: context.to_string(),
+            reason,
+            iterations: history.len().saturating_sub(1),
+            residual: history.last().copied().unwrap_or(f64::NAN),
+        };
+        let no_convergence = || {
+            format!(
+                "no convergence to {:e} within {} iterations",
+                self.tol, self.max_iter
+            )
+        };
+        // Newton's method proper holds the factorization of the current iterate in a chord of
+        // its own, rebuilt at every iterate.
+        let mut own = Chord::default();
+        let (chord, reuse) = match jacobians {
+            Jacobians::Fresh => (&mut own, false),
+            Jacobians::Reuse(chord) => (chord, true),
+        };
+        loop {
+            let last = history.len() == self.max_iter;
+            let g = if reuse {
+                system.residual(&u)?
+            } else {
+                let (g, jac) = system.residual_and_jacobian(&u)?;
+                chord.lu = Some(jac.partial_piv_lu());
+                chord.built += 1;
+                g
+            };
+            let g_norm = system.size(&g);
+            let contracting = history.last().is_none_or(|&before| g_norm <= before / 3.0);
+            history.push(g_norm);
+            if !g_norm.is_finite() {
+                return Err(fail("the residual is not finite".into(), &history));
+            }
+            let report = |history: Vec<f64>, precision: f64| NewtonReport {
                 iterations: history.len() - 1,
                 residual_norm: g_norm,
                 history,
+                precision,
             };
-            Ok((u, report))
-        };
-        if g_norm <= settings.tol {
-            return done(u, history);
-        }
-        let du = newton_step(&jac.partial_piv_lu(), &g)
-            .ok_or_else(|| fail("singular Jacobian".into(), &history))?;
-        if norm(&du) <= 1e-13 * (1.0 + norm(&u)) {
-            return done(u, history);
-        }
-        if history.len() > settings.max_iter {
-            return Err(fail(
-                format!(
-                    "no convergence to {:e} within {} iterations",
-                    settings.tol, settings.max_iter
-                ),
-                &history,
-            ));
-        }
-        let mut damping = 1.0;
-        // Why the last trial point could not be evaluated, if it could not.
-        let mut refused = None;
-        loop {
-            let step: Vec<f64> = du.iter().map(|d| damping * d).collect();
-            let trial = system.retract(&u, &step);
-            let trial_norm = match system.residual(&trial) {
-                Ok(gt) => norm(&gt),
-                Err(e) => {
-                    refused = Some(e);
-                    f64::NAN
+            if g_norm <= self.tol {
+                return Ok((u, report(history, 0.0)));
+            }
+            if reuse && (!chord.holds() || !contracting) {
+                // A stale chord at the last iterate: no new factorization is worth making.
+                if last {
+                    return Err(fail(no_convergence(), &history));
                 }
+                let (_, jac) = system.residual_and_jacobian(&u)?;
+                chord.lu = Some(jac.partial_piv_lu());
+                chord.built += 1;
+            }
+            let lu = chord.lu.as_ref().expect("a factorization is held here");
+            let du =
+                newton_step(lu, &g).ok_or_else(|| fail("singular Jacobian".into(), &history))?;
+            let step = norm(&du);
+            let iterate = Iterate {
+                u: &u,
+                du: &du,
+                residual: g_norm,
+                step,
+                previous_step,
+                last,
             };
-            if trial_norm <= settings.max_growth * g_norm {
-                u = trial;
-                break;
+            if let Some(precision) = system.settled(&iterate) {
+                return Ok((u, report(history, precision)));
             }
-            damping *= 0.5;
-            if damping < settings.min_damping {
-                // A model that cannot be evaluated along the whole search (a mobility that is
-                // not positive definite) is the reason, not the line search.
-                if let Some(e @ Error::NotPositiveDefinite { .. }) = refused {
-                    return Err(e);
-                }
-                return Err(fail(
-                    format!(
-                        "the line search found no admissible point down to damping {}",
-                        settings.min_damping
-                    ),
-                    &history,
-                ));
+            if last {
+                return Err(fail(no_convergence(), &history));
             }
+            previous_step = step;
+            u = match self.globalization {
+                Globalization::Full => system.retract(&u, &du),
+                Globalization::Backtrack {
+                    min_damping,
+                    max_growth,
+                } => backtrack(system, &u, &du, g_norm, min_damping, max_growth).map_err(
+                    |refused| {
+                        refused.unwrap_or_else(|| {
+                            fail(
+                                format!(
+                                    "the line search found no admissible point down to damping \
+                                     {min_damping}"
+                                ),
+                                &history,
+                            )
+                        })
+                    },
+                )?,
+            };
         }
     }
+}
+
+/// The damped step of eq. (1) from `u` along `du`: the first trial point `retract(u, a du)`,
+/// `a = 1, 1/2, ...`, where `G` can be evaluated and `size(G) <= max_growth g_norm`. On failure,
+/// `Err(Some(e))` when the model could not be evaluated along the whole search because the
+/// mobility is not positive definite there (that is the reason, not the line search), else
+/// `Err(None)`.
+fn backtrack(
+    system: &impl System,
+    u: &[f64],
+    du: &[f64],
+    g_norm: f64,
+    min_damping: f64,
+    max_growth: f64,
+) -> std::result::Result<Vec<f64>, Option<Error>> {
+    let mut damping = 1.0;
+    // Why the last trial point could not be evaluated, if it could not.
+    let mut refused = None;
+    while damping >= min_damping {
+        let step: Vec<f64> = du.iter().map(|d| damping * d).collect();
+        let trial = system.retract(u, &step);
+        match system.residual(&trial) {
+            Ok(gt) if system.size(&gt) <= max_growth * g_norm => return Ok(trial),
+            Ok(_) => {}
+            Err(e) => refused = Some(e),
+        }
+        damping *= 0.5;
+    }
+    Err(refused.filter(|e| matches!(e, Error::NotPositiveDefinite { .. })))
 }
