@@ -160,6 +160,13 @@ pub struct BoundaryRow {
     pub m_loc: Option<f64>,
     /// Relative precision of the point in `omega`.
     pub precision: f64,
+    /// At a Hopf point: the first Lyapunov coefficient (solver units, critical mode scaled to a
+    /// largest node displacement of `ell`), its estimated error and the verdict; empty where it
+    /// could not be computed (its differences displace the rod out of the fluid model's
+    /// admissible states, next to Lighthill's spacing limit).
+    pub l1: Option<f64>,
+    pub l1_precision: Option<f64>,
+    pub criticality: Option<String>,
 }
 
 /// One row of `points.csv`: a special point of the boundary.
@@ -234,6 +241,9 @@ impl Writer<'_> {
             hbar: o.hbar,
             m_loc: None,
             precision: point.precision,
+            l1: point.lyapunov.as_ref().map(|l| l.l1),
+            l1_precision: point.lyapunov.as_ref().map(|l| l.precision),
+            criticality: point.lyapunov.as_ref().map(|l| l.verdict.to_string()),
         })
     }
 
@@ -491,7 +501,10 @@ pub fn run_family(
         kind: EventKind::Hopf.name(),
         error: None,
     };
-    let settings = CurveSettings::new(from.min(to), from.max(to));
+    let settings = CurveSettings {
+        criticality: true,
+        ..CurveSettings::new(from.min(to), from.max(to))
+    };
     let direction = (to - from).signum();
     let (mut start, mut member) = start_at(family, study, from, study.branch.omega_max)?;
     let outcome = loop {

@@ -3,19 +3,23 @@
 
 use std::borrow::Borrow;
 use std::cell::RefCell;
+use std::rc::Rc;
 
 use faer::Mat;
 use serde::Serialize;
 
 use crate::Result;
 use crate::continuation::arclength::{Branch, Limits, Observer, Stop, follow};
+use crate::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
+use crate::dynamics::{mass, slave_twist_chord};
 use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{Observables, Steady, SteadyState, height};
+use faer::prelude::Solve;
 
 /// The continuation parameter of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -63,6 +67,19 @@ pub struct RodProblem<M: Borrow<Model>> {
     /// The factorized resistance of the latest linearization and the unknowns it was made at:
     /// the stability pair at the point just corrected reuses it.
     resistance: RefCell<Option<(Vec<f64>, Resistance)>>,
+    /// The twist blocks of the Jacobian at the state `(u, p)` the dynamics ([`Problem::velocity`])
+    /// was last asked about.
+    twist: RefCell<Option<Rc<TwistMap>>>,
+}
+
+/// The twist rows of the steady Jacobian at a state: `J_tt = dR_theta/dtheta` and
+/// `J_tx = dR_theta/dx`, whose `-J_tt^{-1} J_tx` is the derivative of the slaved twist.
+pub struct TwistMap {
+    /// The state `(u, p)`.
+    u: Vec<f64>,
+    p: f64,
+    j_tt: Mat<f64>,
+    j_tx: Mat<f64>,
 }
 
 impl<M: Borrow<Model>> RodProblem<M> {
@@ -75,7 +92,29 @@ impl<M: Borrow<Model>> RodProblem<M> {
             parameter_scale,
             chart,
             resistance: RefCell::new(None),
+            twist: RefCell::new(None),
         }
+    }
+
+    /// The twist blocks of the Jacobian at `(u, p)`, made once per state.
+    fn twist_map(&self, u: &[f64], p: f64) -> Result<Rc<TwistMap>> {
+        if let Some(map) = self.twist.borrow().as_ref()
+            && map.u == u
+            && map.p == p
+        {
+            return Ok(map.clone());
+        }
+        let j = self.steady(p).linearize(u)?.jacobian;
+        let nx = self.model.borrow().rod.layout.free_positions();
+        let nt = j.nrows() - nx;
+        let map = Rc::new(TwistMap {
+            u: u.to_vec(),
+            p,
+            j_tt: Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]),
+            j_tx: Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]),
+        });
+        *self.twist.borrow_mut() = Some(map.clone());
+        Ok(map)
     }
 
     /// The steady problem at parameter value `p`, twist measured in the current chart.
@@ -141,6 +180,52 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
 
     fn scales(&self) -> (f64, f64) {
         (POSITION_SCALE, self.parameter_scale)
+    }
+
+    /// `dx_f/dt = Z_ff^{-1} R_x(x_f, theta*(x_f))` at the free positions of `u` displaced by `y`,
+    /// the twist slaved (docs/model.md section 5; [`crate::dynamics`] eq. (1)), started from the
+    /// twist of `u` and converged to round-off: the differences of the Lyapunov coefficient
+    /// divide this by `h^3`.
+    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
+        let velocity = || -> Result<Vec<f64>> {
+            let steady = self.steady(p);
+            let twist = self.twist_map(u, p)?;
+            let nx = y.len();
+            // The twist predicted to first order, theta* - J_tt^{-1} J_tx y, then slaved by the
+            // chord method on J_tt (gradients only).
+            let j_tx_y = &twist.j_tx * Mat::from_fn(nx, 1, |i, _| y[i]);
+            let dtheta = twist.j_tt.partial_piv_lu().solve(&j_tx_y);
+            let mut moved = u.to_vec();
+            for (x, d) in moved.iter_mut().zip(y) {
+                *x += d;
+            }
+            for (k, t) in moved[nx..].iter_mut().enumerate() {
+                *t -= dtheta[(k, 0)];
+            }
+            let model = self.model.borrow();
+            let slaved = slave_twist_chord(model, &steady.chart, &moved, 1e-15, &twist.j_tt)?;
+            let r = steady.residual(&slaved)?;
+            let m = mass(&steady, &slaved)?;
+            let v = m
+                .llt(faer::Side::Lower)
+                .map_err(|_| {
+                    crate::Error::Numerical("the mass matrix Z_ff is not positive definite".into())
+                })?
+                .solve(Mat::from_fn(nx, 1, |i, _| r[i]));
+            Ok((0..nx).map(|i| v[(i, 0)]).collect())
+        };
+        Some(velocity())
+    }
+
+    /// The largest node displacement of the mode, `max_i |q_i|` over the free nodes: a size
+    /// that does not depend on the node count (unlike `<q, q>`, which grows with it for the same
+    /// physical shape), so that `l1` converges with `N`.
+    fn mode_size(&self, re: &[f64], im: &[f64]) -> f64 {
+        re.chunks_exact(3)
+            .zip(im.chunks_exact(3))
+            .map(|(a, b)| a.iter().chain(b).map(|v| v * v).sum::<f64>())
+            .fold(0.0, f64::max)
+            .sqrt()
     }
 
     /// Moves the chart to `u` (directors transported onto its edges, reference twist unwrapped
@@ -258,6 +343,26 @@ pub struct Located {
     pub omega_max: f64,
     pub points: usize,
     pub corrector_iterations: usize,
+    /// At a Hopf point: the first Lyapunov coefficient `l1` (solver units `EI/(mu ell^6)`, for the
+    /// critical mode scaled to a largest node displacement of `ell`: [`hopf_criticality`];
+    /// docs/model.md section 12), its estimated error, and the verdict `supercritical` /
+    /// `subcritical` / `undetermined`.
+    pub l1: Option<f64>,
+    pub l1_precision: Option<f64>,
+    pub criticality: Option<Verdict>,
+    /// Why the coefficient of a Hopf point could not be computed, if it could not.
+    pub l1_failure: Option<String>,
+}
+
+/// The first Lyapunov coefficient of the Hopf point `event` of the rod's branch in `omegabar`,
+/// whose state is measured in `chart` (critical mode scaled by [`RodProblem`]'s mode size: a
+/// largest node displacement of `ell`).
+pub fn hopf_criticality(model: &Model, event: &Event, chart: &Chart) -> Result<Lyapunov> {
+    let problem = RodProblem::new(model, Parameter::Omega, OMEGA_SCALE);
+    problem.set_chart(chart.clone());
+    let lin = problem.linearize(&event.u, event.p)?;
+    first_lyapunov(&problem, &event.u, event.p, &lin, event.eigenvalue)?
+        .ok_or_else(|| crate::Error::Numerical("the rod defines its dynamics".into()))
 }
 
 impl Located {
@@ -323,6 +428,10 @@ pub fn locate(
         omega_max,
         points,
         corrector_iterations,
+        l1: None,
+        l1_precision: None,
+        criticality: None,
+        l1_failure: None,
     };
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
@@ -376,6 +485,14 @@ pub fn locate(
     let o = observables_at(model, &rest, &event.u, event.p)?;
     let s = &model.scales;
     let imbar = event.eigenvalue.im.abs();
+    // A coefficient that cannot be computed does not take away omega_b: it says why.
+    let (lyapunov, l1_failure) = match event.kind {
+        EventKind::Hopf => match hopf_criticality(model, &event, &chart) {
+            Ok(l) => (Some(l), None),
+            Err(e) => (None, Some(e.to_string())),
+        },
+        _ => (None, None),
+    };
     let located = Located {
         kind: event.kind.name().into(),
         omega_b: Some(o.omega),
@@ -386,6 +503,10 @@ pub fn locate(
         fpbar: Some(o.fpbar),
         hbar: Some(o.hbar),
         precision: Some(event.precision),
+        l1: lyapunov.as_ref().map(|l| l.l1),
+        l1_precision: lyapunov.as_ref().map(|l| l.precision),
+        criticality: lyapunov.as_ref().map(|l| l.verdict),
+        l1_failure,
         ..none
     };
     let before = branch.point_before(&event);

@@ -451,7 +451,7 @@ impl System for ImplicitStep<'_> {
 }
 
 /// `M = Z_ff` at the positions of `u`.
-fn mass(steady: &Steady, u: &[f64]) -> Result<Mat<f64>> {
+pub(crate) fn mass(steady: &Steady, u: &[f64]) -> Result<Mat<f64>> {
     let x = steady.config(u).x;
     let resistance = steady
         .model
@@ -481,6 +481,37 @@ pub fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
 
 /// [`slave_twist`] with the twist measured in `chart` (the source chart of the energy).
 pub fn slave_twist_in(model: &Model, chart: &Chart, u: &[f64]) -> Result<Vec<f64>> {
+    slave_twist_to(model, chart, u, 1e-11)
+}
+
+/// [`slave_twist_in`] converged until `|R_theta| <= tol` (or until the updates stop shrinking
+/// below `1e-8`, or reach round-off).
+pub fn slave_twist_to(model: &Model, chart: &Chart, u: &[f64], tol: f64) -> Result<Vec<f64>> {
+    slave_twist_with(model, chart, u, tol, Jacobians::Fresh)
+}
+
+/// [`slave_twist_to`] by the chord method on the twist block `j_tt` of a nearby state (its
+/// factorization kept while the residual falls by a factor 3 per iteration): each iteration
+/// costs a gradient of the energy instead of its Hessian. For states a small displacement from
+/// the one `j_tt` was made at, started from its linear prediction.
+pub fn slave_twist_chord(
+    model: &Model,
+    chart: &Chart,
+    u: &[f64],
+    tol: f64,
+    j_tt: &Mat<f64>,
+) -> Result<Vec<f64>> {
+    let mut chord = Chord::of(j_tt);
+    slave_twist_with(model, chart, u, tol, Jacobians::Reuse(&mut chord))
+}
+
+fn slave_twist_with(
+    model: &Model,
+    chart: &Chart,
+    u: &[f64],
+    tol: f64,
+    jacobians: Jacobians,
+) -> Result<Vec<f64>> {
     let block = TwistBlock {
         still: Steady {
             chart: chart.clone(),
@@ -490,12 +521,12 @@ pub fn slave_twist_in(model: &Model, chart: &Chart, u: &[f64]) -> Result<Vec<f64
         nx: model.rod.layout.free_positions(),
     };
     let newton = Newton {
-        tol: 1e-11,
+        tol,
         max_iter: 50,
         globalization: Globalization::Full,
     };
     let (twist, _) = newton
-        .run(&block, u[block.nx..].to_vec(), Jacobians::Fresh, "")
+        .run(&block, u[block.nx..].to_vec(), jacobians, "")
         .map_err(|_| {
             Error::Numerical(
                 "the twist could not be slaved to the positions (Newton on R_theta = 0 failed)"
@@ -524,7 +555,7 @@ impl TwistBlock<'_> {
 
 impl System for TwistBlock<'_> {
     fn residual(&self, twist: &[f64]) -> Result<Vec<f64>> {
-        Ok(self.residual_and_jacobian(twist)?.0)
+        Ok(self.still.residual(&self.with_twist(twist))?[self.nx..].to_vec())
     }
 
     fn residual_and_jacobian(&self, twist: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {

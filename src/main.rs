@@ -93,7 +93,8 @@ enum Command {
     },
     /// The critical buckling rate omega_b: first loss of stability of the branch from rest
     /// (kind hopf, fold or branch_point; unstable_at_rest when the rest state is already
-    /// unstable; none when the branch stays stable up to branch.omega_max).
+    /// unstable; none when the branch stays stable up to branch.omega_max); at a Hopf point its
+    /// first Lyapunov coefficient: supercritical or subcritical.
     #[command(after_help = AFTER_HELP)]
     Locate {
         #[command(flatten)]
@@ -124,8 +125,9 @@ enum Command {
     /// The stability boundary omega_b against a second study field (e.g. shape.R_over_lambda)
     /// as a curve, by two-parameter continuation of the first loss of stability that `locate`
     /// finds at --from (a Hopf point; a fold or branch point); double Hopf points (where the
-    /// boundary switches mode), turning points (where it jumps), zero-Hopf and
-    /// Bogdanov-Takens points located: boundary.csv, points.csv, boundary.svg, m_loc.svg.
+    /// boundary switches mode), turning points (where it jumps), zero-Hopf, Bogdanov-Takens and
+    /// generalized Hopf points located, the first Lyapunov coefficient (super- or subcritical)
+    /// at every Hopf point: boundary.csv, points.csv, boundary.svg, m_loc.svg.
     #[command(after_help = AFTER_HELP)]
     Boundary {
         #[command(flatten)]

@@ -140,6 +140,17 @@ impl Section for Located {
                         "  frequency  = {im:.8} rad/s     (Im(s) of the critical mode, co-rotating frame)"
                     )?;
                 }
+                if let (Some(l1), Some(dl1), Some(verdict)) =
+                    (self.l1, self.l1_precision, self.criticality)
+                {
+                    writeln!(
+                        f,
+                        "  l1         = {l1:.6e} +- {dl1:.1e}   ({verdict}; first Lyapunov coefficient, critical mode scaled to a largest node displacement of ell, solver units)"
+                    )?;
+                }
+                if let Some(why) = &self.l1_failure {
+                    writeln!(f, "  l1         not computed: {why}")?;
+                }
                 writeln!(
                     f,
                     "  Fp         = {} N     (Fpbar = {})",

@@ -7,6 +7,7 @@ use common::straight_rod;
 use helixbif::branch::{Parameter, RodProblem, locate, observables_at, rest_state, trace};
 use helixbif::continuation::ContinuationSettings;
 use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
+use helixbif::continuation::criticality::Verdict;
 use helixbif::continuation::events::EventKind;
 use helixbif::continuation::newton::NewtonSettings;
 use helixbif::fit::extrapolate;
@@ -150,6 +151,7 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
     let newton = NewtonSettings::default();
     let settings = ContinuationSettings::default();
     let mut results = Vec::new();
+    let mut coefficients = Vec::new();
     for nodes in [30, 40, 60, 80] {
         let mut physical = Physical::representative();
         physical.discretization.nodes = nodes;
@@ -167,8 +169,21 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
         );
         assert_eq!(event.unstable_before, 0);
         results.push(omega_b);
+        // The first Lyapunov coefficient is resolved (docs/model.md section 12).
+        let (l1, dl1) = (located.l1.unwrap(), located.l1_precision.unwrap());
+        assert!(dl1 < 1e-3 * l1.abs(), "N = {nodes}: l1 {l1} +- {dl1}");
+        assert_ne!(located.criticality, Some(Verdict::Undetermined));
+        coefficients.push(l1);
     }
     println!("omega_b at N = 30, 40, 60, 80: {results:?}");
+    println!("l1 at N = 30, 40, 60, 80: {coefficients:?}");
+    // The side of the Hopf point does not depend on the resolution.
+    assert!(
+        coefficients
+            .iter()
+            .all(|l| l.signum() == coefficients[0].signum()),
+        "{coefficients:?}"
+    );
     // The observed order over N = 40, 60, 80 in the helix angle per edge
     // dphi = 2 pi l/(lambda (N - 1)), against the dphi^2 law of docs/model.md section 10 (the
     // Lighthill point sums add a first-order part, so 2 +- 0.5): the root in p of

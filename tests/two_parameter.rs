@@ -12,7 +12,8 @@ use helixbif::continuation::curve::{
 use helixbif::continuation::event_curve::{EventPoint, follow_event_curve};
 use helixbif::continuation::events::EventKind;
 use helixbif::continuation::reference::{
-    Members, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle, shifted_pitchfork,
+    Members, bautin, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle,
+    shifted_pitchfork,
 };
 use helixbif::continuation::{ContinuationSettings, Problem};
 
@@ -368,4 +369,53 @@ fn the_branch_point_curve_of_the_shifted_pitchfork_is_p_equals_q() {
         );
     }
     assert!(curve.points.len() >= 10);
+}
+
+#[test]
+fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_sign() {
+    // Bautin normal form with cubic coefficient c(q) = q + 0.5 q^2 - 0.3: the Hopf curve is
+    // p = 0, l1 = 2 c(q), zero at q* = sqrt(1.6) - 1.
+    let c = |q: f64| q + 0.5 * q * q - 0.3;
+    let family = Members(move |q| bautin(c(q)));
+    let mut curve_settings = CurveSettings::new(-1.0, 1.0);
+    curve_settings.criticality = true;
+    let first = start(&bautin(c(-1.0)), vec![0.0, 0.0], -0.5, 0.5, -1.0);
+    let (curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(bautin(c(-1.0))),
+        1.0,
+        &curve_settings,
+        &settings(),
+        &mut Through,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, CurveStop::Range);
+    for point in &curve.points {
+        let l = point
+            .lyapunov
+            .as_ref()
+            .expect("every point has its coefficient");
+        let exact = 2.0 * c(point.q);
+        assert!(
+            (l.l1 - exact).abs() <= 1e-6 * exact.abs().max(1e-3),
+            "q = {}: l1 {} against {exact}",
+            point.q,
+            l.l1
+        );
+    }
+    let gh: Vec<&Special> = curve
+        .special
+        .iter()
+        .filter(|s| s.kind == SpecialKind::GeneralizedHopf)
+        .collect();
+    assert_eq!(gh.len(), 1, "{:?}", curve.special);
+    let exact = 1.6f64.sqrt() - 1.0;
+    let error = (gh[0].point.q - exact).abs();
+    println!(
+        "generalized Hopf point at q = {} (error {error:e})",
+        gh[0].point.q
+    );
+    assert!(error <= 1e-6, "at q = {}, exact {exact}", gh[0].point.q);
+    assert!(gh[0].point.p.abs() <= 1e-9);
 }

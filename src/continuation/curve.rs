@@ -44,12 +44,18 @@
 //! successive parabolic interpolation (each sample a point of the curve at fixed `p`). Where the
 //! tracked pair meets on the real axis the Hopf curve ends at a **Bogdanov-Takens** point, the
 //! zero of `w^2` along the curve (secant, bracketed by the first sample whose pair is real).
+//! With [`CurveSettings::criticality`], every point carries its first Lyapunov coefficient
+//! ([`super::criticality`]), and where it changes sign (both signs resolved) the curve passes a
+//! **generalized Hopf** (Bautin) point, the zero of `l1` along the curve (Illinois, each sample a
+//! point of the curve with its coefficient), where the Hopf bifurcation turns from super- to
+//! subcritical.
 
 use std::rc::Rc;
 
 use faer::c64;
 
 use super::arclength::{AtParameter, stability};
+use super::criticality::{Lyapunov, Verdict, first_lyapunov};
 use super::events::{Event, Illinois};
 use super::newton::{self, NewtonSettings};
 use super::stability::{Spectrum, is_complex};
@@ -95,6 +101,9 @@ pub struct CurveSettings {
     pub max_points: usize,
     /// Steady solves allowed to one corrector before the step is halved.
     pub max_evaluations: usize,
+    /// Whether every point carries its first Lyapunov coefficient (and generalized Hopf points
+    /// are located): for problems that define their dynamics ([`Problem::velocity`]).
+    pub criticality: bool,
 }
 
 impl CurveSettings {
@@ -109,6 +118,7 @@ impl CurveSettings {
             ds_max: 0.05,
             max_points: 1000,
             max_evaluations: 12,
+            criticality: false,
         }
     }
 
@@ -152,6 +162,9 @@ pub struct CurvePoint {
     pub precision: f64,
     /// Steady solves the point took.
     pub evaluations: usize,
+    /// The first Lyapunov coefficient there (with [`CurveSettings::criticality`]; `None` where
+    /// it could not be computed).
+    pub lyapunov: Option<Lyapunov>,
 }
 
 impl CurvePoint {
@@ -166,6 +179,7 @@ impl CurvePoint {
             spectrum: event.spectrum,
             precision: event.precision,
             evaluations: 0,
+            lyapunov: None,
         }
     }
 }
@@ -181,6 +195,8 @@ pub enum SpecialKind {
     Turning,
     /// The tracked pair meets on the real axis at zero: the Hopf curve ends.
     BogdanovTakens,
+    /// The first Lyapunov coefficient changes sign (Bautin point).
+    GeneralizedHopf,
 }
 
 impl SpecialKind {
@@ -191,6 +207,7 @@ impl SpecialKind {
             SpecialKind::ZeroHopf => "zero_hopf",
             SpecialKind::Turning => "turning",
             SpecialKind::BogdanovTakens => "bogdanov_takens",
+            SpecialKind::GeneralizedHopf => "generalized_hopf",
         }
     }
 }
@@ -293,6 +310,8 @@ struct At<M> {
     u: Vec<f64>,
     spectrum: Spectrum,
     eigenvalue: c64,
+    /// Computed for accepted points and the samples that need it.
+    lyapunov: Option<Lyapunov>,
 }
 
 // By hand: the member is shared, so `M` need not be `Clone`.
@@ -305,6 +324,7 @@ impl<M> Clone for At<M> {
             u: self.u.clone(),
             spectrum: self.spectrum.clone(),
             eigenvalue: self.eigenvalue,
+            lyapunov: self.lyapunov.clone(),
         }
     }
 }
@@ -320,6 +340,7 @@ impl<M> At<M> {
             spectrum: self.spectrum.clone(),
             precision,
             evaluations,
+            lyapunov: self.lyapunov.clone(),
         }
     }
 }
@@ -408,7 +429,23 @@ impl<F: Family> Tracer<'_, F> {
             u,
             spectrum,
             eigenvalue,
+            lyapunov: None,
         })
+    }
+
+    /// `at` with its first Lyapunov coefficient, if the settings ask for it. A coefficient
+    /// that cannot be computed (its differences leave the problem's admissible states, e.g. a
+    /// mobility that is no longer positive) is left out: the point stays a point of the curve.
+    fn with_lyapunov(&self, mut at: At<F::Member>) -> At<F::Member> {
+        if self.settings.criticality && at.lyapunov.is_none() {
+            at.lyapunov = at
+                .member
+                .linearize(&at.u, at.p)
+                .and_then(|lin| first_lyapunov(&*at.member, &at.u, at.p, &lin, at.eigenvalue))
+                .ok()
+                .flatten();
+        }
+        at
     }
 
     /// Solves `h = 0` on the line `step.at(sigma, offset)`, offset from 0, by the secant method
@@ -510,13 +547,19 @@ pub fn follow_curve<F: Family>(
         },
         q_unit: settings.q_max - settings.q_min,
     };
-    let mut last = At {
+    let last = At {
         member,
         p: start.p,
         q: start.q,
         u: start.u.clone(),
         spectrum: start.spectrum.clone(),
         eigenvalue: start.eigenvalue,
+        lyapunov: start.lyapunov.clone(),
+    };
+    let mut last = tracer.with_lyapunov(last);
+    let start = CurvePoint {
+        lyapunov: last.lyapunov.clone(),
+        ..start
     };
     observer.point(&start);
     let mut curve = Curve {
@@ -602,7 +645,7 @@ pub fn follow_curve<F: Family>(
                 continue;
             }
         };
-        let new = corrected.at;
+        let new = tracer.with_lyapunov(corrected.at);
         let chord = ((new.p - last.p) / p_unit, (new.q - last.q) / tracer.q_unit);
         let length = chord.0.hypot(chord.1);
         let t_new = (chord.0 / length, chord.1 / length);
@@ -615,6 +658,13 @@ pub fn follow_curve<F: Family>(
             if before.unstable != after.unstable {
                 found.push(locate_codim2(
                     &tracer, &last, &new, &step, sigma, &before, &after, s_last,
+                )?);
+            }
+            if let (Some(a), Some(b)) = (&last.lyapunov, &new.lyapunov)
+                && resolved_signs_differ(a, b)
+            {
+                found.push(locate_generalized_hopf(
+                    &tracer, &last, &new, &step, sigma, s_last,
                 )?);
             }
             if t.1 * t_new.1 < 0.0
@@ -820,6 +870,87 @@ fn locate_codim2<F: Family>(
         precision: tol,
     };
     Ok((special, best.at.member))
+}
+
+/// True when both coefficients have a resolved sign and the signs differ.
+fn resolved_signs_differ(a: &Lyapunov, b: &Lyapunov) -> bool {
+    let known = |l: &Lyapunov| l.verdict != Verdict::Undetermined;
+    known(a) && known(b) && a.verdict != b.verdict
+}
+
+/// Pins down the zero of the first Lyapunov coefficient between `last` (`sigma = 0`) and `new`
+/// (`sigma = sigma_new`), whose signs differ, by the Illinois variant of regula falsi on `l1`,
+/// each sample a corrected point of the curve with its coefficient. It ends when the bracket is
+/// within `event_tol` or when a sample's `|l1|` is within its precision (the zero is then known
+/// as well as `l1` is); the precision reported is the bracket's width.
+fn locate_generalized_hopf<F: Family>(
+    tracer: &Tracer<'_, F>,
+    last: &At<F::Member>,
+    new: &At<F::Member>,
+    step: &Step,
+    sigma_new: f64,
+    s_last: f64,
+) -> Result<(Special, Rc<F::Member>)> {
+    let l1 = |at: &At<F::Member>| at.lyapunov.as_ref().map_or(f64::NAN, |l| l.l1);
+    // Oriented so that f < 0 at `last`.
+    let sign = if l1(last) < 0.0 { 1.0 } else { -1.0 };
+    let (mut lo, mut hi) = ((0.0, last.clone()), (sigma_new, new.clone()));
+    let tol = tracer.continuation.event_tol;
+    let mut weights = Illinois::new();
+    let mut best: Option<(f64, At<F::Member>)> = None;
+    for _ in 0..60 {
+        if hi.0 - lo.0 <= tol {
+            break;
+        }
+        let (f_lo, f_hi) = weights.weighted(sign * l1(&lo.1), sign * l1(&hi.1));
+        let margin = tol / 3.0;
+        let secant = lo.0 - f_lo * (hi.0 - lo.0) / (f_hi - f_lo);
+        let sigma = if secant.is_finite() {
+            secant.clamp(lo.0 + margin, hi.0 - margin)
+        } else {
+            0.5 * (lo.0 + hi.0)
+        };
+        let near = if sigma - lo.0 < hi.0 - sigma {
+            &lo.1
+        } else {
+            &hi.1
+        };
+        let along = (sigma - lo.0) / (hi.0 - lo.0);
+        let track = lo.1.eigenvalue + (hi.1.eigenvalue - lo.1.eigenvalue) * along;
+        let reach = step.t.0.hypot(step.t.1) * sigma_new;
+        let corrected = tracer.correct(near, step, sigma, None, None, track, reach)?;
+        let at = tracer.with_lyapunov(corrected.at);
+        let l = at.lyapunov.clone().ok_or_else(|| {
+            Error::Numerical("the Lyapunov coefficient failed near a generalized Hopf point".into())
+        })?;
+        if l.l1.abs() <= l.precision {
+            best = Some((sigma, at));
+            break;
+        }
+        let beyond = sign * l.l1 > 0.0;
+        if beyond {
+            hi = (sigma, at);
+        } else {
+            lo = (sigma, at);
+        }
+        weights.replaced(beyond);
+    }
+    let width = hi.0 - lo.0;
+    let (sigma, at) = best.unwrap_or_else(|| {
+        if l1(&lo.1).abs() <= l1(&hi.1).abs() {
+            lo
+        } else {
+            hi
+        }
+    });
+    let special = Special {
+        kind: SpecialKind::GeneralizedHopf,
+        point: at.point(s_last + sigma, width, 0),
+        other: at.eigenvalue,
+        gains: false,
+        precision: width,
+    };
+    Ok((special, at.member))
 }
 
 /// The turning point of the curve in `q` near `last`: the extremum of `q(p)` along the curve

@@ -9,6 +9,7 @@
 //! Brusselator) shared by the tests and the benchmarks.
 
 pub mod arclength;
+pub mod criticality;
 pub mod curve;
 pub mod event_curve;
 pub mod events;
@@ -65,6 +66,21 @@ pub trait Problem {
     /// later point is measured in the new chart. The default never moves.
     fn rechart(&self, _u: &[f64]) -> bool {
         false
+    }
+    /// The nonlinear dynamics whose linearization at the solution `(u, p)` is the stability
+    /// pair: `dy/dt` at the displacement `y` from the solution, in the coordinates of `K`
+    /// (`y = 0` is the solution, and the derivative there is `M^{-1} K`). It serves the
+    /// criticality of Hopf points ([`criticality`]). The default is `None`: a problem that does
+    /// not define its dynamics gets no Lyapunov coefficient.
+    fn velocity(&self, _u: &[f64], _p: f64, _y: &[f64]) -> Option<Result<Vec<f64>>> {
+        None
+    }
+    /// The size of a complex mode `re + i im` (in the coordinates of `K`) that the Lyapunov
+    /// coefficient is normalized to: the critical mode is scaled to size 1. The default is the
+    /// Euclidean norm (`<q, q> = 1`); a discretized continuum uses a size that does not depend
+    /// on its resolution.
+    fn mode_size(&self, re: &[f64], im: &[f64]) -> f64 {
+        re.iter().chain(im).map(|v| v * v).sum::<f64>().sqrt()
     }
 }
 

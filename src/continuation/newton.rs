@@ -112,6 +112,14 @@ pub struct Chord {
 }
 
 impl Chord {
+    /// A chord holding the factorization of `jacobian` (made elsewhere, e.g. at a nearby
+    /// solution), counted as built.
+    pub fn of(jacobian: &Mat<f64>) -> Self {
+        Chord {
+            lu: Some(jacobian.partial_piv_lu()),
+            built: 1,
+        }
+    }
     /// Drops the factorization (the next iterate builds a fresh one).
     pub fn clear(&mut self) {
         self.lu = None;

@@ -46,6 +46,11 @@ where
     ) -> Result<(Mat<f64>, Mat<f64>)> {
         Ok((lin.g_u.clone(), Mat::identity(self.dim, self.dim)))
     }
+    /// `du/dt = G(u + y, p)`.
+    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
+        let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
+        Some(Ok((self.g)(&at, p)))
+    }
 }
 
 /// Boxed closure types of the reference problems.
@@ -227,5 +232,34 @@ pub fn shifted_pitchfork(q: f64) -> Reference {
         g: Box::new(move |u, p| vec![(p - q) * u[0] - u[0].powi(3)]),
         g_u: Box::new(move |u, p| vec![vec![p - q - 3.0 * u[0] * u[0]]]),
         g_p: Box::new(|u, _| vec![u[0]]),
+    }
+}
+
+/// Bautin (generalized Hopf) normal form with cubic coefficient `c`:
+/// `x' = p x - y + (c r^2 - r^4) x`, `y' = x + p y + (c r^2 - r^4) y`, i.e. in polar coordinates
+/// `r' = p r + c r^3 - r^5`. The origin has a Hopf point at `p = 0` with frequency 1 and first
+/// Lyapunov coefficient `2 c` (for `<q, q> = 1`): supercritical for `c < 0`, subcritical for
+/// `c > 0`, a generalized Hopf point at `c = 0`.
+pub fn bautin(c: f64) -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            let g = c * r2 - r2 * r2;
+            vec![p * x - y + g * x, x + p * y + g * y]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            let g = c * r2 - r2 * r2;
+            // d g / d x = 2 x (c - 2 r^2), likewise in y.
+            let dg = 2.0 * (c - 2.0 * r2);
+            vec![
+                vec![p + g + x * x * dg, -1.0 + x * y * dg],
+                vec![1.0 + x * y * dg, p + g + y * y * dg],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![u[0], u[1]]),
     }
 }

@@ -1,0 +1,473 @@
+//! The first Lyapunov coefficient of a Hopf point: whether the periodic orbits born there are
+//! stable and grow continuously (supercritical, `l1 < 0`) or unstable, with a jump and hysteresis
+//! (subcritical, `l1 > 0`).
+//!
+//! The dynamics is `M(y) dy/dt = F(y)`, i.e. `dy/dt = f(y)` with `f = M^{-1} F`, given by the
+//! problem's [`Problem::velocity`] in the coordinates of its stability pair, `y = 0` the steady
+//! state; `Df(0) = A = M^{-1} K`. With `A q = i w q`, `A^T p = -i w p`, `<q, q> = 1` and
+//! `<p, q> = 1` (`<a, b> = a^H b`), Kuznetsov's invariant formula (Elements of Applied
+//! Bifurcation Theory, 3rd ed., eq. 3.20 and section 8.7.1) reads
+//!
+//! ```text
+//! l1 = Re[ <p, C(q,q,qb)> - 2 <p, B(q, A^{-1} B(q,qb))> + <p, B(qb, (2 i w - A)^{-1} B(q,q))> ] / (2 w)   (1)
+//! ```
+//!
+//! with `B`, `C` the second and third derivatives of `f` at 0 as symmetric multilinear forms
+//! (`qb` the conjugate of `q`). On the normal form `dz/dt = (mu + i w) z + c1 z |z|^2` this is
+//! `Re c1 / w`, for the `z` with `y = z q + conj(z q)`; so `l1` depends on the normalization
+//! of `q`, its sign does not. It is reported for `q` scaled to the problem's
+//! [`Problem::mode_size`] 1 (Euclidean by default, i.e. `<q, q> = 1`; `l1` scales as `|q|^2`).
+//! The state-dependent mass matrix enters through `f = M^{-1} F`: `B` and `C` contain the
+//! derivatives of `M`.
+//!
+//! **Without `A^{-1}`.** With `A = M^{-1} K` at the steady state: `q` is the right eigenvector
+//! of the pencil, `(K - s M) q = 0`; `p = M r` with `(K^T - conj(s) M) r = 0`, so
+//! `<p, b> = r^H M b`; `A^{-1} b = K^{-1} M b` and `(2 i w - A)^{-1} b = (2 i w M - K)^{-1} M b`.
+//!
+//! **Derivatives by differences** of `f` along real directions (a problem gives `f`, not its
+//! second and third derivatives; for the rod they include the shape derivatives of the mobility
+//! and the slaved twist), by central differences with polarization:
+//!
+//! ```text
+//! B(a, a) = [f(h a) - 2 f(0) + f(-h a)] / h^2,
+//! B(a, b) = [f(h a + h b) - f(h a - h b) - f(-h a + h b) + f(-h a - h b)] / (4 h^2),
+//! D3(a)   = C(a, a, a) = [f(2 h a) - 2 f(h a) + 2 f(-h a) - f(-2 h a)] / (2 h^3),
+//! C(a, b, b) = [D3(a + b) + D3(a - b) - 2 D3(a)] / 6,   C(a, a, b) = [D3(a + b) - D3(a - b) - 2 D3(b)] / 6,
+//! ```
+//!
+//! all with errors `O(h^2)`; complex arguments by multilinearity (`q = qr + i qi`:
+//! `B(q, qb) = B(qr, qr) + B(qi, qi)`, `B(q, q) = B(qr, qr) - B(qi, qi) + 2 i B(qr, qi)`,
+//! `C(q, q, qb) = C(qr, qr, qr) + C(qr, qi, qi) + i [C(qr, qr, qi) + C(qi, qi, qi)]`). The value is
+//! computed at the steps `h` and `2 h`; the reported `l1` is their Richardson extrapolation
+//! `(4 l1(h) - l1(2 h))/3` and its precision `|l1(h) - l1(2 h)|` (which bounds the error of
+//! `l1(h)` by three times the leading term) plus a round-off allowance of `1e-8` times the sum
+//! of the moduli of the three terms of (1). The verdict is `supercritical` or `subcritical`
+//! only when `|l1|` exceeds that precision and `1e-6` times the sum of the moduli of the three
+//! terms of (1) (cancellation below that is not resolved); otherwise it is `undetermined`: a
+//! degenerate (generalized) Hopf point, or one the differences cannot resolve.
+
+use faer::prelude::Solve;
+use faer::{Mat, c64};
+use serde::Serialize;
+
+use super::{Linearization, Problem};
+use crate::{Error, Result};
+
+/// The step `h` of the differences, relative to the typical size of a unit vector of the
+/// problem (`sqrt(n)` times its per-unknown scale).
+const STEP: f64 = 1e-2;
+
+/// Round-off of the differences, relative to the moduli of the terms of (1) (about
+/// `1e-16 |f| / h^3` with `h ~ 1e-2`, with a margin).
+const ROUND_OFF: f64 = 1e-8;
+
+/// Size, relative to the moduli of the terms of (1), below which `l1` is not told from zero.
+const FLOOR: f64 = 1e-6;
+
+/// The side of a Hopf point the periodic orbits are born on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// `l1 < 0`: stable orbits past the Hopf point, amplitude growing as a square root.
+    Supercritical,
+    /// `l1 > 0`: unstable orbits before it; past it the motion jumps to a distant attractor.
+    Subcritical,
+    /// `|l1|` within its precision.
+    Undetermined,
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(match self {
+            Verdict::Supercritical => "supercritical",
+            Verdict::Subcritical => "subcritical",
+            Verdict::Undetermined => "undetermined",
+        })
+    }
+}
+
+/// The first Lyapunov coefficient of a Hopf point, eq. (1).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Lyapunov {
+    /// `l1`, in the problem's units (time^-1 per unit squared of its coordinates), for the
+    /// critical mode scaled to [`Problem::mode_size`] 1 (`<q, q> = 1` by default).
+    pub l1: f64,
+    /// Estimated error of `l1`.
+    pub precision: f64,
+    pub verdict: Verdict,
+    /// The frequency `w` used.
+    pub frequency: f64,
+    /// The critical eigenvector `q` of mode size 1, `Re q` orthogonal to `Im q`, `|Re q| >=
+    /// |Im q|` (real and imaginary parts): the shape of the small orbit `y = 2 Re(z q e^{i w t})`.
+    #[serde(skip)]
+    pub q: (Vec<f64>, Vec<f64>),
+}
+
+/// The first Lyapunov coefficient at the Hopf point `(u, p)` of `problem` (linearization `lin`,
+/// critical eigenvalue `s`, `Im s > 0`), or `None` when the problem does not define its
+/// dynamics ([`Problem::velocity`]).
+pub fn first_lyapunov(
+    problem: &impl Problem,
+    u: &[f64],
+    p: f64,
+    lin: &Linearization,
+    s: c64,
+) -> Result<Option<Lyapunov>> {
+    let w = s.im.abs();
+    if w <= 0.0 {
+        return Err(Error::Numerical(
+            "the Lyapunov coefficient needs a complex pair (w > 0)".into(),
+        ));
+    }
+    let s = c64::new(s.re, w);
+    let (k, m) = problem.stability_pair(u, p, lin)?;
+    let n = k.nrows();
+    let zero = vec![0.0; n];
+    let Some(f0) = problem.velocity(u, p, &zero) else {
+        return Ok(None);
+    };
+    let f0 = f0?;
+    let field = |y: &[f64]| -> Result<Vec<f64>> {
+        problem
+            .velocity(u, p, y)
+            .expect("the problem defines its dynamics")
+    };
+    let q = right_vector(&k, &m, s)?;
+    let r = left_vector(&k, &m, s, &q)?;
+    let forms = Forms {
+        field: &field,
+        f0: &f0,
+    };
+    let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
+    let value = |h| coefficient(&forms, &k, &m, &q, &r, w, h);
+    let (l1, precision, scale) = extrapolated(value, h0)?;
+    // Scaled to the problem's mode size: q -> q / size divides l1 by size^2.
+    let (re, im) = parts(&q);
+    let size = problem.mode_size(&re, &im);
+    let square = size * size;
+    let (l1, precision, scale) = (l1 / square, precision / square, scale / square);
+    let resolved = l1.abs() > precision.max(FLOOR * scale);
+    let verdict = match (resolved, l1 < 0.0) {
+        (false, _) => Verdict::Undetermined,
+        (true, true) => Verdict::Supercritical,
+        (true, false) => Verdict::Subcritical,
+    };
+    Ok(Some(Lyapunov {
+        l1,
+        precision,
+        verdict,
+        frequency: w,
+        q: (
+            re.iter().map(|v| v / size).collect(),
+            im.iter().map(|v| v / size).collect(),
+        ),
+    }))
+}
+
+/// Steps tried at most (halving each time).
+const LEVELS: usize = 10;
+
+/// Ridders' extrapolation of `value(h)` to `h = 0` for an error with even powers of `h`: the
+/// Richardson tableau over `h_k = h0 2^-k`, `T[k][j] = T[k][j-1] + (T[k][j-1] - T[k-1][j-1]) /
+/// (4^j - 1)`, each entry with the error estimate `max(|T[k][j] - T[k][j-1]|, |T[k][j] -
+/// T[k-1][j-1]|)`. The entry with the smallest estimate wins; the halving stops when the
+/// diagonal has become worse than twice that (round-off has taken over) or after [`LEVELS`].
+/// Returns the value, its error estimate plus the round-off allowance, and the scale of the
+/// terms at the winning step.
+fn extrapolated(
+    mut value: impl FnMut(f64) -> Result<(f64, f64)>,
+    h0: f64,
+) -> Result<(f64, f64, f64)> {
+    let mut previous: Vec<f64> = Vec::new();
+    let mut best = (f64::NAN, f64::INFINITY, 0.0);
+    let mut h = h0;
+    for k in 0..LEVELS {
+        let (v, scale) = value(h)?;
+        let mut row = vec![v];
+        for j in 1..=k {
+            let factor = 4f64.powi(j as i32) - 1.0;
+            let t = row[j - 1] + (row[j - 1] - previous[j - 1]) / factor;
+            let error = (t - row[j - 1]).abs().max((t - previous[j - 1]).abs());
+            if error < best.1 {
+                best = (t, error, scale);
+            }
+            row.push(t);
+        }
+        if k > 0 && (row[k] - previous[k - 1]).abs() >= 2.0 * best.1 {
+            break;
+        }
+        previous = row;
+        h *= 0.5;
+    }
+    if !best.0.is_finite() {
+        return Err(Error::Numerical(
+            "the differences of the Lyapunov coefficient did not converge".into(),
+        ));
+    }
+    Ok((best.0, best.1 + ROUND_OFF * best.2, best.2))
+}
+
+/// Complex column vector of a slice.
+fn column(v: &[c64]) -> Mat<c64> {
+    Mat::from_fn(v.len(), 1, |i, _| v[i])
+}
+
+/// Relative shift of inverse iteration off the eigenvalue (which may be exact, making the pencil
+/// exactly singular): each step then reduces the other components by about this factor.
+const SHIFT: f64 = 1e-9;
+
+/// The null vector of `K - s M`: two steps of inverse iteration from a fixed start (shifted by
+/// [`SHIFT`]), scaled to `<q, q> = 1` with `Re q` orthogonal to `Im q` and `|Re q| >= |Im q|`.
+fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<Vec<c64>> {
+    let n = k.nrows();
+    let s = s + SHIFT * s.norm();
+    let pencil = Mat::from_fn(n, n, |i, j| c64::new(k[(i, j)], 0.0) - s * m[(i, j)]);
+    let mut v = start(n);
+    let lu = pencil.partial_piv_lu();
+    for _ in 0..2 {
+        let x = lu.solve(column(&v));
+        v = (0..n).map(|i| x[(i, 0)]).collect();
+        v = normalized(&v)?;
+    }
+    // Rotate the phase: with q = e^{i phi} v, Re q . Im q = 0 when
+    // tan(2 phi) = -2 Re v . Im v / (|Re v|^2 - |Im v|^2).
+    let (rr, ii, ri) = v.iter().fold((0.0, 0.0, 0.0), |(a, b, c), z| {
+        (a + z.re * z.re, b + z.im * z.im, c + z.re * z.im)
+    });
+    let mut phi = 0.5 * (-2.0 * ri).atan2(rr - ii);
+    let rotate = |phi: f64| -> Vec<c64> {
+        let e = c64::new(phi.cos(), phi.sin());
+        v.iter().map(|z| z * e).collect()
+    };
+    let mut q = rotate(phi);
+    let (re, im) = q
+        .iter()
+        .fold((0.0, 0.0), |(a, b), z| (a + z.re * z.re, b + z.im * z.im));
+    if im > re {
+        phi += std::f64::consts::FRAC_PI_2;
+        q = rotate(phi);
+    }
+    Ok(q)
+}
+
+/// `r` with `(K^T - conj(s) M) r = 0` (inverse iteration as in [`right_vector`]), scaled so that `<p, q> = r^H M q = 1` (`p = M r`, the
+/// left eigenvector of `A = M^{-1} K`).
+fn left_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64, q: &[c64]) -> Result<Vec<c64>> {
+    let n = k.nrows();
+    let shifted = s + SHIFT * s.norm();
+    let pencil = Mat::from_fn(n, n, |i, j| {
+        c64::new(k[(j, i)], 0.0) - shifted.conj() * m[(j, i)]
+    });
+    let lu = pencil.partial_piv_lu();
+    let mut r = start(n);
+    for _ in 0..2 {
+        let x = lu.solve(column(&r));
+        r = (0..n).map(|i| x[(i, 0)]).collect();
+        r = normalized(&r)?;
+    }
+    let mq = real_times(m, q);
+    let pq: c64 = r.iter().zip(&mq).map(|(a, b)| a.conj() * b).sum();
+    if !(pq.norm() > 0.0 && pq.norm().is_finite()) {
+        return Err(Error::Numerical(
+            "the left and right critical eigenvectors are orthogonal (not a simple pair)".into(),
+        ));
+    }
+    // r^H M q = 1: divide r by conj(pq).
+    Ok(r.iter().map(|z| z / pq.conj()).collect())
+}
+
+/// A start vector for inverse iteration that is not orthogonal to any eigenvector in general.
+fn start(n: usize) -> Vec<c64> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 + 1.0;
+            c64::new((0.7 * t).sin() + 1.1, (1.3 * t).cos())
+        })
+        .collect()
+}
+
+/// `v / |v|`, refused when `v` is not finite.
+fn normalized(v: &[c64]) -> Result<Vec<c64>> {
+    let len = v.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
+    if !(len.is_finite() && len > 0.0) {
+        return Err(Error::Numerical(
+            "inverse iteration for the critical eigenvector broke down".into(),
+        ));
+    }
+    Ok(v.iter().map(|z| z / len).collect())
+}
+
+/// `M v` for a real matrix and a complex vector.
+fn real_times(m: &Mat<f64>, v: &[c64]) -> Vec<c64> {
+    (0..m.nrows())
+        .map(|i| (0..m.ncols()).map(|j| v[j] * m[(i, j)]).sum())
+        .collect()
+}
+
+/// The multilinear forms of the field by differences.
+struct Forms<'a, F: Fn(&[f64]) -> Result<Vec<f64>>> {
+    field: &'a F,
+    /// `f(0)`: zero at an exact steady state; kept in the second differences.
+    f0: &'a [f64],
+}
+
+impl<F: Fn(&[f64]) -> Result<Vec<f64>>> Forms<'_, F> {
+    /// `f(sum_k c_k v_k)`.
+    fn at(&self, terms: &[(f64, &[f64])]) -> Result<Vec<f64>> {
+        let n = self.f0.len();
+        let y: Vec<f64> = (0..n)
+            .map(|i| terms.iter().map(|(c, v)| c * v[i]).sum())
+            .collect();
+        (self.field)(&y)
+    }
+
+    /// `B(a, b)` at step `h`, the arguments scaled to unit length first.
+    fn b(&self, a: &[f64], b: &[f64], h: f64) -> Result<Vec<f64>> {
+        let (la, lb) = (length(a), length(b));
+        if la == 0.0 || lb == 0.0 {
+            return Ok(vec![0.0; a.len()]);
+        }
+        let (a, b) = (scaled(a, 1.0 / la), scaled(b, 1.0 / lb));
+        let same = a.iter().zip(&b).all(|(x, y)| x == y);
+        let value = if same {
+            let plus = self.at(&[(h, &a)])?;
+            let minus = self.at(&[(-h, &a)])?;
+            combine(
+                &[(1.0, &plus), (-2.0, self.f0), (1.0, &minus)],
+                1.0 / (h * h),
+            )
+        } else {
+            let pp = self.at(&[(h, &a), (h, &b)])?;
+            let pm = self.at(&[(h, &a), (-h, &b)])?;
+            let mp = self.at(&[(-h, &a), (h, &b)])?;
+            let mm = self.at(&[(-h, &a), (-h, &b)])?;
+            combine(
+                &[(1.0, &pp), (-1.0, &pm), (-1.0, &mp), (1.0, &mm)],
+                1.0 / (4.0 * h * h),
+            )
+        };
+        Ok(scaled(&value, la * lb))
+    }
+
+    /// `C(a, a, a)` at step `h`.
+    fn d3(&self, a: &[f64], h: f64) -> Result<Vec<f64>> {
+        let p2 = self.at(&[(2.0 * h, a)])?;
+        let p1 = self.at(&[(h, a)])?;
+        let m1 = self.at(&[(-h, a)])?;
+        let m2 = self.at(&[(-2.0 * h, a)])?;
+        Ok(combine(
+            &[(1.0, &p2), (-2.0, &p1), (2.0, &m1), (-1.0, &m2)],
+            1.0 / (2.0 * h * h * h),
+        ))
+    }
+
+    /// `B(x, y)` for complex `x`, `y` (split into real parts).
+    fn b_complex(&self, x: &[c64], y: &[c64], h: f64) -> Result<Vec<c64>> {
+        let (xr, xi) = parts(x);
+        let (yr, yi) = parts(y);
+        let rr = self.b(&xr, &yr, h)?;
+        let ii = self.b(&xi, &yi, h)?;
+        let ri = self.b(&xr, &yi, h)?;
+        let ir = self.b(&xi, &yr, h)?;
+        Ok((0..x.len())
+            .map(|k| c64::new(rr[k] - ii[k], ri[k] + ir[k]))
+            .collect())
+    }
+}
+
+/// Eq. (1) at the difference step `h`, and the sum of the moduli of its three terms (over
+/// `2 w`): the size below which cancellation leaves `l1` unresolved.
+fn coefficient<F: Fn(&[f64]) -> Result<Vec<f64>>>(
+    forms: &Forms<F>,
+    k: &Mat<f64>,
+    m: &Mat<f64>,
+    q: &[c64],
+    r: &[c64],
+    w: f64,
+    h: f64,
+) -> Result<(f64, f64)> {
+    let n = q.len();
+    let (qr, qi) = parts(q);
+    let qb: Vec<c64> = q.iter().map(|z| z.conj()).collect();
+    // <p, b> = r^H M b.
+    let project = |b: &[c64]| -> c64 {
+        let mb = real_times(m, b);
+        r.iter().zip(&mb).map(|(a, b)| a.conj() * b).sum()
+    };
+    // C(q, q, qb) by polarization of the cubes.
+    let sum: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a + b).collect();
+    let diff: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a - b).collect();
+    let (c_r, c_i, c_s, c_d) = (
+        forms.d3(&qr, h)?,
+        forms.d3(&qi, h)?,
+        forms.d3(&sum, h)?,
+        forms.d3(&diff, h)?,
+    );
+    let c_rii: Vec<f64> = (0..n)
+        .map(|k| (c_s[k] + c_d[k] - 2.0 * c_r[k]) / 6.0)
+        .collect();
+    let c_rri: Vec<f64> = (0..n)
+        .map(|k| (c_s[k] - c_d[k] - 2.0 * c_i[k]) / 6.0)
+        .collect();
+    let c_qqqb: Vec<c64> = (0..n)
+        .map(|k| c64::new(c_r[k] + c_rii[k], c_rri[k] + c_i[k]))
+        .collect();
+    // B(q, qb) (real) and B(q, q).
+    let b_rr = forms.b(&qr, &qr, h)?;
+    let b_ii = forms.b(&qi, &qi, h)?;
+    let b_ri = forms.b(&qr, &qi, h)?;
+    let b_qqb: Vec<f64> = (0..n).map(|k| b_rr[k] + b_ii[k]).collect();
+    let b_qq: Vec<c64> = (0..n)
+        .map(|k| c64::new(b_rr[k] - b_ii[k], 2.0 * b_ri[k]))
+        .collect();
+    // A^{-1} B(q, qb) = K^{-1} M B(q, qb) (real).
+    let mb = m * Mat::from_fn(n, 1, |i, _| b_qqb[i]);
+    let a_inv = k.partial_piv_lu().solve(&mb);
+    let a_inv: Vec<c64> = (0..n).map(|i| c64::new(a_inv[(i, 0)], 0.0)).collect();
+    // (2 i w - A)^{-1} B(q, q) = (2 i w M - K)^{-1} M B(q, q).
+    let shifted = Mat::from_fn(n, n, |i, j| c64::new(-k[(i, j)], 2.0 * w * m[(i, j)]));
+    let second = shifted
+        .partial_piv_lu()
+        .solve(column(&real_times(m, &b_qq)));
+    let second: Vec<c64> = (0..n).map(|i| second[(i, 0)]).collect();
+    if !second
+        .iter()
+        .chain(&a_inv)
+        .all(|z| z.re.is_finite() && z.im.is_finite())
+    {
+        return Err(Error::Numerical(
+            "the Lyapunov coefficient needs K and 2 i w M - K regular (a zero or a 2:1 resonant \
+             eigenvalue at the Hopf point)"
+                .into(),
+        ));
+    }
+    let b1 = forms.b_complex(q, &a_inv, h)?;
+    let b2 = forms.b_complex(&qb, &second, h)?;
+    let terms = [project(&c_qqqb), -2.0 * project(&b1), project(&b2)];
+    let value: c64 = terms.iter().sum();
+    let scale: f64 = terms.iter().map(|t| t.norm()).sum();
+    Ok((value.re / (2.0 * w), scale / (2.0 * w)))
+}
+
+fn parts(v: &[c64]) -> (Vec<f64>, Vec<f64>) {
+    (
+        v.iter().map(|z| z.re).collect(),
+        v.iter().map(|z| z.im).collect(),
+    )
+}
+
+fn length(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn scaled(v: &[f64], c: f64) -> Vec<f64> {
+    v.iter().map(|x| c * x).collect()
+}
+
+/// `scale sum_k c_k v_k`.
+fn combine(terms: &[(f64, &[f64])], scale: f64) -> Vec<f64> {
+    let n = terms[0].1.len();
+    (0..n)
+        .map(|i| scale * terms.iter().map(|(c, v)| c * v[i]).sum::<f64>())
+        .collect()
+}

@@ -1,0 +1,263 @@
+//! The first Lyapunov coefficient (`continuation::criticality`) against closed forms: the Hopf
+//! normal form with known coefficients (plain and in curved coordinates, where the differences
+//! are not exact), the Brusselator, and the amplitude of the Brusselator's periodic orbit from a
+//! long simulation (the square-root law, independent of the formula).
+
+use faer::{Mat, c64};
+use helixbif::Result;
+use helixbif::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
+use helixbif::continuation::reference::{Analytic, Reference, brusselator};
+use helixbif::continuation::{Linearization, Problem};
+
+/// `x' = p x - w y + (a x - b y) r^2`, `y' = w x + p y + (b x + a y) r^2`: in polar coordinates
+/// `r' = p r + a r^3`, so with `<q, q> = 1` (`y = z q + conj(z q)`, `|y|^2 = 2 |z|^2`)
+/// `c1 = 2 (a + i b)` and `l1 = 2 a / w`.
+fn normal_form(w: f64, a: f64, b: f64) -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            vec![
+                p * x - w * y + (a * x - b * y) * r2,
+                w * x + p * y + (b * x + a * y) * r2,
+            ]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            vec![
+                vec![
+                    p + a * r2 + 2.0 * x * (a * x - b * y),
+                    -w - b * r2 + 2.0 * y * (a * x - b * y),
+                ],
+                vec![
+                    w + b * r2 + 2.0 * x * (b * x + a * y),
+                    p + a * r2 + 2.0 * y * (b * x + a * y),
+                ],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![u[0], u[1]]),
+    }
+}
+
+fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
+    let lin = problem.linearize(u, p).unwrap();
+    first_lyapunov(problem, u, p, &lin, s)
+        .unwrap()
+        .expect("dynamics defined")
+}
+
+#[test]
+fn the_normal_form_gives_its_coefficient_and_its_verdict() {
+    for (w, a, b) in [(1.0, -1.0, 0.0), (1.7, -0.8, 0.3), (0.6, 0.45, -1.2)] {
+        let l = lyapunov_at(&normal_form(w, a, b), &[0.0, 0.0], 0.0, c64::new(0.0, w));
+        let exact = 2.0 * a / w;
+        eprintln!(
+            "normal form w {w} a {a}: l1 {:e}, relative error {:.1e}, precision {:.1e}",
+            l.l1,
+            (l.l1 / exact - 1.0).abs(),
+            l.precision
+        );
+        assert!(
+            (l.l1 - exact).abs() <= 1e-6 * exact.abs(),
+            "w {w} a {a}: l1 {} against {exact}",
+            l.l1
+        );
+        assert!(
+            l.precision < 1e-6 * exact.abs(),
+            "precision {}",
+            l.precision
+        );
+        assert!((l.l1 - exact).abs() <= l.precision);
+        let expected = if a < 0.0 {
+            Verdict::Supercritical
+        } else {
+            Verdict::Subcritical
+        };
+        assert_eq!(l.verdict, expected);
+        assert!((l.frequency - w).abs() < 1e-15);
+    }
+    // A degenerate point (a = 0: no cubic term) is not given a side.
+    let l = lyapunov_at(
+        &normal_form(1.3, 0.0, 0.7),
+        &[0.0, 0.0],
+        0.0,
+        c64::new(0.0, 1.3),
+    );
+    assert!(l.l1.abs() < 1e-9, "{}", l.l1);
+    assert_eq!(l.verdict, Verdict::Undetermined);
+}
+
+/// The normal form `f` seen through the near-identity change of coordinates
+/// `u = phi(v) = v + (0.4 v1 v2 + 0.3 sin(v2)^2, 0.5 v1^2 - 0.2 (exp(v1 v2) - 1))`: the dynamics
+/// `v' = Dphi(v)^{-1} f(phi(v))` has the same linear part at 0 and the same Lyapunov
+/// coefficient, but its differences are not exact (no polynomial of low degree).
+struct Curved {
+    w: f64,
+    a: f64,
+    b: f64,
+}
+
+impl Curved {
+    fn field(&self, v: &[f64], p: f64) -> Vec<f64> {
+        let (v1, v2) = (v[0], v[1]);
+        let e = (v1 * v2).exp();
+        let u = [
+            v1 + 0.4 * v1 * v2 + 0.3 * v2.sin().powi(2),
+            v2 + 0.5 * v1 * v1 - 0.2 * (e - 1.0),
+        ];
+        let f = (normal_form(self.w, self.a, self.b).g)(&u, p);
+        // Dphi = [[1 + 0.4 v2, 0.4 v1 + 0.6 sin v2 cos v2], [v1 - 0.2 v2 e, 1 - 0.2 v1 e]].
+        let (j11, j12) = (1.0 + 0.4 * v2, 0.4 * v1 + 0.6 * v2.sin() * v2.cos());
+        let (j21, j22) = (v1 - 0.2 * v2 * e, 1.0 - 0.2 * v1 * e);
+        let det = j11 * j22 - j12 * j21;
+        vec![
+            (j22 * f[0] - j12 * f[1]) / det,
+            (-j21 * f[0] + j11 * f[1]) / det,
+        ]
+    }
+}
+
+impl Problem for Curved {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
+        Ok(self.field(u, p))
+    }
+    /// The Jacobian by central differences (step 1e-6, error ~1e-12): the linear part.
+    fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
+        let h = 1e-6;
+        let column = |j: usize| {
+            let mut plus = u.to_vec();
+            let mut minus = u.to_vec();
+            plus[j] += h;
+            minus[j] -= h;
+            let (fp, fm) = (self.field(&plus, p), self.field(&minus, p));
+            [(fp[0] - fm[0]) / (2.0 * h), (fp[1] - fm[1]) / (2.0 * h)]
+        };
+        let (c0, c1) = (column(0), column(1));
+        Ok(Linearization {
+            g: self.field(u, p),
+            g_u: Mat::from_fn(2, 2, |i, j| if j == 0 { c0[i] } else { c1[i] }),
+            g_p: u.to_vec(),
+        })
+    }
+    fn stability_pair(
+        &self,
+        _u: &[f64],
+        _p: f64,
+        lin: &Linearization,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
+        Ok((lin.g_u.clone(), Mat::identity(2, 2)))
+    }
+    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
+        let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
+        Some(Ok(self.field(&at, p)))
+    }
+}
+
+#[test]
+fn the_coefficient_is_invariant_under_a_curved_change_of_coordinates() {
+    for (w, a, b) in [(1.0, -1.0, 0.0), (1.7, -0.8, 0.3), (0.6, 0.45, -1.2)] {
+        let l = lyapunov_at(&Curved { w, a, b }, &[0.0, 0.0], 0.0, c64::new(0.0, w));
+        let exact = 2.0 * a / w;
+        eprintln!(
+            "curved w {w} a {a}: l1 {:e}, relative error {:.1e}, precision {:.1e}",
+            l.l1,
+            (l.l1 / exact - 1.0).abs(),
+            l.precision
+        );
+        assert!(
+            (l.l1 - exact).abs() <= 1e-6 * exact.abs(),
+            "w {w} a {a}: l1 {} against {exact} (precision {:e})",
+            l.l1,
+            l.precision
+        );
+        // The stated precision covers the error.
+        assert!((l.l1 - exact).abs() <= l.precision);
+    }
+}
+
+/// Closed form for the Brusselator `x' = a - (b + 1) x + x^2 y`, `y' = b x - x^2 y` at its Hopf
+/// point `b = 1 + a^2` (frequency `a`), for `<q, q> = 1`: `l1 = -(a^2 + 2) / (2 a (2 a^2 + 1))`
+/// (eq. (1) evaluated symbolically; its sign, supercritical for every `a > 0`, is the classic
+/// result).
+fn brusselator_l1(a: f64) -> f64 {
+    -(a * a + 2.0) / (2.0 * a * (2.0 * a * a + 1.0))
+}
+
+#[test]
+fn the_brusselator_matches_its_closed_form() {
+    for a in [0.5, 1.0, 2.0, 3.0] {
+        let b = 1.0 + a * a;
+        let l = lyapunov_at(&brusselator(a), &[a, b / a], b, c64::new(0.0, a));
+        let exact = brusselator_l1(a);
+        eprintln!(
+            "Brusselator a {a}: l1 {:e}, relative error {:.1e}, precision {:.1e}",
+            l.l1,
+            (l.l1 / exact - 1.0).abs(),
+            l.precision
+        );
+        assert!(
+            (l.l1 - exact).abs() <= 1e-6 * exact.abs(),
+            "a {a}: l1 {} against {exact}",
+            l.l1
+        );
+        assert!((l.l1 - exact).abs() <= l.precision);
+        assert_eq!(l.verdict, Verdict::Supercritical);
+    }
+}
+
+/// The half peak-to-peak amplitude of `x` on the attracting orbit of the Brusselator at `(a, b)`,
+/// by RK4 from `start` over `t_end`, measured over the last `2 pi / a * 3` of time.
+fn simulated_amplitude(a: f64, b: f64, start: [f64; 2], t_end: f64) -> f64 {
+    let f = |u: [f64; 2]| {
+        let (x, y) = (u[0], u[1]);
+        [a - (b + 1.0) * x + x * x * y, b * x - x * x * y]
+    };
+    let dt = 0.01;
+    let steps = (t_end / dt) as usize;
+    let window = (3.0 * 2.0 * std::f64::consts::PI / a / dt) as usize;
+    let mut u = start;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for k in 0..steps {
+        let add = |u: [f64; 2], d: [f64; 2], c: f64| [u[0] + c * d[0], u[1] + c * d[1]];
+        let k1 = f(u);
+        let k2 = f(add(u, k1, 0.5 * dt));
+        let k3 = f(add(u, k2, 0.5 * dt));
+        let k4 = f(add(u, k3, dt));
+        for i in 0..2 {
+            u[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        if k + window >= steps {
+            lo = lo.min(u[0]);
+            hi = hi.max(u[0]);
+        }
+    }
+    0.5 * (hi - lo)
+}
+
+#[test]
+fn the_brusselator_orbit_grows_as_the_square_root_the_coefficient_predicts() {
+    // Past the Hopf point b = 1 + a^2 + eps the orbit is y = z q e^{i w t} + c.c. with
+    // |z|^2 = -sigma' eps / (w l1), sigma' = d Re s / db = 1/2: the amplitude of x is
+    // 2 |z| |q_x|, up to a relative O(eps).
+    let a = 1.0;
+    let b_h = 1.0 + a * a;
+    let l = lyapunov_at(&brusselator(a), &[a, b_h / a], b_h, c64::new(0.0, a));
+    let q_x = (l.q.0[0].powi(2) + l.q.1[0].powi(2)).sqrt();
+    let mut errors = Vec::new();
+    for eps in [4e-3, 1e-3] {
+        let predicted = 2.0 * (-0.5 * eps / (a * l.l1)).sqrt() * q_x;
+        let b = b_h + eps;
+        let start = [a + predicted, b / a];
+        let simulated = simulated_amplitude(a, b, start, 8.0 / eps);
+        errors.push((simulated / predicted - 1.0).abs());
+    }
+    eprintln!("orbit amplitude against the square-root law, eps = 4e-3, 1e-3: {errors:?}");
+    assert!(errors[1] < 2e-3, "relative errors {errors:?}");
+    // O(eps): four times smaller eps, about four times smaller error.
+    assert!(errors[1] < 0.4 * errors[0], "relative errors {errors:?}");
+}
