@@ -809,28 +809,14 @@ fn locate_codim2<F: Family>(
         }
         let c = crossing(&lo.rest, &hi.rest);
         let (f_lo, f_hi) = weights.weighted(f(&lo, c), f(&hi, c));
-        let margin = tol / 3.0;
-        let secant = lo.sigma - f_lo * (hi.sigma - lo.sigma) / (f_hi - f_lo);
-        let sigma = if f_lo <= 0.0 && f_hi > 0.0 && secant.is_finite() {
-            secant.clamp(lo.sigma + margin, hi.sigma - margin)
-        } else {
-            0.5 * (lo.sigma + hi.sigma)
-        };
-        let c_near = if sigma - lo.sigma < hi.sigma - sigma {
-            &lo
-        } else {
-            &hi
-        };
-        let along = (sigma - lo.sigma) / (hi.sigma - lo.sigma);
-        let track = lo.at.eigenvalue + (hi.at.eigenvalue - lo.at.eigenvalue) * along;
-        let corrected = tracer.correct(
-            &c_near.at,
-            step,
+        let sigma = illinois_sample((lo.sigma, f_lo), (hi.sigma, f_hi), tol);
+        let corrected = corrected_between(
+            tracer,
+            (lo.sigma, &lo.at),
+            (hi.sigma, &hi.at),
             sigma,
-            None,
-            None,
-            track,
-            step.t.0.hypot(step.t.1) * sigma_new,
+            step,
+            sigma_new,
         )?;
         let rest = others(&corrected.at.spectrum, corrected.at.eigenvalue);
         let sample = Sample {
@@ -872,6 +858,36 @@ fn locate_codim2<F: Family>(
     Ok((special, best.at.member))
 }
 
+/// The next sample of a bracketed search in `sigma` with (weighted) values `f_lo <= 0 < f_hi`
+/// at its ends: the secant zero, kept a third of `tol` inside the bracket; the midpoint where
+/// the values do not bracket a zero.
+fn illinois_sample((lo, f_lo): (f64, f64), (hi, f_hi): (f64, f64), tol: f64) -> f64 {
+    let margin = tol / 3.0;
+    let secant = lo - f_lo * (hi - lo) / (f_hi - f_lo);
+    if f_lo <= 0.0 && f_hi > 0.0 && secant.is_finite() {
+        secant.clamp(lo + margin, hi - margin)
+    } else {
+        0.5 * (lo + hi)
+    }
+}
+
+/// The curve's point at `sigma` inside the bracket `[lo, hi]` along `step`, corrected from the
+/// nearer end, the tracked eigenvalue interpolated between the ends.
+fn corrected_between<F: Family>(
+    tracer: &Tracer<'_, F>,
+    (s_lo, lo): (f64, &At<F::Member>),
+    (s_hi, hi): (f64, &At<F::Member>),
+    sigma: f64,
+    step: &Step,
+    sigma_new: f64,
+) -> Result<Corrected<F::Member>> {
+    let near = if sigma - s_lo < s_hi - sigma { lo } else { hi };
+    let along = (sigma - s_lo) / (s_hi - s_lo);
+    let track = lo.eigenvalue + (hi.eigenvalue - lo.eigenvalue) * along;
+    let reach = step.t.0.hypot(step.t.1) * sigma_new;
+    tracer.correct(near, step, sigma, None, None, track, reach)
+}
+
 /// True when both coefficients have a resolved sign and the signs differ.
 fn resolved_signs_differ(a: &Lyapunov, b: &Lyapunov) -> bool {
     let known = |l: &Lyapunov| l.verdict != Verdict::Undetermined;
@@ -903,22 +919,9 @@ fn locate_generalized_hopf<F: Family>(
             break;
         }
         let (f_lo, f_hi) = weights.weighted(sign * l1(&lo.1), sign * l1(&hi.1));
-        let margin = tol / 3.0;
-        let secant = lo.0 - f_lo * (hi.0 - lo.0) / (f_hi - f_lo);
-        let sigma = if secant.is_finite() {
-            secant.clamp(lo.0 + margin, hi.0 - margin)
-        } else {
-            0.5 * (lo.0 + hi.0)
-        };
-        let near = if sigma - lo.0 < hi.0 - sigma {
-            &lo.1
-        } else {
-            &hi.1
-        };
-        let along = (sigma - lo.0) / (hi.0 - lo.0);
-        let track = lo.1.eigenvalue + (hi.1.eigenvalue - lo.1.eigenvalue) * along;
-        let reach = step.t.0.hypot(step.t.1) * sigma_new;
-        let corrected = tracer.correct(near, step, sigma, None, None, track, reach)?;
+        let sigma = illinois_sample((lo.0, f_lo), (hi.0, f_hi), tol);
+        let corrected =
+            corrected_between(tracer, (lo.0, &lo.1), (hi.0, &hi.1), sigma, step, sigma_new)?;
         let at = tracer.with_lyapunov(corrected.at);
         let l = at.lyapunov.clone().ok_or_else(|| {
             Error::Numerical("the Lyapunov coefficient failed near a generalized Hopf point".into())
