@@ -185,6 +185,30 @@ pub struct PointRow {
     pub precision: f64,
 }
 
+/// The verdicts on the criticality of the Hopf points of a boundary.
+#[derive(Debug, Default, Serialize)]
+pub struct Criticality {
+    pub supercritical: usize,
+    pub subcritical: usize,
+    pub undetermined: usize,
+    pub not_computed: usize,
+}
+
+impl Criticality {
+    fn of(rows: &[BoundaryRow]) -> Self {
+        let mut count = Criticality::default();
+        for row in rows.iter().filter(|r| r.kind == EventKind::Hopf.name()) {
+            match row.criticality.as_deref() {
+                Some("supercritical") => count.supercritical += 1,
+                Some("subcritical") => count.subcritical += 1,
+                Some(_) => count.undetermined += 1,
+                None => count.not_computed += 1,
+            }
+        }
+        count
+    }
+}
+
 /// What `helixbif boundary` reports.
 #[derive(Debug, Serialize)]
 pub struct BoundaryReport {
@@ -202,6 +226,9 @@ pub struct BoundaryReport {
     /// difference from the curve's last point.
     pub check_omega_b: Option<f64>,
     pub check_difference: Option<f64>,
+    /// How many Hopf points of the curve are supercritical, subcritical, undetermined, and
+    /// without a coefficient (it could not be computed).
+    pub criticality: Criticality,
     pub out: String,
 }
 
@@ -630,6 +657,7 @@ pub fn run_family(
         seconds: started.elapsed().as_secs_f64(),
         check_difference: check_omega_b.map(|w| (w - last.omega_b).abs() / last.omega_b.abs()),
         check_omega_b,
+        criticality: Criticality::of(rows),
         out: dir.display().to_string(),
     })
 }
@@ -651,7 +679,8 @@ impl std::fmt::Display for BoundaryReport {
             self.seconds
         )?;
         for p in &self.special {
-            let frequencies = if p.kind == SpecialKind::Turning.name() {
+            let single = [SpecialKind::Turning, SpecialKind::GeneralizedHopf];
+            let frequencies = if single.iter().any(|k| k.name() == p.kind) {
                 format!("w = {:.5} rad/s", p.w)
             } else {
                 format!("w = {:.5}, other {:.5} rad/s", p.w, p.w_other)
@@ -670,6 +699,13 @@ impl std::fmt::Display for BoundaryReport {
                 }
             )?;
         }
+        let c = &self.criticality;
+        writeln!(
+            f,
+            "  Hopf points: {} subcritical, {} supercritical, {} undetermined, {} without a \
+             Lyapunov coefficient",
+            c.subcritical, c.supercritical, c.undetermined, c.not_computed
+        )?;
         match (self.check_omega_b, self.check_difference) {
             (Some(w), Some(d)) => {
                 writeln!(
