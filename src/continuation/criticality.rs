@@ -41,10 +41,9 @@
 //! computed at the steps `h` and `2 h`; the reported `l1` is their Richardson extrapolation
 //! `(4 l1(h) - l1(2 h))/3` and its precision `|l1(h) - l1(2 h)|` (which bounds the error of
 //! `l1(h)` by three times the leading term) plus a round-off allowance of `1e-8` times the sum
-//! of the moduli of the three terms of (1). The verdict is `supercritical` or `subcritical`
-//! only when `|l1|` exceeds that precision and `1e-6` times the sum of the moduli of the three
-//! terms of (1) (cancellation below that is not resolved); otherwise it is `undetermined`: a
-//! degenerate (generalized) Hopf point, or one the differences cannot resolve.
+//! of the moduli of the three terms of (1) (they cancel to a large extent on a stiff problem). The verdict is `supercritical` or `subcritical`
+//! only when `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate
+//! (generalized) Hopf point, or one the differences cannot resolve.
 
 use faer::prelude::Solve;
 use faer::{Mat, c64};
@@ -60,9 +59,6 @@ const STEP: f64 = 1e-2;
 /// Round-off of the differences, relative to the moduli of the terms of (1) (about
 /// `1e-16 |f| / h^3` with `h ~ 1e-2`, with a margin).
 const ROUND_OFF: f64 = 1e-8;
-
-/// Size, relative to the moduli of the terms of (1), below which `l1` is not told from zero.
-const FLOOR: f64 = 1e-6;
 
 /// The side of a Hopf point the periodic orbits are born on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -140,13 +136,13 @@ pub fn first_lyapunov(
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
     let value = |h| coefficient(&forms, &k, &m, &q, &r, w, h);
-    let (l1, precision, scale) = extrapolated(value, h0)?;
+    let (l1, precision) = extrapolated(value, h0)?;
     // Scaled to the problem's mode size: q -> q / size divides l1 by size^2.
     let (re, im) = parts(&q);
     let size = problem.mode_size(&re, &im);
     let square = size * size;
-    let (l1, precision, scale) = (l1 / square, precision / square, scale / square);
-    let resolved = l1.abs() > precision.max(FLOOR * scale);
+    let (l1, precision) = (l1 / square, precision / square);
+    let resolved = l1.abs() > precision;
     let verdict = match (resolved, l1 < 0.0) {
         (false, _) => Verdict::Undetermined,
         (true, true) => Verdict::Supercritical,
@@ -172,12 +168,9 @@ const LEVELS: usize = 10;
 /// (4^j - 1)`, each entry with the error estimate `max(|T[k][j] - T[k][j-1]|, |T[k][j] -
 /// T[k-1][j-1]|)`. The entry with the smallest estimate wins; the halving stops when the
 /// diagonal has become worse than twice that (round-off has taken over) or after [`LEVELS`].
-/// Returns the value, its error estimate plus the round-off allowance, and the scale of the
-/// terms at the winning step.
-fn extrapolated(
-    mut value: impl FnMut(f64) -> Result<(f64, f64)>,
-    h0: f64,
-) -> Result<(f64, f64, f64)> {
+/// Returns the value and its error estimate plus the round-off allowance ([`ROUND_OFF`] times
+/// the scale of the terms at the winning step).
+fn extrapolated(mut value: impl FnMut(f64) -> Result<(f64, f64)>, h0: f64) -> Result<(f64, f64)> {
     let mut previous: Vec<f64> = Vec::new();
     let mut best = (f64::NAN, f64::INFINITY, 0.0);
     let mut h = h0;
@@ -204,7 +197,7 @@ fn extrapolated(
             "the differences of the Lyapunov coefficient did not converge".into(),
         ));
     }
-    Ok((best.0, best.1 + ROUND_OFF * best.2, best.2))
+    Ok((best.0, best.1 + ROUND_OFF * best.2))
 }
 
 /// Complex column vector of a slice.

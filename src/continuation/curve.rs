@@ -437,15 +437,33 @@ impl<F: Family> Tracer<'_, F> {
     /// that cannot be computed (its differences leave the problem's admissible states, e.g. a
     /// mobility that is no longer positive) is left out: the point stays a point of the curve.
     fn with_lyapunov(&self, mut at: At<F::Member>) -> At<F::Member> {
-        if self.settings.criticality && at.lyapunov.is_none() {
-            at.lyapunov = at
-                .member
-                .linearize(&at.u, at.p)
-                .and_then(|lin| first_lyapunov(&*at.member, &at.u, at.p, &lin, at.eigenvalue))
-                .ok()
-                .flatten();
+        if at.lyapunov.is_none() {
+            at.lyapunov = self.lyapunov(&at.member, &at.u, at.p, at.eigenvalue);
         }
         at
+    }
+
+    /// The first Lyapunov coefficient of the solution `(u, p)` of `member` with its critical
+    /// eigenvalue `s`, if the settings ask for it and it can be computed.
+    fn lyapunov(&self, member: &F::Member, u: &[f64], p: f64, s: c64) -> Option<Lyapunov> {
+        if !self.settings.criticality {
+            return None;
+        }
+        member
+            .linearize(u, p)
+            .and_then(|lin| first_lyapunov(member, u, p, &lin, s))
+            .ok()
+            .flatten()
+    }
+
+    /// A special point with the coefficient of its point (special points are located from
+    /// samples that do not carry one).
+    fn with_criticality(&self, mut special: Special, member: &F::Member) -> Special {
+        let point = &special.point;
+        if point.lyapunov.is_none() && is_complex(point.eigenvalue) {
+            special.point.lyapunov = self.lyapunov(member, &point.u, point.p, point.eigenvalue);
+        }
+        special
     }
 
     /// Solves `h = 0` on the line `step.at(sigma, offset)`, offset from 0, by the secant method
@@ -689,6 +707,7 @@ pub fn follow_curve<F: Family>(
             }
         };
         for (special, member) in specials {
+            let special = tracer.with_criticality(special, &member);
             let stop = observer.special(&special);
             curve.special.push(special.clone());
             if stop {
@@ -898,7 +917,8 @@ fn resolved_signs_differ(a: &Lyapunov, b: &Lyapunov) -> bool {
 /// (`sigma = sigma_new`), whose signs differ, by the Illinois variant of regula falsi on `l1`,
 /// each sample a corrected point of the curve with its coefficient. It ends when the bracket is
 /// within `event_tol` or when a sample's `|l1|` is within its precision (the zero is then known
-/// as well as `l1` is); the precision reported is the bracket's width.
+/// as well as `l1` is); the precision reported is the bracket's width, or the precision of `l1`
+/// over its slope along the curve when that is smaller.
 fn locate_generalized_hopf<F: Family>(
     tracer: &Tracer<'_, F>,
     last: &At<F::Member>,
@@ -938,7 +958,16 @@ fn locate_generalized_hopf<F: Family>(
         }
         weights.replaced(beyond);
     }
-    let width = hi.0 - lo.0;
+    // Known to the bracket, or, where l1 itself ran out of precision, to that precision over
+    // the slope of l1 along the curve.
+    let slope = (l1(&hi.1) - l1(&lo.1)) / (hi.0 - lo.0);
+    let width = match &best {
+        Some((_, at)) => {
+            let resolution = at.lyapunov.as_ref().map_or(f64::INFINITY, |l| l.precision);
+            (hi.0 - lo.0).min(resolution / slope.abs())
+        }
+        None => hi.0 - lo.0,
+    };
     let (sigma, at) = best.unwrap_or_else(|| {
         if l1(&lo.1).abs() <= l1(&hi.1).abs() {
             lo
