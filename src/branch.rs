@@ -6,6 +6,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use faer::Mat;
+use faer::linalg::solvers::PartialPivLu;
 use serde::Serialize;
 
 use crate::Result;
@@ -72,13 +73,13 @@ pub struct RodProblem<M: Borrow<Model>> {
     twist: RefCell<Option<Rc<TwistMap>>>,
 }
 
-/// The twist rows of the steady Jacobian at a state: `J_tt = dR_theta/dtheta` and
+/// The twist rows of the steady Jacobian at a state: `J_tt = dR_theta/dtheta` (factorized) and
 /// `J_tx = dR_theta/dx`, whose `-J_tt^{-1} J_tx` is the derivative of the slaved twist.
 pub struct TwistMap {
     /// The state `(u, p)`.
     u: Vec<f64>,
     p: f64,
-    j_tt: Mat<f64>,
+    j_tt: PartialPivLu<f64>,
     j_tx: Mat<f64>,
 }
 
@@ -110,7 +111,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
         let map = Rc::new(TwistMap {
             u: u.to_vec(),
             p,
-            j_tt: Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]),
+            j_tt: Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]).partial_piv_lu(),
             j_tx: Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]),
         });
         *self.twist.borrow_mut() = Some(map.clone());
@@ -194,7 +195,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
             // The twist predicted to first order, theta* - J_tt^{-1} J_tx y, then slaved by the
             // chord method on J_tt (gradients only).
             let j_tx_y = &twist.j_tx * Mat::from_fn(nx, 1, |i, _| y[i]);
-            let dtheta = twist.j_tt.partial_piv_lu().solve(&j_tx_y);
+            let dtheta = twist.j_tt.solve(&j_tx_y);
             let mut moved = u.to_vec();
             for (x, d) in moved.iter_mut().zip(y) {
                 *x += d;

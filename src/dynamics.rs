@@ -108,6 +108,7 @@
 
 use std::ops::ControlFlow;
 
+use faer::linalg::solvers::PartialPivLu;
 use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side, c64};
@@ -490,18 +491,18 @@ pub fn slave_twist_to(model: &Model, chart: &Chart, u: &[f64], tol: f64) -> Resu
     slave_twist_with(model, chart, u, tol, Jacobians::Fresh)
 }
 
-/// [`slave_twist_to`] by the chord method on the twist block `j_tt` of a nearby state (its
-/// factorization kept while the residual falls by a factor 3 per iteration): each iteration
-/// costs a gradient of the energy instead of its Hessian. For states a small displacement from
-/// the one `j_tt` was made at, started from its linear prediction.
+/// [`slave_twist_to`] by the chord method on `j_tt`, the factorized twist block of a nearby
+/// state (kept while the residual falls by a factor 3 per iteration): each iteration costs a
+/// gradient of the energy instead of its Hessian. For states a small displacement from the one
+/// `j_tt` was made at, started from its linear prediction.
 pub fn slave_twist_chord(
     model: &Model,
     chart: &Chart,
     u: &[f64],
     tol: f64,
-    j_tt: &Mat<f64>,
+    j_tt: &PartialPivLu<f64>,
 ) -> Result<Vec<f64>> {
-    let mut chord = Chord::of(j_tt);
+    let mut chord = Chord::holding(j_tt.clone());
     slave_twist_with(model, chart, u, tol, Jacobians::Reuse(&mut chord))
 }
 

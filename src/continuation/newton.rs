@@ -112,11 +112,11 @@ pub struct Chord {
 }
 
 impl Chord {
-    /// A chord holding the factorization of `jacobian` (made elsewhere, e.g. at a nearby
+    /// A chord holding `lu`, the factorization of a Jacobian made elsewhere (e.g. at a nearby
     /// solution), counted as built.
-    pub fn of(jacobian: &Mat<f64>) -> Self {
+    pub fn holding(lu: PartialPivLu<f64>) -> Self {
         Chord {
-            lu: Some(jacobian.partial_piv_lu()),
+            lu: Some(lu),
             built: 1,
         }
     }
