@@ -15,7 +15,7 @@ use crate::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
-use crate::dynamics::{mass, slave_twist_chord};
+use crate::dynamics::slave_twist_chord;
 use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::frame::Chart;
@@ -186,7 +186,8 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     /// `dx_f/dt = Z_ff^{-1} R_x(x_f, theta*(x_f))` at the free positions of `u` displaced by `y`,
     /// the twist slaved (docs/model.md section 5; [`crate::dynamics`] eq. (1)), started from the
     /// twist of `u` and converged to round-off: the differences of the Lyapunov coefficient
-    /// divide this by `h^3`.
+    /// divide this by `h^3`. The velocity is taken in mobility form
+    /// ([`Steady::free_velocity`]), without `Z`.
     fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
         let velocity = || -> Result<Vec<f64>> {
             let steady = self.steady(p);
@@ -205,15 +206,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
             }
             let model = self.model.borrow();
             let slaved = slave_twist_chord(model, &steady.chart, &moved, 1e-15, &twist.j_tt)?;
-            let r = steady.residual(&slaved)?;
-            let m = mass(&steady, &slaved)?;
-            let v = m
-                .llt(faer::Side::Lower)
-                .map_err(|_| {
-                    crate::Error::Numerical("the mass matrix Z_ff is not positive definite".into())
-                })?
-                .solve(Mat::from_fn(nx, 1, |i, _| r[i]));
-            Ok((0..nx).map(|i| v[(i, 0)]).collect())
+            steady.free_velocity(&slaved)
         };
         Some(velocity())
     }

@@ -24,7 +24,7 @@ use serde::Serialize;
 use crate::Result;
 use crate::continuation::newton::{self, NewtonReport, NewtonSettings, System};
 use crate::dofs::Layout;
-use crate::fluid::Resistance;
+use crate::fluid::{Resistance, stack_vectors};
 use crate::model::Model;
 use crate::rod::Config;
 use crate::rod::frame::Chart;
@@ -105,6 +105,58 @@ impl<'a> Steady<'a> {
         let resistance = self.model.fluid.resistance(x, &context)?;
         let forces = resistance.solve_vectors(&rotation_velocity(self.omega, x));
         Ok(Some(Drag { resistance, forces }))
+    }
+
+    /// The co-rotating velocity of the free nodes in the overdamped dynamics
+    /// `Z_ff dx_f/dt = R_x(u)` (docs/model.md section 5), in mobility form: no factorization of
+    /// `A` and no inverse.
+    ///
+    /// With `g = -dE/dx + F_gravity` the force the rod puts on the fluid at the free nodes and
+    /// `F_c` the clamp reactions that keep the clamp nodes in rigid rotation,
+    ///
+    /// ```text
+    /// A_cc F_c = (Omega X)_c - A_cf g_f,    dx_f/dt = A_ff g_f + A_fc F_c - (Omega X)_f,   (4)
+    /// ```
+    ///
+    /// the lab velocity of the free nodes less that of rigid rotation. This is `Z_ff^{-1} R_x`:
+    /// by the block inverse, `Z_ff^{-1} = S = A_ff - A_fc A_cc^{-1} A_cf` (the Schur complement
+    /// of the `6 x 6` clamp block), and `S [Z Omega X]_f = (Omega X)_f - A_fc A_cc^{-1}
+    /// (Omega X)_c` (from `A Z Omega X = Omega X` in blocks). Cost: one assembly of `A` and
+    /// `O(N^2)`, against a factorization, a solve with `3N` right-hand sides and a second
+    /// factorization for `Z_ff^{-1} R_x` from `Z`. Where `A` is not positive by construction
+    /// (Lighthill), it is checked by a Cholesky factorization, as the resistance would be.
+    pub fn free_velocity(&self, u: &[f64]) -> Result<Vec<f64>> {
+        let config = self.config(u);
+        let x = &config.x;
+        let gradient = self.model.rod.gradient(&config, &self.chart);
+        let force = self.full_residual(&gradient, None);
+        let a = self.model.fluid.mobility(x);
+        let context = format!("velocity at omegabar = {:.6e}, N = {}", self.omega, x.len());
+        if !self.model.fluid.definite_by_construction() {
+            Resistance::new(&a, &context)?;
+        }
+        let layout = self.layout();
+        let (n3, c) = (3 * x.len(), 3 * Layout::CLAMPED_NODES);
+        let rigid = stack_vectors(&rotation_velocity(self.omega, x));
+        // Node-major force on the fluid, the clamp reactions still zero.
+        let mut f = Mat::from_fn(n3, 1, |r, _| {
+            if r < c {
+                0.0
+            } else {
+                force[layout.x(r / 3, r % 3)]
+            }
+        });
+        let a_cc = a.submatrix(0, 0, c, c).to_owned();
+        let rhs = rigid.submatrix(0, 0, c, 1) - a.submatrix(0, 0, c, n3) * &f;
+        let reactions = a_cc.partial_piv_lu().solve(&rhs);
+        f.submatrix_mut(0, 0, c, 1).copy_from(&reactions);
+        let v = a.submatrix(c, 0, n3 - c, n3) * &f - rigid.submatrix(c, 0, n3 - c, 1);
+        if !v.is_all_finite() {
+            return Err(crate::Error::Numerical(format!(
+                "singular clamp block of the mobility ({context})"
+            )));
+        }
+        Ok((0..n3 - c).map(|r| v[(r, 0)]).collect())
     }
 
     /// Full-length force balance `-dE/dq + F_gravity - F_fluid` (positions) and `-dE/dtheta`.

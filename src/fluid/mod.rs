@@ -173,6 +173,13 @@ impl Fluid {
         )
     }
 
+    /// Whether `A` is symmetric positive definite for every configuration without a check (the
+    /// RPY line, short of a self-intersecting centreline); Lighthill's is only within its
+    /// admissible resolution and must be checked by a factorization.
+    pub fn definite_by_construction(&self) -> bool {
+        matches!(self, Fluid::Rpy(_))
+    }
+
     /// The dimensionless [`FluidModel::resolution_cutoff`] of this fluid.
     pub fn resolution_cutoff(&self) -> Option<f64> {
         match self {
