@@ -164,15 +164,65 @@ impl GaussRule {
     }
 }
 
-/// `alpha`, `beta` of `M(r) = alpha I + beta rhat rhat^T` at `r > 0`, with `alpha'`, `beta'` and
-/// `beta / r`.
-#[derive(Clone, Copy, Debug)]
+/// Edges handled side by side by the quadrature kernels: the four `f64` of a [`Lanes`] vector
+/// (`wide::f64x4`: two SSE2 registers on the default x86-64 target, one AVX register in a build
+/// with AVX enabled, e.g. `RUSTFLAGS="-C target-cpu=native"`). The same sums either way.
+const LANES: usize = 4;
+
+/// One `f64` per lane.
+type Lanes = wide::f64x4;
+
+/// The `LANES` entries of `v` from `at` on.
+#[inline(always)]
+fn load(v: &[f64], at: usize) -> Lanes {
+    Lanes::new(
+        v[at..at + LANES]
+            .try_into()
+            .expect("a row of PointLanes holds LANES entries from any edge on"),
+    )
+}
+
+/// The quadrature points transposed for the kernels: entry `q * stride + k` belongs to point `q`
+/// of edge `k`, so that one point of `LANES` consecutive edges is one contiguous read. The rows
+/// are padded with `LANES - 1` weightless, forceless points at the origin, so any `LANES`
+/// consecutive edges can be read; they contribute exact zeros.
+struct PointLanes {
+    stride: usize,
+    /// Positions `y_p`, by component.
+    pos: [Vec<f64>; 3],
+    /// `[c_p (1 - xi_q), c_p xi_q]`, as [`Discretisation::pw`].
+    pw: [Vec<f64>; 2],
+}
+
+impl PointLanes {
+    /// `values(p)` of every point `p = k Q + q`, transposed and padded.
+    fn transpose<const C: usize>(
+        edges: usize,
+        q: usize,
+        values: impl Fn(usize) -> [f64; C],
+    ) -> (usize, [Vec<f64>; C]) {
+        let stride = edges + LANES - 1;
+        let mut out: [Vec<f64>; C] = std::array::from_fn(|_| vec![0.0; q * stride]);
+        for k in 0..edges {
+            for i in 0..q {
+                for (column, v) in out.iter_mut().zip(values(k * q + i)) {
+                    column[i * stride + k] = v;
+                }
+            }
+        }
+        (stride, out)
+    }
+}
+
+/// `alpha`, `beta`, `alpha'`, `beta'` and `beta / r` of `M(r) = alpha I + beta rhat rhat^T`, and
+/// `1/r` (0 at `r = 0`), in each lane.
 struct Radial {
-    alpha: f64,
-    beta: f64,
-    dalpha: f64,
-    dbeta: f64,
-    beta_over_r: f64,
+    alpha: Lanes,
+    beta: Lanes,
+    dalpha: Lanes,
+    dbeta: Lanes,
+    beta_over_r: Lanes,
+    inv: Lanes,
 }
 
 /// The RPY line mobility (see the [module documentation](self)).
@@ -197,6 +247,8 @@ struct Discretisation {
     pos: Vec<Vector3<f64>>,
     /// `[c_p (1 - xi_q), c_p xi_q]`: the weights of the point's two nodes, before `1/w`.
     pw: Vec<[f64; 2]>,
+    /// The points and weights transposed for the kernels.
+    lanes: PointLanes,
 }
 
 /// What the points of one edge `k` contribute in [`Rpy::mobility_derivative`]: for the rows
@@ -269,30 +321,28 @@ impl Rpy {
         1.0 / (6.0 * PI * self.mu * self.blob_radius)
     }
 
+    /// [`Radial`] at the distances `r`: both branches evaluated, each lane's chosen. At
+    /// `r = 0` the near branch gives `M = I / (6 pi mu a)`, and `1/r` is set to 0 so that
+    /// `rhat = 0`.
     #[inline(always)]
-    fn radial(&self, r: f64) -> Radial {
+    fn radial(&self, r: Lanes) -> Radial {
         let a = self.blob_radius;
-        if r >= 2.0 * a {
-            let k = 1.0 / (8.0 * PI * self.mu);
-            let (inv, a2) = (1.0 / r, a * a);
-            let inv2 = inv * inv;
-            Radial {
-                alpha: k * inv * (1.0 + 2.0 * a2 * inv2 / 3.0),
-                beta: k * inv * (1.0 - 2.0 * a2 * inv2),
-                dalpha: -k * inv2 * (1.0 + 2.0 * a2 * inv2),
-                dbeta: -k * inv2 * (1.0 - 6.0 * a2 * inv2),
-                beta_over_r: k * inv2 * (1.0 - 2.0 * a2 * inv2),
-            }
-        } else {
-            let k = self.self_mobility();
-            let slope = 3.0 * k / (32.0 * a);
-            Radial {
-                alpha: k - 3.0 * slope * r,
-                beta: slope * r,
-                dalpha: -3.0 * slope,
-                dbeta: slope,
-                beta_over_r: slope,
-            }
+        let k = 1.0 / (8.0 * PI * self.mu);
+        let m0 = self.self_mobility();
+        let slope = 3.0 * m0 / (32.0 * a);
+        let (k2_3, k2_1, k6_1) = (2.0 * a * a * k / 3.0, 2.0 * a * a * k, 6.0 * a * a * k);
+        let zero = Lanes::ZERO;
+        let inv = r.simd_gt(zero).bitselect(Lanes::ONE / r, zero);
+        let inv2 = inv * inv;
+        let far = r.simd_ge(Lanes::splat(2.0 * a));
+        let beta_over_r = inv2 * (k - k2_1 * inv2);
+        Radial {
+            alpha: far.bitselect(inv * (k + k2_3 * inv2), m0 - 3.0 * slope * r),
+            beta: far.bitselect(beta_over_r * r, slope * r),
+            dalpha: far.bitselect(-inv2 * (k + k2_1 * inv2), Lanes::splat(-3.0 * slope)),
+            dbeta: far.bitselect(-inv2 * (k - k6_1 * inv2), Lanes::splat(slope)),
+            beta_over_r: far.bitselect(beta_over_r, Lanes::splat(slope)),
+            inv,
         }
     }
 
@@ -319,94 +369,90 @@ impl Rpy {
                 pw.push([c * (1.0 - xi), c * xi]);
             }
         }
+        let (stride, [x, y, z]) = PointLanes::transpose(n - 1, q, |p| pos[p].into());
+        let (_, weights) = PointLanes::transpose(n - 1, q, |p| pw[p]);
         Discretisation {
             len,
             unit,
             w,
             pos,
             pw,
-        }
-    }
-
-    /// `alpha(r)` and `beta(r) / r^2` from `r^2`, so that `M(r) = alpha I + (beta/r^2) r r^T`
-    /// needs no unit vector (`beta / r^2 = 0` at `r = 0`, where `beta = 0` too).
-    #[inline(always)]
-    fn alpha_and_beta_over_r2(&self, r2: f64) -> (f64, f64) {
-        let a = self.blob_radius;
-        if r2 >= 4.0 * a * a {
-            let k = 1.0 / (8.0 * PI * self.mu);
-            let inv2 = 1.0 / r2;
-            let inv = inv2.sqrt();
-            let a2 = a * a * inv2;
-            (
-                k * inv * (1.0 + 2.0 * a2 / 3.0),
-                k * inv * inv2 * (1.0 - 2.0 * a2),
-            )
-        } else if r2 > 0.0 {
-            let k = self.self_mobility();
-            let r = r2.sqrt();
-            let slope = 3.0 * k / (32.0 * a);
-            (k - 3.0 * slope * r, slope / r)
-        } else {
-            (self.self_mobility(), 0.0)
+            lanes: PointLanes {
+                stride,
+                pos: [x, y, z],
+                pw: weights,
+            },
         }
     }
 
     /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
-    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`. The
-    /// inner sums are kept as a scalar times `I` plus a symmetric matrix (six entries), the
-    /// form of `M`.
+    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
+    /// [`LANES`] edges `k2` at a time, the sums kept per lane as a scalar times `I` plus a
+    /// symmetric matrix (`[alpha sum, xx, xy, xz, yy, yz, zz]`), the form of
+    /// `M = alpha I + (beta/r^2) r r^T`.
     fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
         let q = self.points_per_edge();
         let edges = d.len.len();
-        (k..edges)
-            .map(|k2| {
-                let mut s = [[Matrix3::zeros(); 2]; 2];
-                for p in k * q..(k + 1) * q {
-                    let y = d.pos[p];
-                    // [alpha sum, xx, xy, xz, yy, yz, zz] for each end b of edge k2.
-                    let mut sums = [[0.0; 7]; 2];
-                    for p2 in k2 * q..(k2 + 1) * q {
-                        let r = y - d.pos[p2];
-                        let (alpha, c) = self.alpha_and_beta_over_r2(r.norm_squared());
-                        let rr = [
-                            r.x * r.x,
-                            r.x * r.y,
-                            r.x * r.z,
-                            r.y * r.y,
-                            r.y * r.z,
-                            r.z * r.z,
-                        ];
-                        for (sum, w) in sums.iter_mut().zip(d.pw[p2]) {
-                            sum[0] += w * alpha;
-                            let cw = c * w;
-                            for (t, v) in sum[1..].iter_mut().zip(&rr) {
-                                *t += cw * v;
-                            }
-                        }
-                    }
-                    let rows = sums.map(|t| {
-                        Matrix3::new(
-                            t[0] + t[1],
-                            t[2],
-                            t[3],
-                            t[2],
-                            t[0] + t[4],
-                            t[5],
-                            t[3],
-                            t[5],
-                            t[0] + t[6],
-                        )
-                    });
-                    for (sa, weight) in s.iter_mut().zip(d.pw[p]) {
-                        for (sab, r) in sa.iter_mut().zip(&rows) {
-                            *sab += r * weight;
+        let lanes = &d.lanes;
+        let mut out = vec![[[Matrix3::zeros(); 2]; 2]; edges - k];
+        for k2 in (k..edges).step_by(LANES) {
+            // s[a][b] per lane, in the same seven-number form.
+            let mut s = [[[Lanes::ZERO; 7]; 2]; 2];
+            for p in k * q..(k + 1) * q {
+                let y = d.pos[p];
+                let y = [0, 1, 2].map(|c| Lanes::splat(y[c]));
+                let mut sums = [[Lanes::ZERO; 7]; 2];
+                for i in 0..q {
+                    let at = i * lanes.stride + k2;
+                    let r = [0, 1, 2].map(|c| y[c] - load(&lanes.pos[c], at));
+                    let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
+                    let c = radial.beta_over_r * radial.inv;
+                    let rr = [
+                        r[0] * r[0],
+                        r[0] * r[1],
+                        r[0] * r[2],
+                        r[1] * r[1],
+                        r[1] * r[2],
+                        r[2] * r[2],
+                    ];
+                    for (sum, pw) in sums.iter_mut().zip(&lanes.pw) {
+                        let w = load(pw, at);
+                        sum[0] += w * radial.alpha;
+                        let cw = c * w;
+                        for (t, v) in sum[1..].iter_mut().zip(&rr) {
+                            *t += cw * *v;
                         }
                     }
                 }
-                s
-            })
-            .collect()
+                for (sa, weight) in s.iter_mut().zip(d.pw[p]) {
+                    let weight = Lanes::splat(weight);
+                    for (sab, sum) in sa.iter_mut().zip(&sums) {
+                        for (t, v) in sab.iter_mut().zip(sum) {
+                            *t += weight * *v;
+                        }
+                    }
+                }
+            }
+            let s = s.map(|sa| sa.map(|sab| sab.map(Lanes::to_array)));
+            for l in 0..LANES.min(edges - k2) {
+                out[k2 + l - k] = s.map(|sa| {
+                    sa.map(|t| {
+                        Matrix3::new(
+                            t[0][l] + t[1][l],
+                            t[2][l],
+                            t[3][l],
+                            t[2][l],
+                            t[0][l] + t[4][l],
+                            t[5][l],
+                            t[3][l],
+                            t[5][l],
+                            t[0][l] + t[6][l],
+                        )
+                    })
+                });
+            }
+        }
+        out
     }
 
     /// The mobility matrix `A(X) = P^T M_pts P` (`3N x 3N`, node-major, symmetric positive
@@ -448,11 +494,16 @@ impl Rpy {
     }
 
     /// The contributions of the points on edge `k` to the rows `k, k + 1` of `B`, of `partial`
-    /// and of the edge-length coefficients of edge `k` (see [`Rpy::mobility_derivative`]).
-    fn edge_rows(&self, d: &Discretisation, forces: &[[Vector3<f64>; 2]], k: usize) -> EdgeRows {
+    /// and of the edge-length coefficients of edge `k` (see [`Rpy::mobility_derivative`]), with
+    /// `forces` the point forces split by node (`forces[3 c + i]`: component `i` of
+    /// `P_p,k2+c y_{k2+c}`) in the layout of [`PointLanes`]. [`LANES`] edges `k2` at a time: per
+    /// lane, the sums over the points `p2` of edge `k2` of `M G_p2` (split by node) and of
+    /// `D(y_p - y_p2, G_p2)`, plain and weighted by `xi_q2`.
+    fn edge_rows(&self, d: &Discretisation, forces: &[Vec<f64>; 6], k: usize) -> EdgeRows {
         let q = self.points_per_edge();
         let edges = d.len.len();
         let n = edges + 1;
+        let lanes = &d.lanes;
         let mut out = EdgeRows {
             b: [vec![Matrix3::zeros(); n], vec![Matrix3::zeros(); n]],
             partial: [
@@ -461,59 +512,87 @@ impl Rpy {
             ],
             coef: [Vector3::zeros(); 2],
         };
-        let m0 = self.self_mobility();
-        for (y, (pw_p, &xi)) in d.pos[k * q..(k + 1) * q]
-            .iter()
-            .zip(d.pw[k * q..(k + 1) * q].iter().zip(&self.rule.xi))
-        {
-            let p_node = [pw_p[0] / d.w[k], pw_p[1] / d.w[k + 1]];
-            let mut velocity = Vector3::zeros();
-            let mut own = Matrix3::zeros();
-            for k2 in 0..edges {
-                let mut s = [Vector3::zeros(); 2];
-                // sum_{p2 on k2} D and sum_{p2 on k2} xi2 D.
-                let mut d_sum = Matrix3::zeros();
-                let mut d_xi = Matrix3::zeros();
-                let edge = k2 * q..(k2 + 1) * q;
-                for ((y2, &[g0, g1]), xi2) in d.pos[edge.clone()]
-                    .iter()
-                    .zip(&forces[edge])
-                    .zip(&self.rule.xi)
-                {
-                    let r = y - y2;
-                    let rn = r.norm();
-                    if rn == 0.0 {
-                        s[0] += g0 * m0;
-                        s[1] += g1 * m0;
-                        continue;
-                    }
-                    let rhat = r / rn;
-                    let c = self.radial(rn);
-                    let (rg0, rg1) = (rhat.dot(&g0), rhat.dot(&g1));
-                    s[0] += g0 * c.alpha + rhat * (c.beta * rg0);
-                    s[1] += g1 * c.alpha + rhat * (c.beta * rg1);
-                    // D = u rhat^T + rhat v^T + (beta/r)(rhat.G) I.
-                    let g = g0 + g1;
+        let points = k * q..(k + 1) * q;
+        // Per point p, across all edges k2: sum of M G (the velocity of p) and of D, per lane.
+        let mut velocity = vec![[Lanes::ZERO; 3]; q];
+        let mut own = vec![[Lanes::ZERO; 9]; q];
+        for k2 in (0..edges).step_by(LANES) {
+            // Per row i = k + ia, across the points p: P_pi [s_0, s_1] and P_pi [D - xi D, xi D].
+            let mut rows = [[Lanes::ZERO; 24]; 2];
+            for (ip, p) in points.clone().enumerate() {
+                let y = [0, 1, 2].map(|c| Lanes::splat(d.pos[p][c]));
+                let mut acc = [Lanes::ZERO; 24];
+                for (i, &xi2) in self.rule.xi.iter().enumerate() {
+                    let at = i * lanes.stride + k2;
+                    let r = [0, 1, 2].map(|j| y[j] - load(&lanes.pos[j], at));
+                    let c = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
+                    let rhat = r.map(|x| x * c.inv);
+                    let g0 = [0, 1, 2].map(|j| load(&forces[j], at));
+                    let g1 = [0, 1, 2].map(|j| load(&forces[3 + j], at));
+                    let rg0 = rhat[0] * g0[0] + rhat[1] * g0[1] + rhat[2] * g0[2];
+                    let rg1 = rhat[0] * g1[0] + rhat[1] * g1[1] + rhat[2] * g1[2];
+                    let (bg0, bg1) = (c.beta * rg0, c.beta * rg1);
+                    // D = u rhat^T + rhat v^T + (beta/r)(rhat.G) I, G = G_0 + G_1.
                     let rg = rg0 + rg1;
-                    let u = g * c.dalpha;
-                    let v = g * c.beta_over_r + rhat * ((c.dbeta - 2.0 * c.beta_over_r) * rg);
-                    let dm = u * rhat.transpose()
-                        + rhat * v.transpose()
-                        + Matrix3::from_diagonal_element(c.beta_over_r * rg);
-                    d_sum += dm;
-                    d_xi += dm * *xi2;
+                    let diagonal = c.beta_over_r * rg;
+                    let along = (c.dbeta - 2.0 * c.beta_over_r) * rg;
+                    let mut u = [Lanes::ZERO; 3];
+                    let mut v = [Lanes::ZERO; 3];
+                    for j in 0..3 {
+                        acc[j] += g0[j] * c.alpha + rhat[j] * bg0;
+                        acc[3 + j] += g1[j] * c.alpha + rhat[j] * bg1;
+                        let g = g0[j] + g1[j];
+                        u[j] = g * c.dalpha;
+                        v[j] = g * c.beta_over_r + rhat[j] * along;
+                    }
+                    let xi2 = Lanes::splat(xi2);
+                    for a in 0..3 {
+                        for b in 0..3 {
+                            let mut dm = u[a] * rhat[b] + rhat[a] * v[b];
+                            if a == b {
+                                dm += diagonal;
+                            }
+                            acc[6 + 3 * a + b] += dm;
+                            acc[15 + 3 * a + b] += dm * xi2;
+                        }
+                    }
                 }
-                velocity += s[0] + s[1];
-                own += d_sum;
-                let sd = [d_sum - d_xi, d_xi];
-                for (ia, &pi) in p_node.iter().enumerate() {
-                    out.partial[ia][2 * k2] += s[0] * pi;
-                    out.partial[ia][2 * k2 + 1] += s[1] * pi;
-                    for (jb, sdb) in sd.iter().enumerate() {
-                        out.b[ia][k2 + jb] -= sdb * pi;
+                for j in 0..3 {
+                    velocity[ip][j] += acc[j] + acc[3 + j];
+                }
+                for j in 0..9 {
+                    own[ip][j] += acc[6 + j];
+                }
+                let p_node = [d.pw[p][0] / d.w[k], d.pw[p][1] / d.w[k + 1]];
+                for (row, pi) in rows.iter_mut().zip(p_node) {
+                    let pi = Lanes::splat(pi);
+                    for j in 0..6 {
+                        row[j] += pi * acc[j];
+                    }
+                    for j in 0..9 {
+                        row[6 + j] += pi * (acc[6 + j] - acc[15 + j]);
+                        row[15 + j] += pi * acc[15 + j];
                     }
                 }
             }
+            let rows = rows.map(|row| row.map(Lanes::to_array));
+            for l in 0..LANES.min(edges - k2) {
+                let at = k2 + l;
+                for (ia, row) in rows.iter().enumerate() {
+                    out.partial[ia][2 * at] += Vector3::new(row[0][l], row[1][l], row[2][l]);
+                    out.partial[ia][2 * at + 1] += Vector3::new(row[3][l], row[4][l], row[5][l]);
+                    for jb in 0..2 {
+                        out.b[ia][at + jb] -=
+                            Matrix3::from_fn(|a, b| row[6 + 9 * jb + 3 * a + b][l]);
+                    }
+                }
+            }
+        }
+        for ((p, &xi), (velocity, own)) in points.zip(&self.rule.xi).zip(velocity.iter().zip(&own))
+        {
+            let velocity = Vector3::from_fn(|j, _| velocity[j].reduce_add());
+            let own = Matrix3::from_fn(|a, b| own[3 * a + b].reduce_add());
+            let p_node = [d.pw[p][0] / d.w[k], d.pw[p][1] / d.w[k + 1]];
             let phi = [1.0 - xi, xi];
             for (ia, &pi) in p_node.iter().enumerate() {
                 for (jb, phib) in phi.iter().enumerate() {
@@ -542,15 +621,13 @@ impl Rpy {
         let d = self.discretise(x);
         let q = self.points_per_edge();
         let edges = n - 1;
-        // Point forces G_p split by the node they come from: [P_pk y_k, P_p,k+1 y_{k+1}].
-        let forces: Vec<[Vector3<f64>; 2]> =
-            d.pw.iter()
-                .enumerate()
-                .map(|(p, pw)| {
-                    let k = p / q;
-                    [y[k] * (pw[0] / d.w[k]), y[k + 1] * (pw[1] / d.w[k + 1])]
-                })
-                .collect();
+        // Point forces G_p split by the node they come from, [P_pk y_k, P_p,k+1 y_{k+1}], by
+        // component, in the layout of the kernels.
+        let (_, forces) = PointLanes::transpose(edges, q, |p| {
+            let (k, pw) = (p / q, d.pw[p]);
+            let (g0, g1) = (y[k] * (pw[0] / d.w[k]), y[k + 1] * (pw[1] / d.w[k + 1]));
+            [g0.x, g0.y, g0.z, g1.x, g1.y, g1.z]
+        });
         let mut b = Mat::zeros(3 * n, 3 * n);
         // partial[(i edges + k2) 2 + c] = sum_p P_pi sum_{p2 on k2} M(y_p - y_p2) forces[p2][c].
         let mut partial = vec![Vector3::zeros(); 2 * n * edges];
