@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{Rng, relative_max_error};
+use common::{perturbed_natural, relative_max_error};
 use faer::Mat;
 use faer::prelude::Solve;
 use helixbif::continuation::newton::System;
@@ -23,13 +23,7 @@ fn difference(fluid: FluidModel, nodes: usize, omegabar: f64, amp: f64, seed: u6
     physical.discretization.nodes = nodes;
     let model = Model::new(&physical).unwrap();
     let problem = Steady::new(&model, omegabar);
-    let mut rng = Rng::new(seed);
-    let ds = model.rod.rest_lengths[0];
-    let u: Vec<f64> = problem
-        .free_vector(&model.natural_config())
-        .iter()
-        .map(|v| v + amp * ds * rng.uniform())
-        .collect();
+    let u = perturbed_natural(&model, amp, seed);
     let mobility_form = problem.free_velocity(&u).unwrap();
 
     let nx = model.rod.layout.free_positions();

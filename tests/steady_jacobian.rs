@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{Rng, relative_max_error};
+use common::{Rng, perturbed_natural, relative_max_error};
 use helixbif::continuation::newton::System;
 use helixbif::fluid::FluidModel;
 use helixbif::model::Model;
@@ -23,13 +23,7 @@ fn check(fluid: FluidModel, nodes: usize, omegabar: f64, amp: f64, seed: u64) ->
     let model = Model::new(&physical).unwrap();
     let problem = Steady::new(&model, omegabar);
     let still = Steady::new(&model, 0.0);
-    let mut rng = Rng::new(seed);
-    let ds = model.rod.rest_lengths[0];
-    let u: Vec<f64> = problem
-        .free_vector(&model.natural_config())
-        .iter()
-        .map(|v| v + amp * ds * rng.uniform())
-        .collect();
+    let u = perturbed_natural(&model, amp, seed);
     let (_, jac) = problem.residual_and_jacobian(&u).unwrap();
     let (_, jac0) = still.residual_and_jacobian(&u).unwrap();
     let h = 1e-7;

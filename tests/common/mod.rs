@@ -160,3 +160,15 @@ pub fn finite_difference_derivative(
     }
     b
 }
+
+/// The free unknowns of the natural shape of `model`, each moved by `amp` natural edge lengths
+/// times a uniform random number (seeded): a state away from equilibrium.
+pub fn perturbed_natural(model: &helixbif::model::Model, amp: f64, seed: u64) -> Vec<f64> {
+    let mut rng = Rng::new(seed);
+    let ds = model.rod.rest_lengths[0];
+    helixbif::steady::Steady::new(model, 0.0)
+        .free_vector(&model.natural_config())
+        .iter()
+        .map(|v| v + amp * ds * rng.uniform())
+        .collect()
+}
