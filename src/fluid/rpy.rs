@@ -513,6 +513,11 @@ impl Rpy {
             coef: [Vector3::zeros(); 2],
         };
         let points = k * q..(k + 1) * q;
+        // P_pi of each point p of edge k for its rows i = k, k + 1.
+        let p_nodes: Vec<[f64; 2]> = points
+            .clone()
+            .map(|p| [d.pw[p][0] / d.w[k], d.pw[p][1] / d.w[k + 1]])
+            .collect();
         // Per point p, across all edges k2: sum of M G (the velocity of p) and of D, per lane.
         let mut velocity = vec![[Lanes::ZERO; 3]; q];
         let mut own = vec![[Lanes::ZERO; 9]; q];
@@ -563,8 +568,7 @@ impl Rpy {
                 for j in 0..9 {
                     own[ip][j] += acc[6 + j];
                 }
-                let p_node = [d.pw[p][0] / d.w[k], d.pw[p][1] / d.w[k + 1]];
-                for (row, pi) in rows.iter_mut().zip(p_node) {
+                for (row, &pi) in rows.iter_mut().zip(&p_nodes[ip]) {
                     let pi = Lanes::splat(pi);
                     for j in 0..6 {
                         row[j] += pi * acc[j];
@@ -588,11 +592,13 @@ impl Rpy {
                 }
             }
         }
-        for ((p, &xi), (velocity, own)) in points.zip(&self.rule.xi).zip(velocity.iter().zip(&own))
+        for ((p_node, &xi), (velocity, own)) in p_nodes
+            .iter()
+            .zip(&self.rule.xi)
+            .zip(velocity.iter().zip(&own))
         {
             let velocity = Vector3::from_fn(|j, _| velocity[j].reduce_add());
             let own = Matrix3::from_fn(|a, b| own[3 * a + b].reduce_add());
-            let p_node = [d.pw[p][0] / d.w[k], d.pw[p][1] / d.w[k + 1]];
             let phi = [1.0 - xi, xi];
             for (ia, &pi) in p_node.iter().enumerate() {
                 for (jb, phib) in phi.iter().enumerate() {
