@@ -182,6 +182,13 @@ fn load(v: &[f64], at: usize) -> Lanes {
     )
 }
 
+/// `[f(0), f(1), f(2)]`, written out: in the kernels' inner loops `array::map` was left as a
+/// call that copies its result (seen in profiles as `try_map` and `memmove`).
+#[inline(always)]
+fn components(f: impl Fn(usize) -> Lanes) -> [Lanes; 3] {
+    [f(0), f(1), f(2)]
+}
+
 /// The quadrature points transposed for the kernels: entry `q * stride + k` belongs to point `q`
 /// of edge `k`, so that one point of `LANES` consecutive edges is one contiguous read. The rows
 /// are padded with `LANES - 1` weightless, forceless points at the origin, so any `LANES`
@@ -400,11 +407,11 @@ impl Rpy {
             let mut s = [[[Lanes::ZERO; 7]; 2]; 2];
             for p in k * q..(k + 1) * q {
                 let y = d.pos[p];
-                let y = [0, 1, 2].map(|c| Lanes::splat(y[c]));
+                let y = components(|c| Lanes::splat(y[c]));
                 let mut sums = [[Lanes::ZERO; 7]; 2];
                 for i in 0..q {
                     let at = i * lanes.stride + k2;
-                    let r = [0, 1, 2].map(|c| y[c] - load(&lanes.pos[c], at));
+                    let r = components(|c| y[c] - load(&lanes.pos[c], at));
                     let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
                     let c = radial.beta_over_r * radial.inv;
                     let rr = [
@@ -525,15 +532,15 @@ impl Rpy {
             // Per row i = k + ia, across the points p: P_pi [s_0, s_1] and P_pi [D - xi D, xi D].
             let mut rows = [[Lanes::ZERO; 24]; 2];
             for (ip, p) in points.clone().enumerate() {
-                let y = [0, 1, 2].map(|c| Lanes::splat(d.pos[p][c]));
+                let y = components(|c| Lanes::splat(d.pos[p][c]));
                 let mut acc = [Lanes::ZERO; 24];
                 for (i, &xi2) in self.rule.xi.iter().enumerate() {
                     let at = i * lanes.stride + k2;
-                    let r = [0, 1, 2].map(|j| y[j] - load(&lanes.pos[j], at));
+                    let r = components(|j| y[j] - load(&lanes.pos[j], at));
                     let c = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
-                    let rhat = r.map(|x| x * c.inv);
-                    let g0 = [0, 1, 2].map(|j| load(&forces[j], at));
-                    let g1 = [0, 1, 2].map(|j| load(&forces[3 + j], at));
+                    let rhat = components(|j| r[j] * c.inv);
+                    let g0 = components(|j| load(&forces[j], at));
+                    let g1 = components(|j| load(&forces[3 + j], at));
                     let rg0 = rhat[0] * g0[0] + rhat[1] * g0[1] + rhat[2] * g0[2];
                     let rg1 = rhat[0] * g1[0] + rhat[1] * g1[1] + rhat[2] * g1[2];
                     let (bg0, bg1) = (c.beta * rg0, c.beta * rg1);
