@@ -45,6 +45,9 @@
 //! only when `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate
 //! (generalized) Hopf point, or one the differences cannot resolve.
 
+use std::cell::RefCell;
+use std::collections::HashMap;
+
 use faer::prelude::Solve;
 use faer::{Mat, c64};
 use serde::Serialize;
@@ -133,6 +136,7 @@ pub fn first_lyapunov(
     let forms = Forms {
         field: &field,
         f0: &f0,
+        evaluated: RefCell::new(HashMap::new()),
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
     let value = |h| coefficient(&forms, &k, &m, &q, &r, w, h);
@@ -302,6 +306,10 @@ struct Forms<'a, F: Fn(&[f64]) -> Result<Vec<f64>>> {
     field: &'a F,
     /// `f(0)`: zero at an exact steady state; kept in the second differences.
     f0: &'a [f64],
+    /// Every `f(y)` evaluated, by the bits of `y`: the stencils share points (`f(+-h a)` serves
+    /// `B(a, a)` and `C(a, a, a)`; `f(+-2 h a)` at step `h` is `f(+-h' a)` at the step before,
+    /// `h' = 2 h` exactly), and only an identical `y` is looked up.
+    evaluated: RefCell<HashMap<Vec<u64>, Vec<f64>>>,
 }
 
 impl<F: Fn(&[f64]) -> Result<Vec<f64>>> Forms<'_, F> {
@@ -311,7 +319,13 @@ impl<F: Fn(&[f64]) -> Result<Vec<f64>>> Forms<'_, F> {
         let y: Vec<f64> = (0..n)
             .map(|i| terms.iter().map(|(c, v)| c * v[i]).sum())
             .collect();
-        (self.field)(&y)
+        let key: Vec<u64> = y.iter().map(|v| v.to_bits()).collect();
+        if let Some(f) = self.evaluated.borrow().get(&key) {
+            return Ok(f.clone());
+        }
+        let f = (self.field)(&y)?;
+        self.evaluated.borrow_mut().insert(key, f.clone());
+        Ok(f)
     }
 
     /// `B(a, b)` at step `h`, the arguments scaled to unit length first.
@@ -342,15 +356,21 @@ impl<F: Fn(&[f64]) -> Result<Vec<f64>>> Forms<'_, F> {
         Ok(scaled(&value, la * lb))
     }
 
-    /// `C(a, a, a)` at step `h`.
+    /// `C(a, a, a)` at step `h`, the argument scaled to unit length first (as in [`Forms::b`], so
+    /// that the two share `f(+-h a)`).
     fn d3(&self, a: &[f64], h: f64) -> Result<Vec<f64>> {
-        let p2 = self.at(&[(2.0 * h, a)])?;
-        let p1 = self.at(&[(h, a)])?;
-        let m1 = self.at(&[(-h, a)])?;
-        let m2 = self.at(&[(-2.0 * h, a)])?;
+        let la = length(a);
+        if la == 0.0 {
+            return Ok(vec![0.0; a.len()]);
+        }
+        let a = scaled(a, 1.0 / la);
+        let p2 = self.at(&[(2.0 * h, &a)])?;
+        let p1 = self.at(&[(h, &a)])?;
+        let m1 = self.at(&[(-h, &a)])?;
+        let m2 = self.at(&[(-2.0 * h, &a)])?;
         Ok(combine(
             &[(1.0, &p2), (-2.0, &p1), (2.0, &m1), (-1.0, &m2)],
-            1.0 / (2.0 * h * h * h),
+            la * la * la / (2.0 * h * h * h),
         ))
     }
 
