@@ -119,6 +119,7 @@ use crate::branch::rest_state;
 use crate::continuation::newton::{
     Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, System, norm,
 };
+use crate::continuation::periodic::StepLinearization;
 use crate::continuation::stability::reduce_with_factor;
 use crate::dofs::Layout;
 use crate::error::ensure;
@@ -400,6 +401,57 @@ impl<'a> ImplicitStep<'a> {
     }
 }
 
+impl ImplicitStep<'_> {
+    /// The residual and Jacobian of (2) with what the sensitivities of a periodic orbit need
+    /// besides ([`crate::continuation::periodic`]): the mass matrix `M = Z_ff` at `u` and the
+    /// derivative of (2) in `omegabar` at fixed `u` and `v`, `-[Z Omega_1 X]_free`.
+    pub fn linearize_with_mass(&self, u: &[f64]) -> Result<StepLinearization> {
+        let step = self.linearized(u, true)?;
+        let mass = free_block_of_resistance(&step.motion.resistance, step.motion.forces.len());
+        Ok(StepLinearization {
+            g: step.g,
+            g_u: step.j,
+            mass,
+            g_p: step.rate.unwrap_or_default(),
+        })
+    }
+
+    /// The residual and Jacobian of (2) at `u`, the motion, and with `rate` the derivative in
+    /// `omegabar`.
+    fn linearized(&self, u: &[f64], rate: bool) -> Result<StepJacobian> {
+        let lin = self.steady.linearize(u)?;
+        let rate = if rate {
+            Some(self.steady.rate_derivative(&lin)?)
+        } else {
+            None
+        };
+        let x = lin.config.x;
+        let motion = self.motion(u, &x, lin.drag.map(|d| d.resistance))?;
+        let drag = Self::free(&motion.forces);
+        let mj = self.motion_jacobian_with(&x, &motion);
+        let mut g = lin.residual;
+        for (gi, d) in g.iter_mut().zip(&drag) {
+            *gi -= d;
+        }
+        let mut j = lin.jacobian;
+        for c in 0..drag.len() {
+            for r in 0..drag.len() {
+                j[(r, c)] -= mj[(r, c)];
+            }
+        }
+        Ok(StepJacobian { g, j, motion, rate })
+    }
+}
+
+/// The linearization of one step (2): residual, Jacobian, the motion it was made with, and the
+/// rate derivative when asked for.
+struct StepJacobian {
+    g: Vec<f64>,
+    j: Mat<f64>,
+    motion: Motion,
+    rate: Option<Vec<f64>>,
+}
+
 impl System for ImplicitStep<'_> {
     /// `R_x(u; 0) - [Z (Omega X + V_full)]_free` and `R_theta`: one factorization of `A`.
     fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
@@ -428,22 +480,8 @@ impl System for ImplicitStep<'_> {
     }
 
     fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
-        let lin = self.steady.linearize(u)?;
-        let x = lin.config.x;
-        let m = self.motion(u, &x, lin.drag.map(|d| d.resistance))?;
-        let drag = Self::free(&m.forces);
-        let mj = self.motion_jacobian_with(&x, &m);
-        let mut g = lin.residual;
-        for (gi, d) in g.iter_mut().zip(&drag) {
-            *gi -= d;
-        }
-        let mut j = lin.jacobian;
-        for c in 0..drag.len() {
-            for r in 0..drag.len() {
-                j[(r, c)] -= mj[(r, c)];
-            }
-        }
-        Ok((g, j))
+        let step = self.linearized(u, false)?;
+        Ok((step.g, step.j))
     }
 
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
@@ -458,7 +496,12 @@ pub(crate) fn mass(steady: &Steady, u: &[f64]) -> Result<Mat<f64>> {
         .model
         .fluid
         .resistance(&x, &format!("mass matrix, N = {}", x.len()))?;
-    let n3 = 3 * x.len();
+    Ok(free_block_of_resistance(&resistance, x.len()))
+}
+
+/// The free-free block `Z_ff` of `Z = A^{-1}` for `nodes` nodes.
+fn free_block_of_resistance(resistance: &Resistance, nodes: usize) -> Mat<f64> {
+    let n3 = 3 * nodes;
     let first = 3 * Layout::CLAMPED_NODES;
     let e = Mat::from_fn(
         n3,
@@ -466,9 +509,7 @@ pub(crate) fn mass(steady: &Steady, u: &[f64]) -> Result<Mat<f64>> {
         |r, c| if r == first + c { 1.0 } else { 0.0 },
     );
     let z = resistance.solve(e.as_ref());
-    Ok(Mat::from_fn(n3 - first, n3 - first, |r, c| {
-        z[(first + r, c)]
-    }))
+    Mat::from_fn(n3 - first, n3 - first, |r, c| z[(first + r, c)])
 }
 
 /// The free unknowns with the twist re-solved (`R_theta = 0`, the twist slaved) for the

@@ -16,6 +16,7 @@ pub mod error;
 pub mod fit;
 pub mod fluid;
 pub mod model;
+pub mod orbits;
 pub mod output;
 pub mod params;
 pub mod plot;

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
 use helixbif::boundary::run_boundary;
+use helixbif::continuation::periodic::branch::OrbitStop;
 use helixbif::dynamics::{BisectSettings, DynamicsSettings, bisect};
 use helixbif::fit::power_law;
 use helixbif::model::Model;
@@ -15,6 +16,7 @@ use helixbif::output::Table;
 use helixbif::params::ShapeParams;
 use helixbif::report::{BisectReport, FitReport, MergeReport, Report, RunReport, Titled};
 use helixbif::solve::{Solution, solve_at};
+use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use helixbif::study::plan::{check_accuracy, check_max_nodes};
 use helixbif::study::run::run;
 use helixbif::study::runs::{
@@ -153,7 +155,7 @@ enum Command {
     /// local exponent m_loc along them), `phase` (propulsive force over lambda/l and omegabar
     /// (R/lambda)^m with the stability boundary and natural flagella), `shapes` (steady
     /// shapes and the critical mode), `dynamics` (simulations from rest: time averages over
-    /// the branch).
+    /// the branch), `orbits` (periodic orbits from the Hopf point, as `helixbif orbits`).
     #[command(after_help = AFTER_HELP)]
     Run {
         #[command(flatten)]
@@ -207,6 +209,35 @@ enum Command {
         #[command(flatten)]
         study: StudyArgs,
         /// Folder holding the shards; default `output/<study name>/`.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Periodic orbits born at the Hopf point that `locate` finds (first Lyapunov coefficient,
+    /// shooting on equal BDF2 steps, Floquet multipliers, secant continuation in omega past
+    /// folds): orbits.csv (period, amplitude, time averages of hbar, Fpbar, Tp over a period,
+    /// multipliers, stability), events.csv (folds, stability changes), amplitude.svg, hbar.svg,
+    /// Fpbar.svg, meta.json. Rows are written as each orbit converges.
+    #[command(after_help = AFTER_HELP)]
+    Orbits {
+        #[command(flatten)]
+        study: StudyArgs,
+        /// Largest number of orbits.
+        #[arg(long, default_value_t = 20)]
+        max_orbits: usize,
+        /// Equal time steps per period (BDF2; the period error falls as steps^-2).
+        #[arg(long, default_value_t = 100)]
+        steps: usize,
+        /// Normal-form radius of the first orbit, in reference lengths ell (the second has
+        /// twice it).
+        #[arg(long, default_value_t = 1e-3)]
+        amplitude: f64,
+        /// The branch ends when omega leaves [omega_min, omega_max] (rad/s); default
+        /// [0, branch.omega_max].
+        #[arg(long, allow_negative_numbers = true)]
+        omega_min: Option<f64>,
+        #[arg(long, allow_negative_numbers = true)]
+        omega_max: Option<f64>,
+        /// Output folder; default `output/<study name>/orbits/`.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -558,6 +589,52 @@ fn fit_command(csv: &Path, x: &str, y: &str) -> Outcome {
     }))
 }
 
+/// The options of `helixbif orbits`.
+struct OrbitsArgs {
+    max_orbits: usize,
+    steps: usize,
+    amplitude: f64,
+    omega_min: Option<f64>,
+    omega_max: Option<f64>,
+}
+
+fn orbits_command(args: &StudyArgs, o: &OrbitsArgs, out: Option<&Path>) -> Outcome {
+    let (study, model) = load(args)?;
+    let opts = OrbitsOptions {
+        settings: branch_settings(o.max_orbits, o.steps, o.amplitude),
+        omega_range: (
+            o.omega_min.unwrap_or(0.0),
+            o.omega_max.unwrap_or(study.branch.omega_max),
+        ),
+    };
+    // The options name their fields as in a study; on the command line they are flags.
+    opts.validate().map_err(|e| match e {
+        Error::Input { field, message } => Error::Input {
+            field: format!(
+                "--{}",
+                field.trim_start_matches("orbits.").replace('_', "-")
+            ),
+            message,
+        },
+        other => other,
+    })?;
+    let dir = out.map_or_else(
+        || default_output(&study.name, &args.set).join("orbits"),
+        Path::to_path_buf,
+    );
+    let report = run_orbits(&study, &model, &opts, &dir)?;
+    if let OrbitStop::StepTooSmall(reason) = &report.stop {
+        let reached = report.last.as_ref().map_or(f64::NAN, |r| r.omega);
+        return Err(Error::Numerical(format!(
+            "the orbit branch stalled at omega = {reached:.6e} rad/s after {} orbits ({reason}); \
+             the orbits found are in {}",
+            report.orbits, report.out
+        ))
+        .into());
+    }
+    Ok(Box::new(titled(&study, report)))
+}
+
 fn simulate_command(args: &StudyArgs, mut opts: SimulateOptions, out: Option<&Path>) -> Outcome {
     let (study, model) = load(args)?;
     opts.newton = study.newton.clone();
@@ -714,6 +791,28 @@ fn main() -> ExitCode {
         ),
         Command::Merge { study, out } => (merge_command(study, out.as_deref()), study.json),
         Command::Fit { csv, x, y, json } => (fit_command(csv, x, y), *json),
+        Command::Orbits {
+            study,
+            max_orbits,
+            steps,
+            amplitude,
+            omega_min,
+            omega_max,
+            out,
+        } => (
+            orbits_command(
+                study,
+                &OrbitsArgs {
+                    max_orbits: *max_orbits,
+                    steps: *steps,
+                    amplitude: *amplitude,
+                    omega_min: *omega_min,
+                    omega_max: *omega_max,
+                },
+                out.as_deref(),
+            ),
+            study.json,
+        ),
         Command::Simulate {
             study,
             omega,

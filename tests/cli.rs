@@ -328,3 +328,60 @@ fn simulate_writes_a_time_series_whose_late_statistics_are_the_steady_state() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--lo"));
 }
+
+#[test]
+fn orbits_follows_the_unstable_orbits_below_a_subcritical_hopf_point() {
+    // N = 20: the representative helix's Hopf point is subcritical (l1 > 0), so the orbits born
+    // there are unstable and exist below omega_b, their period that of the critical mode to
+    // O(r^2), their amplitude growing along the branch.
+    let dir = std::env::temp_dir().join(format!("helixbif-orbits-{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let (code, stdout, stderr) = helixbif(&[
+        "orbits",
+        "--set",
+        "discretization.nodes=20",
+        "--max-orbits",
+        "4",
+        "--out",
+        d,
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["criticality"], "subcritical");
+    assert_eq!(v["orbits"], 4);
+    let omega_hopf = v["omega_hopf"].as_f64().unwrap();
+    let period_hopf = 2.0 * std::f64::consts::PI / v["frequency"].as_f64().unwrap();
+    let mut reader = csv::Reader::from_path(dir.join("orbits.csv")).unwrap();
+    let header = reader.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 4);
+    let num = |r: &csv::StringRecord, name: &str| r[col(name)].parse::<f64>().unwrap();
+    for pair in rows.windows(2) {
+        assert!(num(&pair[1], "amplitude") > num(&pair[0], "amplitude"));
+        assert!(num(&pair[1], "omega") < num(&pair[0], "omega"));
+    }
+    for r in &rows {
+        assert_eq!(&r[col("stable")], "false");
+        assert!(num(r, "max_multiplier") > 1.0);
+        // The discrete Hopf point lies a little above the exact one (BDF2's damping), and
+        // BDF2's period is long by about (2 pi / 100)^2 / 3 = 1.3e-3 at 100 steps: every orbit
+        // is within 1e-3 of the Hopf rate and 2e-3 of its period.
+        assert!((num(r, "omega") / omega_hopf - 1.0).abs() < 1e-3);
+        assert!((num(r, "period") / period_hopf - 1.0).abs() < 2e-3);
+    }
+    for svg in ["amplitude.svg", "hbar.svg", "Fpbar.svg"] {
+        let text = std::fs::read_to_string(dir.join(svg)).unwrap();
+        roxmltree::Document::parse(&text).unwrap();
+    }
+    assert!(dir.join("events.csv").exists() && dir.join("meta.json").exists());
+    std::fs::remove_dir_all(&dir).ok();
+    // Bad input names the flag.
+    let (code, _, stderr) = helixbif(&["orbits", "--steps", "3"]);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("--steps") && stderr.contains(">= 8"),
+        "{stderr}"
+    );
+}

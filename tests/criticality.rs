@@ -6,40 +6,8 @@
 use faer::{Mat, c64};
 use helixbif::Result;
 use helixbif::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
-use helixbif::continuation::reference::{Analytic, Reference, brusselator};
+use helixbif::continuation::reference::{brusselator, hopf_cubic};
 use helixbif::continuation::{Linearization, Problem};
-
-/// `x' = p x - w y + (a x - b y) r^2`, `y' = w x + p y + (b x + a y) r^2`: in polar coordinates
-/// `r' = p r + a r^3`, so with `<q, q> = 1` (`y = z q + conj(z q)`, `|y|^2 = 2 |z|^2`)
-/// `c1 = 2 (a + i b)` and `l1 = 2 a / w`.
-fn normal_form(w: f64, a: f64, b: f64) -> Reference {
-    Analytic {
-        dim: 2,
-        g: Box::new(move |u, p| {
-            let (x, y) = (u[0], u[1]);
-            let r2 = x * x + y * y;
-            vec![
-                p * x - w * y + (a * x - b * y) * r2,
-                w * x + p * y + (b * x + a * y) * r2,
-            ]
-        }),
-        g_u: Box::new(move |u, p| {
-            let (x, y) = (u[0], u[1]);
-            let r2 = x * x + y * y;
-            vec![
-                vec![
-                    p + a * r2 + 2.0 * x * (a * x - b * y),
-                    -w - b * r2 + 2.0 * y * (a * x - b * y),
-                ],
-                vec![
-                    w + b * r2 + 2.0 * x * (b * x + a * y),
-                    p + a * r2 + 2.0 * y * (b * x + a * y),
-                ],
-            ]
-        }),
-        g_p: Box::new(|u, _| vec![u[0], u[1]]),
-    }
-}
 
 fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
     let lin = problem.linearize(u, p).unwrap();
@@ -51,7 +19,7 @@ fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
 #[test]
 fn the_normal_form_gives_its_coefficient_and_its_verdict() {
     for (w, a, b) in [(1.0, -1.0, 0.0), (1.7, -0.8, 0.3), (0.6, 0.45, -1.2)] {
-        let l = lyapunov_at(&normal_form(w, a, b), &[0.0, 0.0], 0.0, c64::new(0.0, w));
+        let l = lyapunov_at(&hopf_cubic(w, a, b), &[0.0, 0.0], 0.0, c64::new(0.0, w));
         let exact = 2.0 * a / w;
         eprintln!(
             "normal form w {w} a {a}: l1 {:e}, relative error {:.1e}, precision {:.1e}",
@@ -80,7 +48,7 @@ fn the_normal_form_gives_its_coefficient_and_its_verdict() {
     }
     // A degenerate point (a = 0: no cubic term) is not given a side.
     let l = lyapunov_at(
-        &normal_form(1.3, 0.0, 0.7),
+        &hopf_cubic(1.3, 0.0, 0.7),
         &[0.0, 0.0],
         0.0,
         c64::new(0.0, 1.3),
@@ -107,7 +75,7 @@ impl Curved {
             v1 + 0.4 * v1 * v2 + 0.3 * v2.sin().powi(2),
             v2 + 0.5 * v1 * v1 - 0.2 * (e - 1.0),
         ];
-        let f = (normal_form(self.w, self.a, self.b).g)(&u, p);
+        let f = (hopf_cubic(self.w, self.a, self.b).g)(&u, p);
         // Dphi = [[1 + 0.4 v2, 0.4 v1 + 0.6 sin v2 cos v2], [v1 - 0.2 v2 e, 1 - 0.2 v1 e]].
         let (j11, j12) = (1.0 + 0.4 * v2, 0.4 * v1 + 0.6 * v2.sin() * v2.cos());
         let (j21, j22) = (v1 - 0.2 * v2 * e, 1.0 - 0.2 * v1 * e);

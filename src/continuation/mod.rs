@@ -15,6 +15,7 @@ pub mod event_curve;
 pub mod events;
 pub mod krylov;
 pub mod newton;
+pub mod periodic;
 pub mod reference;
 pub mod stability;
 

@@ -101,6 +101,40 @@ pub fn hopf_normal_form() -> Reference {
     }
 }
 
+/// The Hopf normal form with cubic coefficients `a + i b`: `x' = p x - w y + (a x - b y) r^2`,
+/// `y' = w x + p y + (b x + a y) r^2`. In polar coordinates `r' = p r + a r^3`,
+/// `phi' = w + b r^2`: for `p a < 0` the orbit `r^2 = -p/a` of period `2 pi / (w + b r^2)`, with
+/// the nontrivial Floquet multiplier `exp(-2 p T)`. With `<q, q> = 1` (`y = z q + conj(z q)`, `|y|^2 = 2 |z|^2`)
+/// `c1 = 2 (a + i b)` and `l1 = 2 a / w`.
+pub fn hopf_cubic(w: f64, a: f64, b: f64) -> Reference {
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            vec![
+                p * x - w * y + (a * x - b * y) * r2,
+                w * x + p * y + (b * x + a * y) * r2,
+            ]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let r2 = x * x + y * y;
+            vec![
+                vec![
+                    p + a * r2 + 2.0 * x * (a * x - b * y),
+                    -w - b * r2 + 2.0 * y * (a * x - b * y),
+                ],
+                vec![
+                    w + b * r2 + 2.0 * x * (b * x + a * y),
+                    p + a * r2 + 2.0 * y * (b * x + a * y),
+                ],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![u[0], u[1]]),
+    }
+}
+
 /// Brusselator with parameter `p = b`: `x' = a - (b + 1) x + x^2 y`, `y' = b x - x^2 y`; the
 /// steady state `(a, b/a)` has a Hopf point at `b = 1 + a^2` with frequency `a`.
 pub fn brusselator(a: f64) -> Reference {

@@ -5,6 +5,7 @@
 //! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
 
 pub mod figures;
+pub mod orbits;
 pub mod phase;
 pub mod plan;
 pub mod run;

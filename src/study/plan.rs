@@ -177,6 +177,34 @@ pub enum Plan {
         #[serde(default = "default_ramp_time")]
         ramp_time: f64,
     },
+    /// The branch of periodic orbits born at the Hopf point that `locate` finds: `max_orbits`
+    /// orbits of `steps` equal BDF2 steps per period, the first of normal-form radius
+    /// `amplitude` (reference lengths), while `omega` stays in `[omega_min, omega_max]` (rad/s;
+    /// default `[0, branch.omega_max]`).
+    Orbits {
+        #[serde(default = "default_max_orbits")]
+        max_orbits: usize,
+        #[serde(default = "default_orbit_steps")]
+        steps: usize,
+        #[serde(default = "default_orbit_amplitude")]
+        amplitude: f64,
+        #[serde(default)]
+        omega_min: Option<f64>,
+        #[serde(default)]
+        omega_max: Option<f64>,
+    },
+}
+
+fn default_max_orbits() -> usize {
+    40
+}
+
+fn default_orbit_steps() -> usize {
+    100
+}
+
+fn default_orbit_amplitude() -> f64 {
+    1e-3
 }
 
 fn default_ramp_time() -> f64 {
@@ -202,6 +230,7 @@ impl Plan {
             Plan::Boundary { .. } => "boundary",
             Plan::Shapes { .. } => "shapes",
             Plan::Dynamics { .. } => "dynamics",
+            Plan::Orbits { .. } => "orbits",
         }
     }
 
@@ -331,6 +360,25 @@ impl Plan {
                     ));
                 }
                 Ok(())
+            }
+            Plan::Orbits { .. } => {
+                let opts = super::orbits::OrbitsOptions::of_plan(self, f64::INFINITY)
+                    .expect("an orbits plan");
+                let checked = match opts.omega_range {
+                    // Without omega_max the range ends at branch.omega_max, checked there.
+                    (lo, hi) if hi.is_infinite() => super::orbits::OrbitsOptions {
+                        omega_range: (lo, lo + 1.0),
+                        ..opts
+                    },
+                    _ => opts,
+                };
+                checked.validate().map_err(|e| match e {
+                    Error::Input { field, message } => Error::Input {
+                        field: field.replace("orbits.", "study."),
+                        message,
+                    },
+                    other => other,
+                })
             }
             Plan::Locate {
                 accuracy,

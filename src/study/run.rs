@@ -6,12 +6,14 @@ use std::path::Path;
 use serde_json::{Value, json};
 
 use super::figures::{self, Case as FigureCase};
+use super::orbits::OrbitsOptions;
 use super::plan::Plan;
 use super::runs::{
     DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
 };
 use super::sweep::{cases, run_sweep, variant};
 use super::{Study, sweep_figures};
+use crate::continuation::periodic::branch::OrbitStop;
 use crate::model::Model;
 use crate::output::{Meta, create_dir};
 use crate::params::ShapeParams;
@@ -150,6 +152,16 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
                 ));
             }
             json!({ "kind": "dynamics", "rows": rows })
+        }
+        Plan::Orbits { .. } => {
+            let model = Model::new(&study.physical())?;
+            let opts =
+                OrbitsOptions::of_plan(&plan, study.branch.omega_max).expect("an orbits plan");
+            let report = super::orbits::run_orbits(study, &model, &opts, dir)?;
+            if let OrbitStop::StepTooSmall(reason) = &report.stop {
+                failures.push(format!("the orbit branch stalled: {reason}"));
+            }
+            json!({ "kind": "orbits", "report": report })
         }
     };
     let model = Model::new(&study.physical())?;

@@ -58,7 +58,7 @@ pub struct EventRow {
 }
 
 /// A progress bar over `[0, omegabar_max]`, drawn on stderr (hidden when it is not a terminal).
-fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
+pub(crate) fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(1000);
     let style = ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} {msg}")
         .expect("a valid template");
@@ -270,6 +270,11 @@ pub fn locate_study(
 
 /// `locate` on one model, with a progress bar.
 pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
+    Ok(run_locate_critical(study, model)?.0)
+}
+
+/// [`run_locate`], with the located event.
+pub fn run_locate_critical(study: &Study, model: &Model) -> Result<(Located, Option<Critical>)> {
     let omegabar_max = model.scales.omega_to_bar(study.branch.omega_max);
     let mut observer = LocateProgress {
         model,
@@ -278,7 +283,7 @@ pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
     };
     let result = locate_study(study, model, &mut observer);
     observer.bar.finish_and_clear();
-    Ok(result?.0)
+    result
 }
 
 /// `locate --extrapolate`: `omega_b` over a ladder of node counts and its limit with the known

@@ -1,0 +1,232 @@
+//! Periodic orbits of the rod in the co-rotating frame, born at the Hopf point that `locate`
+//! finds (docs/model.md section 12): the rod as an [`ImplicitDynamics`] for the generic
+//! shooting of [`crate::continuation::periodic`], and the orbit branch with its time averages.
+//!
+//! The dynamics is (1) of [`crate::dynamics`]: `Z_ff(x) dx_f/dt = R_x(x_f, theta)`,
+//! `R_theta = 0`, the free positions differential and the twist algebraic, the rate
+//! `omegabar` the parameter. A step of the shooting is the implicit step of the time
+//! integrator ([`ImplicitStep`]), in the chart of the Hopf point's state (the orbits stay near
+//! that state; the integrator's carried chart is not needed there). The amplitude of an orbit
+//! is the root mean square over the period and over the free nodes of the displacement from
+//! the orbit's mean shape (in `ell`, reported in metres): `size(dx)^2 = |dx|^2 / (N - 2)`.
+
+use std::ops::ControlFlow;
+
+use serde::Serialize;
+
+use crate::Result;
+use crate::branch::Critical;
+use crate::continuation::newton::System;
+use crate::continuation::periodic::branch::{
+    HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
+};
+use crate::continuation::periodic::orbit::Orbit;
+use crate::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
+use crate::dynamics::{ImplicitStep, slave_twist_in};
+use crate::model::Model;
+use crate::rod::frame::Chart;
+use crate::steady::{Steady, height, thrust_and_torque};
+use crate::study::simulate::moving_forces;
+
+/// The rod's slaved-twist dynamics in the chart `chart`.
+pub struct RodDynamics<'a> {
+    pub model: &'a Model,
+    pub chart: Chart,
+}
+
+impl RodDynamics<'_> {
+    fn step(&self, p: f64, v: StepVelocity) -> ImplicitStep<'_> {
+        ImplicitStep {
+            steady: Steady {
+                chart: self.chart.clone(),
+                ..Steady::new(self.model, p)
+            },
+            c0: v.c0,
+            offset: v.offset.to_vec(),
+        }
+    }
+}
+
+impl ImplicitDynamics for RodDynamics<'_> {
+    fn dim(&self) -> usize {
+        self.model.rod.layout.free_len()
+    }
+    fn differential(&self) -> usize {
+        self.model.rod.layout.free_positions()
+    }
+    fn step_residual(&self, p: f64, v: StepVelocity, u: &[f64]) -> Result<Vec<f64>> {
+        self.step(p, v).residual(u)
+    }
+    fn step_linearize(&self, p: f64, v: StepVelocity, u: &[f64]) -> Result<StepLinearization> {
+        self.step(p, v).linearize_with_mass(u)
+    }
+    fn consistent(&self, _p: f64, u: &[f64]) -> Result<Vec<f64>> {
+        slave_twist_in(self.model, &self.chart, u)
+    }
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        Steady {
+            chart: self.chart.clone(),
+            ..Steady::new(self.model, 0.0)
+        }
+        .retract(u, du)
+    }
+    /// Root mean square node displacement: `|dx| / sqrt(N - 2)`.
+    fn size(&self, dx: &[f64]) -> f64 {
+        crate::continuation::newton::norm(dx) / ((dx.len() / 3) as f64).sqrt()
+    }
+}
+
+/// One row of `orbits.csv` (SI and normalized).
+#[derive(Clone, Debug, Serialize)]
+pub struct OrbitRow {
+    pub index: usize,
+    pub omega: f64,
+    pub omegabar: f64,
+    /// Period in the co-rotating frame (s) and normalized.
+    pub period: f64,
+    pub periodbar: f64,
+    /// Root mean square node displacement from the mean shape (m) and over `ell`.
+    pub amplitude: f64,
+    pub amplitudebar: f64,
+    /// Time averages over one period.
+    pub hbar_mean: f64,
+    #[serde(rename = "Fpbar_mean")]
+    pub fpbar_mean: f64,
+    #[serde(rename = "Fp_mean")]
+    pub fp_mean: f64,
+    #[serde(rename = "Tp_mean")]
+    pub tp_mean: f64,
+    /// Largest modulus of a nontrivial Floquet multiplier, their count outside the unit
+    /// circle, and the verdict.
+    pub max_multiplier: f64,
+    pub unstable: usize,
+    pub stable: bool,
+    /// `stable` or `unstable`, or `undetermined` when a nontrivial multiplier lies within ten
+    /// times `trivial_error` (plus `1e-9`) of the unit circle: the period map is not accurate
+    /// enough to say on which side.
+    pub verdict: &'static str,
+    /// `|mu_trivial - 1|`: the discretization error of the period map.
+    pub trivial_error: f64,
+    pub iterations: usize,
+}
+
+/// Time averages of `hbar`, `Fpbar` and `Tp` (solver units) over an orbit's states at
+/// `omegabar`, with `h0` the rest height.
+fn averages(dynamics: &RodDynamics, orbit: &Orbit, h0: f64) -> Result<(f64, f64, f64)> {
+    let model = dynamics.model;
+    let n = orbit.states.len() as f64;
+    let (mut h, mut fp, mut tp) = (0.0, 0.0, 0.0);
+    for u in &orbit.states {
+        let forces = moving_forces(model, u, &dynamics.chart, orbit.p)?;
+        let x = Steady::new(model, orbit.p).config(u).x;
+        let (f, t) = thrust_and_torque(&x, &forces);
+        h += height(&x) / h0 / n;
+        fp += f / n;
+        tp += t / n;
+    }
+    Ok((h, fp, tp))
+}
+
+/// The row of `orbit`.
+pub fn orbit_row(dynamics: &RodDynamics, index: usize, orbit: &Orbit, h0: f64) -> Result<OrbitRow> {
+    let s = &dynamics.model.scales;
+    let (hbar, fpbar, tp) = averages(dynamics, orbit, h0)?;
+    let amplitude = orbit.amplitude(dynamics, None);
+    let trivial_error = (orbit.trivial - faer::c64::new(1.0, 0.0)).norm();
+    let margin = 10.0 * trivial_error + 1e-9;
+    let verdict = if orbit
+        .multipliers
+        .iter()
+        .any(|m| (m.norm() - 1.0).abs() <= margin)
+    {
+        "undetermined"
+    } else if orbit.unstable == 0 {
+        "stable"
+    } else {
+        "unstable"
+    };
+    Ok(OrbitRow {
+        index,
+        omega: s.omega_from_bar(orbit.p),
+        omegabar: orbit.p,
+        period: orbit.period * s.time,
+        periodbar: orbit.period,
+        amplitude: amplitude * s.length,
+        amplitudebar: amplitude,
+        hbar_mean: hbar,
+        fpbar_mean: fpbar,
+        fp_mean: fpbar * s.force,
+        tp_mean: tp * s.torque(),
+        max_multiplier: orbit.max_multiplier(),
+        unstable: orbit.unstable,
+        stable: orbit.unstable == 0,
+        verdict,
+        trivial_error,
+        iterations: orbit.iterations,
+    })
+}
+
+/// The Hopf start of a located Hopf point: its state, rate, frequency and the critical mode
+/// `q` of the Lyapunov coefficient (largest node displacement `ell`), and the dynamics in its
+/// chart.
+pub fn hopf_start<'a>(
+    model: &'a Model,
+    critical: &Critical,
+    mode: (Vec<f64>, Vec<f64>),
+) -> (RodDynamics<'a>, HopfStart) {
+    (
+        RodDynamics {
+            model,
+            chart: critical.chart.clone(),
+        },
+        HopfStart {
+            u: critical.event.u.clone(),
+            p: critical.event.p,
+            frequency: critical.event.eigenvalue.im.abs(),
+            mode,
+        },
+    )
+}
+
+/// Follows the orbits from a Hopf point with `rows` called for every accepted orbit's row.
+pub fn follow_rod_orbits(
+    dynamics: &RodDynamics,
+    start: &HopfStart,
+    settings: &OrbitBranchSettings,
+    omegabar_range: (f64, f64),
+    h0: f64,
+    mut rows: impl FnMut(&OrbitRow) -> Result<()>,
+) -> Result<(OrbitBranch, Vec<OrbitRow>)> {
+    let mut table = Vec::new();
+    let mut failure = None;
+    let branch =
+        follow_orbits(
+            dynamics,
+            start,
+            settings,
+            omegabar_range,
+            |k, orbit| match orbit_row(dynamics, k, orbit, h0).and_then(|row| {
+                rows(&row)?;
+                Ok(row)
+            }) {
+                Ok(row) => {
+                    table.push(row);
+                    ControlFlow::Continue(())
+                }
+                Err(e) => {
+                    failure = Some(e);
+                    ControlFlow::Break(())
+                }
+            },
+        )?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    Ok((branch, table))
+}
+
+/// The mean square amplitude `2 |z|^2 size(q)^2` of an orbit whose normal-form radius is
+/// `|z|` (for `q` the complex mode): the factor `2 size(q)^2`.
+pub fn amplitude_factor(dynamics: &RodDynamics, mode: &(Vec<f64>, Vec<f64>)) -> f64 {
+    2.0 * (dynamics.size(&mode.0).powi(2) + dynamics.size(&mode.1).powi(2))
+}

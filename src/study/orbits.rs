@@ -1,0 +1,287 @@
+//! `helixbif orbits`: the branch of periodic orbits born at the Hopf point that `locate` finds
+//! ([`crate::orbits`]): `orbits.csv` (one row per orbit, written as each one converges, so an
+//! interrupted run keeps every finished orbit), `events.csv`, `meta.json`, and `amplitude.svg`,
+//! `hbar.svg`, `Fpbar.svg` (time averages over a period against `omega`, stable orbits solid,
+//! unstable dashed).
+
+use std::path::Path;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::branch::{hopf_criticality, rest_state};
+use crate::continuation::criticality::Verdict;
+use crate::continuation::periodic::branch::{OrbitBranchSettings, OrbitEventKind, OrbitStop};
+use crate::model::Model;
+use crate::orbits::{OrbitRow, follow_rod_orbits, hopf_start};
+use crate::output::{CsvWriter, Meta, create_dir};
+use crate::plot::{Figure, Marker, Series, Style, write_figure};
+use crate::report::Section;
+use crate::steady::height;
+use crate::study::Study;
+use crate::study::plan::Plan;
+use crate::study::runs::run_locate_critical;
+use crate::{Error, Result};
+
+/// What the command line sets.
+#[derive(Clone, Debug, Serialize)]
+pub struct OrbitsOptions {
+    pub settings: OrbitBranchSettings,
+    /// Range of `omega` (rad/s) the branch may visit.
+    pub omega_range: (f64, f64),
+}
+
+/// The orbit branch's settings from what a study or the command line sets: the largest number
+/// of orbits, the steps per period and the first orbit's normal-form radius (`ell`); the rest
+/// at their defaults.
+pub fn branch_settings(max_orbits: usize, steps: usize, amplitude: f64) -> OrbitBranchSettings {
+    let mut settings = OrbitBranchSettings {
+        amplitude,
+        max_orbits,
+        ..OrbitBranchSettings::default()
+    };
+    settings.shooting.flow.steps = steps;
+    settings
+}
+
+impl OrbitsOptions {
+    /// The options of a `kind = "orbits"` plan (`None` for another kind), the range's upper end
+    /// `omega_max` unless the plan sets it.
+    pub fn of_plan(plan: &Plan, omega_max: f64) -> Option<Self> {
+        match plan {
+            Plan::Orbits {
+                max_orbits,
+                steps,
+                amplitude,
+                omega_min,
+                omega_max: upper,
+            } => Some(OrbitsOptions {
+                settings: branch_settings(*max_orbits, *steps, *amplitude),
+                omega_range: (omega_min.unwrap_or(0.0), upper.unwrap_or(omega_max)),
+            }),
+            _ => None,
+        }
+    }
+
+    /// Checks ranges: the branch settings' and `omega_min < omega_max`, both finite (fields
+    /// named `orbits.*`).
+    pub fn validate(&self) -> Result<()> {
+        self.settings.validate()?;
+        let (lo, hi) = self.omega_range;
+        if lo.is_finite() && hi.is_finite() && lo < hi {
+            Ok(())
+        } else {
+            Err(Error::input(
+                "orbits.omega_min",
+                format!("need finite omega_min < omega_max (rad/s), got {lo} and {hi}"),
+            ))
+        }
+    }
+}
+
+/// One row of `events.csv`: an event bracketed by orbits `after` and `after + 1`.
+#[derive(Clone, Debug, Serialize)]
+pub struct OrbitEventRow {
+    pub kind: OrbitEventKind,
+    pub after: usize,
+    pub omega_from: f64,
+    pub omega_to: f64,
+}
+
+/// What `helixbif orbits` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct OrbitsReport {
+    pub nodes: usize,
+    /// The Hopf point: rate (rad/s), critical frequency (rad/s), first Lyapunov coefficient.
+    pub omega_hopf: f64,
+    pub frequency: f64,
+    pub l1: f64,
+    pub criticality: Verdict,
+    pub orbits: usize,
+    pub stop: OrbitStop,
+    pub events: Vec<OrbitEventRow>,
+    pub first: Option<OrbitRow>,
+    pub last: Option<OrbitRow>,
+    pub seconds: f64,
+    pub out: String,
+}
+
+impl Section for OrbitsReport {
+    fn show(&self, study: &str, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "periodic orbits of `{study}` from the Hopf point at omega = {:.8} rad/s (N = {}, \
+             frequency {:.6} rad/s, l1 = {:.6e}: {})",
+            self.omega_hopf, self.nodes, self.frequency, self.l1, self.criticality
+        )?;
+        writeln!(
+            f,
+            "  {} orbits in {:.1} s, stopped: {:?}; written to {}",
+            self.orbits, self.seconds, self.stop, self.out
+        )?;
+        for (name, row) in [("first", &self.first), ("last", &self.last)] {
+            if let Some(r) = row {
+                writeln!(
+                    f,
+                    "  {name}: omega = {:.8} rad/s, period {:.6} s, amplitude {:.4e} m, hbar {:.6}, \
+                     Fpbar {:.6}, max |multiplier| - 1 = {:+.3e} ({})",
+                    r.omega,
+                    r.period,
+                    r.amplitude,
+                    r.hbar_mean,
+                    r.fpbar_mean,
+                    r.max_multiplier - 1.0,
+                    r.verdict
+                )?;
+            }
+        }
+        for e in &self.events {
+            writeln!(
+                f,
+                "  {:?} between orbits {} and {} (omega {:.8} .. {:.8} rad/s)",
+                e.kind,
+                e.after,
+                e.after + 1,
+                e.omega_from,
+                e.omega_to
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Locates the first loss of stability of `study` on `model`, and when it is a Hopf point with
+/// a Lyapunov coefficient, follows the orbits born there, writing into `dir`.
+///
+/// # Errors
+/// Bad options; [`Error::Numerical`] when the first loss of stability is not a Hopf point or
+/// when either starting orbit fails (orbits found before a later failure stay on disk, and the
+/// failure is the branch's stop reason).
+pub fn run_orbits(
+    study: &Study,
+    model: &Model,
+    opts: &OrbitsOptions,
+    dir: &Path,
+) -> Result<OrbitsReport> {
+    opts.validate()?;
+    let (lo, hi) = opts.omega_range;
+    let started = Instant::now();
+    create_dir(dir)?;
+    let (located, critical) = run_locate_critical(study, model)?;
+    let critical = match (located.kind.as_str(), critical) {
+        ("hopf", Some(c)) => c,
+        (kind, _) => {
+            return Err(Error::Numerical(format!(
+                "no Hopf point to start periodic orbits from: the first loss of stability of \
+                 the branch from rest is `{kind}`"
+            )));
+        }
+    };
+    let lyapunov = hopf_criticality(model, &critical.event, &critical.chart)?;
+    let (dynamics, start) = hopf_start(model, &critical, lyapunov.q.clone());
+    let rest = rest_state(model, &study.newton)?;
+    let h0 = height(&rest.config.x);
+    let s = model.scales;
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("orbits [{elapsed_precise}] {spinner} {msg}")
+            .expect("a valid template"),
+    );
+    bar.set_message("the first orbits from the Hopf point");
+    let mut csv = CsvWriter::create(&dir.join("orbits.csv"))?;
+    let followed = follow_rod_orbits(
+        &dynamics,
+        &start,
+        &opts.settings,
+        (s.omega_to_bar(lo), s.omega_to_bar(hi)),
+        h0,
+        |row| {
+            bar.set_message(format!(
+                "orbit {}: omega = {:.6} rad/s, amplitude {:.3e} m, {}",
+                row.index, row.omega, row.amplitude, row.verdict
+            ));
+            csv.row(row)
+        },
+    );
+    bar.finish_and_clear();
+    let (branch, rows) = followed?;
+    let events: Vec<OrbitEventRow> = branch
+        .events
+        .iter()
+        .map(|e| OrbitEventRow {
+            kind: e.kind,
+            after: e.after,
+            omega_from: s.omega_from_bar(e.p.0),
+            omega_to: s.omega_from_bar(e.p.1),
+        })
+        .collect();
+    let mut table = CsvWriter::create(&dir.join("events.csv"))?;
+    for e in &events {
+        table.row(e)?;
+    }
+    let omega_hopf = s.omega_from_bar(critical.event.p);
+    let omegas: Vec<f64> = rows.iter().map(|r| r.omega).collect();
+    let stable: Vec<bool> = rows.iter().map(|r| r.stable).collect();
+    let hopf_h = located.hbar.unwrap_or(f64::NAN);
+    let hopf_fp = located.fpbar.unwrap_or(f64::NAN);
+    for (name, label, y, at_hopf) in [
+        (
+            "amplitude.svg",
+            "rms displacement from the mean shape (m)",
+            rows.iter().map(|r| r.amplitude).collect::<Vec<_>>(),
+            0.0,
+        ),
+        (
+            "hbar.svg",
+            "hbar averaged over a period (-)",
+            rows.iter().map(|r| r.hbar_mean).collect(),
+            hopf_h,
+        ),
+        (
+            "Fpbar.svg",
+            "Fpbar = Fp ell^2/EI averaged over a period (-)",
+            rows.iter().map(|r| r.fpbar_mean).collect(),
+            hopf_fp,
+        ),
+    ] {
+        write_figure(
+            &Figure {
+                title: format!("{}: periodic orbits from the Hopf point", study.name),
+                x_label: "omega (rad/s)".into(),
+                y_label: label.into(),
+                series: vec![Series {
+                    label: "orbits (shooting)".into(),
+                    x: omegas.clone(),
+                    y,
+                    style: Style::Line,
+                    stable: Some(stable.clone()),
+                    err: None,
+                }],
+                markers: vec![Marker {
+                    label: "Hopf point".into(),
+                    x: omega_hopf,
+                    y: at_hopf,
+                }],
+                ..Figure::default()
+            },
+            &dir.join(name),
+        )?;
+    }
+    let report = OrbitsReport {
+        nodes: model.nodes(),
+        omega_hopf,
+        frequency: s.omega_from_bar(start.frequency),
+        l1: lyapunov.l1,
+        criticality: lyapunov.verdict,
+        orbits: rows.len(),
+        stop: branch.stop,
+        events,
+        first: rows.first().cloned(),
+        last: rows.last().cloned(),
+        seconds: started.elapsed().as_secs_f64(),
+        out: dir.display().to_string(),
+    };
+    Meta::new(study, s, (&report, opts)).write(&dir.join("meta.json"))?;
+    Ok(report)
+}

@@ -1,0 +1,206 @@
+//! Periodic orbits of the rod (`helixbif::orbits`) near its Hopf point: the period map's
+//! monodromy against finite differences, the orbits' Floquet multiplier and amplitude against
+//! the first Lyapunov coefficient (two independent routes), and an orbit against the adaptive
+//! time integrator.
+
+use std::ops::ControlFlow;
+
+use helixbif::branch::hopf_criticality;
+use helixbif::continuation::periodic::ImplicitDynamics;
+use helixbif::continuation::periodic::branch::{
+    HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
+};
+use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
+use helixbif::dynamics::{DynamicsSettings, Rate, integrate, natural_chart_unknowns};
+use helixbif::model::Model;
+use helixbif::orbits::{RodDynamics, amplitude_factor, hopf_start};
+use helixbif::steady::Steady;
+use helixbif::study::Study;
+use helixbif::study::runs::run_locate_critical;
+
+fn located(
+    nodes: usize,
+) -> (
+    Model,
+    helixbif::branch::Critical,
+    helixbif::continuation::criticality::Lyapunov,
+) {
+    let study = Study::from_path(None, &[format!("discretization.nodes={nodes}")]).unwrap();
+    let model = Model::new(&study.physical()).unwrap();
+    let (located, critical) = run_locate_critical(&study, &model).unwrap();
+    assert_eq!(located.kind, "hopf");
+    let critical = critical.unwrap();
+    let lyapunov = hopf_criticality(&model, &critical.event, &critical.chart).unwrap();
+    (model, critical, lyapunov)
+}
+
+/// The first `max_orbits` orbits from the Hopf point, the first of radius `amplitude`.
+fn orbits_from(
+    dynamics: &RodDynamics,
+    start: &HopfStart,
+    amplitude: f64,
+    max_orbits: usize,
+) -> OrbitBranch {
+    let settings = OrbitBranchSettings {
+        amplitude,
+        max_orbits,
+        ..OrbitBranchSettings::default()
+    };
+    follow_orbits(dynamics, start, &settings, (0.0, 2.0 * start.p), |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap()
+}
+
+#[test]
+fn the_rod_monodromy_matches_finite_differences_of_the_period_map() {
+    let (model, critical, lyapunov) = located(12);
+    let (dynamics, start) = hopf_start(&model, &critical, lyapunov.q.clone());
+    let nx = dynamics.differential();
+    let settings = FlowSettings {
+        steps: 24,
+        ..FlowSettings::default()
+    };
+    // A state off the orbit: the Hopf state displaced along the mode.
+    let mut u = start.u.clone();
+    for (x, q) in u.iter_mut().zip(&start.mode.0) {
+        *x += 2e-3 * q;
+    }
+    let period = 2.0 * std::f64::consts::PI / start.frequency;
+    let map = period_map(&dynamics, start.p, &u, period, &settings, true).unwrap();
+    let sens = map.sensitivity.unwrap();
+    let end = |u: &[f64], t: f64, p: f64| {
+        period_map(&dynamics, p, u, t, &settings, false)
+            .unwrap()
+            .end(nx)
+            .to_vec()
+    };
+    // Directions: the two parts of the critical mode, a smooth bend of the whole rod (the
+    // shooting corrects along such shapes; a single coordinate excites the stretching, where
+    // finite differences are dominated by curvature or by the steps' Newton precision), then
+    // the period and the rate.
+    let bend: Vec<f64> = (0..nx)
+        .map(|i| {
+            let node = (i / 3) as f64 / (nx / 3) as f64;
+            if i % 3 == 0 { node * node } else { 0.0 }
+        })
+        .collect();
+    let directions = [start.mode.0.clone(), start.mode.1.clone(), bend];
+    let mut worst: f64 = 0.0;
+    for case in 0..directions.len() + 2 {
+        let (h, exact): (f64, Vec<f64>) = if case < directions.len() {
+            let d = &directions[case];
+            (
+                1e-5,
+                (0..nx)
+                    .map(|r| (0..nx).map(|c| sens.x0[(r, c)] * d[c]).sum())
+                    .collect(),
+            )
+        } else if case == directions.len() {
+            (1e-6 * period, sens.period.clone())
+        } else {
+            (1e-6 * start.p, sens.parameter.clone())
+        };
+        let shifted = |s: f64| {
+            let mut v = u.clone();
+            let (mut t, mut p) = (period, start.p);
+            if case < directions.len() {
+                for (x, d) in v.iter_mut().zip(&directions[case]) {
+                    *x += s * d;
+                }
+            } else if case == directions.len() {
+                t += s;
+            } else {
+                p += s;
+            }
+            end(&v, t, p)
+        };
+        let (plus, minus) = (shifted(h), shifted(-h));
+        let scale = exact.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let error = (0..nx)
+            .map(|r| ((plus[r] - minus[r]) / (2.0 * h) - exact[r]).abs() / scale)
+            .fold(0.0, f64::max);
+        eprintln!("direction {case}: {error:.2e} of the largest entry {scale:.3e}");
+        worst = worst.max(error);
+    }
+    eprintln!(
+        "rod monodromy (N = 12): worst difference from finite differences {worst:.2e} of the column's largest entry"
+    );
+    assert!(worst < 1e-5, "{worst:e}");
+}
+
+/// Near a Hopf point the normal form `r' = mu r + w l1 r^3` gives the orbit `r^2 = -mu/(w l1)`
+/// whose nontrivial multiplier is `exp(-2 mu T) = exp(2 w l1 r^2 T)`; the mean square amplitude
+/// is `2 r^2 size(q)^2`. So `ln |multiplier| / T = 2 w l1 A^2 / (2 size(q)^2)` ties the
+/// shooting's multipliers and amplitudes to the Lyapunov coefficient, whatever the small shift
+/// of the discrete Hopf point.
+#[test]
+fn small_rod_orbits_have_the_multiplier_the_lyapunov_coefficient_predicts() {
+    let (model, critical, lyapunov) = located(20);
+    let (dynamics, start) = hopf_start(&model, &critical, lyapunov.q.clone());
+    let factor = amplitude_factor(&dynamics, &lyapunov.q);
+    let branch = orbits_from(&dynamics, &start, 5e-4, 4);
+    let w = start.frequency;
+    let mut errors = Vec::new();
+    for o in &branch.orbits {
+        let a2 = o.amplitude(&dynamics, None).powi(2);
+        let measured = o.max_multiplier().ln() / o.period;
+        let predicted = w * lyapunov.l1 * a2 / (0.5 * factor);
+        let error = (measured / predicted - 1.0).abs();
+        eprintln!(
+            "omegabar {:.6}: A^2 {a2:.4e}, ln|mu|/T {measured:.5e}, predicted {predicted:.5e} \
+             (relative difference {error:.2e}); trivial multiplier off 1 by {:.1e}",
+            o.p,
+            (o.trivial - faer::c64::new(1.0, 0.0)).norm()
+        );
+        errors.push(error);
+        // Subcritical: the orbits are unstable and lie below the Hopf rate.
+        assert!(lyapunov.l1 > 0.0);
+        assert_eq!(o.unstable, 1);
+    }
+    assert!(branch.orbits.last().unwrap().p < branch.orbits[0].p);
+    // The multiplier is 1 + 1e-6 .. 1e-5 here; its modulus is known to about 1e-8 (the trivial
+    // multiplier's distance from 1), so a few per cent is the floor.
+    assert!(errors.iter().all(|&e| e < 0.05), "{errors:?}");
+}
+
+/// The orbit found by shooting closes under the adaptive BDF2 integrator (a different step
+/// sequence, error-controlled): after one period the state returns to within a small fraction
+/// of the orbit's amplitude.
+#[test]
+fn a_rod_orbit_closes_under_the_adaptive_integrator() {
+    let (model, critical, lyapunov) = located(20);
+    let (dynamics, start) = hopf_start(&model, &critical, lyapunov.q.clone());
+    let branch = orbits_from(&dynamics, &start, 2e-3, 3);
+    let orbit = branch.orbits.last().unwrap();
+    let nx = dynamics.differential();
+    let amplitude = orbit.amplitude(&dynamics, None);
+    let integrator = DynamicsSettings {
+        rtol: 1e-9,
+        atol: 1e-11,
+        dt0: orbit.period * 1e-4,
+        dt_max: orbit.period / 200.0,
+        ..DynamicsSettings::default()
+    };
+    // The integrator takes its start in the natural chart.
+    let config = Steady::new(&model, orbit.p).config(&orbit.states[0]);
+    let u0 = natural_chart_unknowns(&model, &config, &dynamics.chart).unwrap();
+    let trajectory = integrate(
+        &model,
+        Rate::Fixed(orbit.p),
+        u0,
+        orbit.period,
+        &integrator,
+        |_| ControlFlow::Continue(()),
+    )
+    .unwrap();
+    let end = &trajectory.last.u[..nx];
+    let gap: Vec<f64> = (0..nx).map(|i| end[i] - orbit.states[0][i]).collect();
+    let closure = dynamics.size(&gap) / amplitude;
+    eprintln!(
+        "orbit at omegabar {:.6}, amplitude {amplitude:.3e}: after one period the adaptive \
+         integrator ({} steps) is {closure:.2e} amplitudes from the start",
+        orbit.p, trajectory.steps
+    );
+    assert!(closure < 2e-2, "{closure:e}");
+}
