@@ -1,8 +1,8 @@
 //! `helixbif orbits`: the branch of periodic orbits born at the Hopf point that `locate` finds
 //! ([`crate::orbits`]): `orbits.csv` (one row per orbit, written as each one converges, so an
 //! interrupted run keeps every finished orbit), `events.csv`, `meta.json`, and `amplitude.svg`,
-//! `hbar.svg`, `Fpbar.svg` (time averages over a period against `omega`, stable orbits solid,
-//! unstable dashed).
+//! `hbar.svg`, `Fpbar.svg` (time averages over a period against `omega` over the steady branch
+//! from rest, which is written to `branch/`; stable parts solid, unstable dashed).
 
 use std::path::Path;
 use std::time::Instant;
@@ -21,7 +21,7 @@ use crate::report::Section;
 use crate::steady::height;
 use crate::study::Study;
 use crate::study::plan::Plan;
-use crate::study::runs::run_locate_critical;
+use crate::study::runs::{run_branch, run_locate_critical};
 use crate::{Error, Result};
 
 /// What the command line sets.
@@ -221,28 +221,50 @@ pub fn run_orbits(
         table.row(e)?;
     }
     let omega_hopf = s.omega_from_bar(critical.event.p);
+    // The steady branch underneath, a little past the Hopf point (in `branch/`).
+    let (_, steady) = run_branch(study, model, 1.1 * omega_hopf, &dir.join("branch"))?;
     let omegas: Vec<f64> = rows.iter().map(|r| r.omega).collect();
     let stable: Vec<bool> = rows.iter().map(|r| r.stable).collect();
-    let hopf_h = located.hbar.unwrap_or(f64::NAN);
-    let hopf_fp = located.fpbar.unwrap_or(f64::NAN);
-    for (name, label, y, at_hopf) in [
+    let orbit_series = |y: Vec<f64>| Series {
+        label: "orbits (shooting): average over a period".into(),
+        x: omegas.clone(),
+        y,
+        style: Style::Line,
+        stable: Some(stable.clone()),
+        err: None,
+    };
+    let steady_series = |y: Vec<f64>| Series {
+        label: "steady branch (continuation)".into(),
+        x: steady.points.iter().map(|r| r.omega).collect(),
+        y,
+        style: Style::Line,
+        stable: Some(steady.points.iter().map(|r| r.stable).collect()),
+        err: None,
+    };
+    for (name, label, series, at_hopf) in [
         (
             "amplitude.svg",
             "rms displacement from the mean shape (m)",
-            rows.iter().map(|r| r.amplitude).collect::<Vec<_>>(),
+            vec![orbit_series(rows.iter().map(|r| r.amplitude).collect())],
             0.0,
         ),
         (
             "hbar.svg",
-            "hbar averaged over a period (-)",
-            rows.iter().map(|r| r.hbar_mean).collect(),
-            hopf_h,
+            "hbar = h/h0 (-)",
+            vec![
+                steady_series(steady.points.iter().map(|r| r.hbar).collect()),
+                orbit_series(rows.iter().map(|r| r.hbar_mean).collect()),
+            ],
+            located.hbar.unwrap_or(f64::NAN),
         ),
         (
             "Fpbar.svg",
-            "Fpbar = Fp ell^2/EI averaged over a period (-)",
-            rows.iter().map(|r| r.fpbar_mean).collect(),
-            hopf_fp,
+            "Fpbar = Fp ell^2/EI (-)",
+            vec![
+                steady_series(steady.points.iter().map(|r| r.fpbar).collect()),
+                orbit_series(rows.iter().map(|r| r.fpbar_mean).collect()),
+            ],
+            located.fpbar.unwrap_or(f64::NAN),
         ),
     ] {
         write_figure(
@@ -250,14 +272,7 @@ pub fn run_orbits(
                 title: format!("{}: periodic orbits from the Hopf point", study.name),
                 x_label: "omega (rad/s)".into(),
                 y_label: label.into(),
-                series: vec![Series {
-                    label: "orbits (shooting)".into(),
-                    x: omegas.clone(),
-                    y,
-                    style: Style::Line,
-                    stable: Some(stable.clone()),
-                    err: None,
-                }],
+                series,
                 markers: vec![Marker {
                     label: "Hopf point".into(),
                     x: omega_hopf,
