@@ -222,7 +222,7 @@ enum Command {
         #[command(flatten)]
         study: StudyArgs,
         /// Largest number of orbits.
-        #[arg(long, default_value_t = 20)]
+        #[arg(long, default_value_t = 40)]
         max_orbits: usize,
         /// Equal time steps per period (BDF2; the period error falls as steps^-2).
         #[arg(long, default_value_t = 100)]
@@ -240,6 +240,10 @@ enum Command {
         /// Output folder; default `output/<study name>/orbits/`.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Take an interrupted branch up again from `checkpoint.json` in the output folder
+        /// (written after every orbit): the orbits before it are kept, the next ones appended.
+        #[arg(long)]
+        resume: bool,
     },
     /// Step the rod through time at a rate (BDF2, adaptive): time series of hbar, Fp, Tp, eta,
     /// shapes, figures, and late-time mean and standard deviation. Uses the study's [newton]
@@ -591,6 +595,7 @@ fn fit_command(csv: &Path, x: &str, y: &str) -> Outcome {
 
 /// The options of `helixbif orbits`.
 struct OrbitsArgs {
+    resume: bool,
     max_orbits: usize,
     steps: usize,
     amplitude: f64,
@@ -606,6 +611,7 @@ fn orbits_command(args: &StudyArgs, o: &OrbitsArgs, out: Option<&Path>) -> Outco
             o.omega_min.unwrap_or(0.0),
             o.omega_max.unwrap_or(study.branch.omega_max),
         ),
+        resume: o.resume,
     };
     // The options name their fields as in a study; on the command line they are flags.
     opts.validate().map_err(|e| match e {
@@ -799,10 +805,12 @@ fn main() -> ExitCode {
             omega_min,
             omega_max,
             out,
+            resume,
         } => (
             orbits_command(
                 study,
                 &OrbitsArgs {
+                    resume: *resume,
                     max_orbits: *max_orbits,
                     steps: *steps,
                     amplitude: *amplitude,

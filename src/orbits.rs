@@ -12,13 +12,13 @@
 
 use std::ops::ControlFlow;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::Result;
 use crate::branch::Critical;
 use crate::continuation::newton::System;
 use crate::continuation::periodic::branch::{
-    HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
+    Checkpoint, HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits, resume_orbits,
 };
 use crate::continuation::periodic::orbit::Orbit;
 use crate::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
@@ -77,7 +77,7 @@ impl ImplicitDynamics for RodDynamics<'_> {
 }
 
 /// One row of `orbits.csv` (SI and normalized).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OrbitRow {
     pub index: usize,
     pub omega: f64,
@@ -104,7 +104,7 @@ pub struct OrbitRow {
     /// `stable` or `unstable`, or `undetermined` when a nontrivial multiplier lies within ten
     /// times `trivial_error` (plus `1e-9`) of the unit circle: the period map is not accurate
     /// enough to say on which side.
-    pub verdict: &'static str,
+    pub verdict: String,
     /// `|mu_trivial - 1|`: the discretization error of the period map.
     pub trivial_error: f64,
     pub iterations: usize,
@@ -160,7 +160,7 @@ pub fn orbit_row(dynamics: &RodDynamics, index: usize, orbit: &Orbit, h0: f64) -
         max_multiplier: orbit.max_multiplier(),
         unstable: orbit.unstable,
         stable: orbit.unstable == 0,
-        verdict,
+        verdict: verdict.into(),
         trivial_error,
         iterations: orbit.iterations,
     })
@@ -188,37 +188,39 @@ pub fn hopf_start<'a>(
     )
 }
 
-/// Follows the orbits from a Hopf point with `rows` called for every accepted orbit's row.
+/// Follows the orbits from a Hopf point, or from `resume` (a checkpoint of an earlier run of the
+/// same branch), with `rows` called for every accepted orbit's row and the checkpoint after it.
 pub fn follow_rod_orbits(
     dynamics: &RodDynamics,
     start: &HopfStart,
+    resume: Option<&Checkpoint>,
     settings: &OrbitBranchSettings,
     omegabar_range: (f64, f64),
     h0: f64,
-    mut rows: impl FnMut(&OrbitRow) -> Result<()>,
+    mut rows: impl FnMut(&OrbitRow, Option<&Checkpoint>) -> Result<()>,
 ) -> Result<(OrbitBranch, Vec<OrbitRow>)> {
     let mut table = Vec::new();
     let mut failure = None;
-    let branch =
-        follow_orbits(
-            dynamics,
-            start,
-            settings,
-            omegabar_range,
-            |k, orbit| match orbit_row(dynamics, k, orbit, h0).and_then(|row| {
-                rows(&row)?;
-                Ok(row)
-            }) {
-                Ok(row) => {
-                    table.push(row);
-                    ControlFlow::Continue(())
-                }
-                Err(e) => {
-                    failure = Some(e);
-                    ControlFlow::Break(())
-                }
-            },
-        )?;
+    let observer = |k: usize, orbit: &Orbit, checkpoint: Option<&Checkpoint>| match orbit_row(
+        dynamics, k, orbit, h0,
+    )
+    .and_then(|row| {
+        rows(&row, checkpoint)?;
+        Ok(row)
+    }) {
+        Ok(row) => {
+            table.push(row);
+            ControlFlow::Continue(())
+        }
+        Err(e) => {
+            failure = Some(e);
+            ControlFlow::Break(())
+        }
+    };
+    let branch = match resume {
+        Some(c) => resume_orbits(dynamics, c, settings, omegabar_range, observer)?,
+        None => follow_orbits(dynamics, start, settings, omegabar_range, observer)?,
+    };
     if let Some(e) = failure {
         return Err(e);
     }

@@ -381,7 +381,58 @@ fn orbits_follows_the_unstable_orbits_below_a_subcritical_hopf_point() {
     let (code, _, stderr) = helixbif(&["orbits", "--steps", "3"]);
     assert_eq!(code, 2);
     assert!(
-        stderr.contains("--steps") && stderr.contains(">= 8"),
+        stderr.contains("--steps") && stderr.contains("[8, 100000]"),
         "{stderr}"
     );
+}
+
+#[test]
+fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
+    let base = std::env::temp_dir().join(format!("helixbif-orbits-resume-{}", std::process::id()));
+    let (whole, part) = (base.join("whole"), base.join("part"));
+    let run = |dir: &std::path::Path, orbits: &str, resume: bool| {
+        let mut args = vec![
+            "orbits",
+            "--set",
+            "discretization.nodes=16",
+            "--max-orbits",
+            orbits,
+            "--out",
+            dir.to_str().unwrap(),
+            "--json",
+        ];
+        if resume {
+            args.push("--resume");
+        }
+        let (code, stdout, stderr) = helixbif(&args);
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str::<serde_json::Value>(stdout.trim()).unwrap()
+    };
+    run(&whole, "5", false);
+    run(&part, "3", false);
+    let resumed = run(&part, "5", true);
+    assert_eq!(resumed["resumed_at"], 3);
+    assert_eq!(resumed["orbits"], 5);
+    let omegas = |dir: &std::path::Path| -> Vec<(usize, f64)> {
+        let mut reader = csv::Reader::from_path(dir.join("orbits.csv")).unwrap();
+        reader
+            .records()
+            .map(|r| {
+                let r = r.unwrap();
+                (r[0].parse().unwrap(), r[1].parse().unwrap())
+            })
+            .collect()
+    };
+    let (a, b) = (omegas(&whole), omegas(&part));
+    assert_eq!(a.len(), 5);
+    assert_eq!(
+        a.iter().map(|r| r.0).collect::<Vec<_>>(),
+        vec![0, 1, 2, 3, 4]
+    );
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.0, y.0);
+        assert!((x.1 - y.1).abs() <= 1e-12 * x.1, "{x:?} {y:?}");
+    }
+    std::fs::remove_dir_all(&base).ok();
 }

@@ -10,7 +10,7 @@ use helixbif::continuation::Problem;
 use helixbif::continuation::criticality::first_lyapunov;
 use helixbif::continuation::periodic::VectorField;
 use helixbif::continuation::periodic::branch::{
-    HopfStart, OrbitBranchSettings, OrbitEventKind, follow_orbits,
+    Checkpoint, HopfStart, OrbitBranchSettings, OrbitEventKind, follow_orbits, resume_orbits,
 };
 use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
 use helixbif::continuation::periodic::orbit::{Condition, ShootingSettings, shoot};
@@ -156,7 +156,7 @@ fn the_orbit_branch_leaves_the_hopf_point_on_the_side_of_its_criticality() {
         let field = VectorField(&problem);
         let start = origin(w);
         let settings = branch_settings(200, 0.02, 12);
-        let branch = follow_orbits(&field, &start, &settings, (-0.5, 0.5), |_, _| {
+        let branch = follow_orbits(&field, &start, &settings, (-0.5, 0.5), |_, _, _| {
             ControlFlow::Continue(())
         })
         .unwrap();
@@ -209,7 +209,7 @@ fn a_subcritical_branch_turns_at_its_fold_and_becomes_stable() {
     let field = VectorField(&problem);
     let start = origin(1.0);
     let settings = branch_settings(200, 0.05, 60);
-    let branch = follow_orbits(&field, &start, &settings, (-1.0, 0.5), |_, o| {
+    let branch = follow_orbits(&field, &start, &settings, (-1.0, 0.5), |_, o, _| {
         let r2 = o.states[0][0].powi(2) + o.states[0][1].powi(2);
         if r2 > 1.2 {
             ControlFlow::Break(())
@@ -265,9 +265,13 @@ fn brusselator_orbits_grow_at_the_rate_the_lyapunov_coefficient_predicts() {
         mode: lyap.q.clone(),
     };
     let settings = branch_settings(400, 0.01, 4);
-    let branch = follow_orbits(&field, &start, &settings, (bh - 1.0, bh + 1.0), |_, _| {
-        ControlFlow::Continue(())
-    })
+    let branch = follow_orbits(
+        &field,
+        &start,
+        &settings,
+        (bh - 1.0, bh + 1.0),
+        |_, _, _| ControlFlow::Continue(()),
+    )
     .unwrap();
     let points: Vec<(f64, f64)> = branch
         .orbits
@@ -293,4 +297,49 @@ fn brusselator_orbits_grow_at_the_rate_the_lyapunov_coefficient_predicts() {
     assert!(errors[0] < 1e-2, "{errors:?}");
     // The error is O(b - b_H): it grows along the branch.
     assert!(errors[0] < errors[errors.len() - 1], "{errors:?}");
+}
+
+/// A branch interrupted after its fifth orbit and resumed from the checkpoint it was handed
+/// gives the same orbits as the uninterrupted run.
+#[test]
+fn a_resumed_branch_continues_exactly_as_the_uninterrupted_one() {
+    let problem = hopf_cubic(1.0, -1.0, 0.3);
+    let field = VectorField(&problem);
+    let start = origin(1.0);
+    let settings = branch_settings(100, 0.02, 8);
+    let whole = follow_orbits(&field, &start, &settings, (-1.0, 1.0), |_, _, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!(whole.orbits.len(), 8);
+    let mut saved = None;
+    let interrupted = follow_orbits(&field, &start, &settings, (-1.0, 1.0), |k, _, c| {
+        saved = c.cloned();
+        if k == 4 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    assert_eq!(interrupted.orbits.len(), 5);
+    // The checkpoint goes through its file format.
+    let text = serde_json::to_string(&saved.unwrap()).unwrap();
+    let checkpoint: Checkpoint = serde_json::from_str(&text).unwrap();
+    assert_eq!(checkpoint.next_index, 5);
+    let resumed = resume_orbits(&field, &checkpoint, &settings, (-1.0, 1.0), |_, _, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!(resumed.first_index, 5);
+    assert_eq!(resumed.orbits.len(), 3);
+    for (a, b) in resumed.orbits.iter().zip(&whole.orbits[5..]) {
+        assert!(
+            (a.p - b.p).abs() <= 1e-12 * (1.0 + b.p.abs()),
+            "{} {}",
+            a.p,
+            b.p
+        );
+        assert!((a.period - b.period).abs() <= 1e-12 * b.period);
+    }
 }

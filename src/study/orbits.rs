@@ -8,14 +8,16 @@ use std::path::Path;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::branch::{hopf_criticality, rest_state};
 use crate::continuation::criticality::Verdict;
-use crate::continuation::periodic::branch::{OrbitBranchSettings, OrbitEventKind, OrbitStop};
+use crate::continuation::periodic::branch::{
+    Checkpoint, OrbitBranchSettings, OrbitEventKind, OrbitStop,
+};
 use crate::model::Model;
 use crate::orbits::{OrbitRow, follow_rod_orbits, hopf_start};
-use crate::output::{CsvWriter, Meta, create_dir};
+use crate::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::report::Section;
 use crate::steady::height;
@@ -30,6 +32,8 @@ pub struct OrbitsOptions {
     pub settings: OrbitBranchSettings,
     /// Range of `omega` (rad/s) the branch may visit.
     pub omega_range: (f64, f64),
+    /// Take the branch up again from `checkpoint.json` in the output folder, when there is one.
+    pub resume: bool,
 }
 
 /// The orbit branch's settings from what a study or the command line sets: the largest number
@@ -59,6 +63,7 @@ impl OrbitsOptions {
             } => Some(OrbitsOptions {
                 settings: branch_settings(*max_orbits, *steps, *amplitude),
                 omega_range: (omega_min.unwrap_or(0.0), upper.unwrap_or(omega_max)),
+                resume: false,
             }),
             _ => None,
         }
@@ -81,7 +86,7 @@ impl OrbitsOptions {
 }
 
 /// One row of `events.csv`: an event bracketed by orbits `after` and `after + 1`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OrbitEventRow {
     pub kind: OrbitEventKind,
     pub after: usize,
@@ -103,6 +108,8 @@ pub struct OrbitsReport {
     pub events: Vec<OrbitEventRow>,
     pub first: Option<OrbitRow>,
     pub last: Option<OrbitRow>,
+    /// The index of the first orbit computed by this run when it resumed a checkpoint.
+    pub resumed_at: Option<usize>,
     pub seconds: f64,
     pub out: String,
 }
@@ -151,13 +158,36 @@ impl Section for OrbitsReport {
     }
 }
 
+/// The rows of a CSV file written by this command (none when `read` is false or the file is
+/// absent).
+fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Result<Vec<T>> {
+    if !read || !path.exists() {
+        return Ok(Vec::new());
+    }
+    let mut reader = csv::Reader::from_path(path)
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
+    reader
+        .deserialize()
+        .collect::<std::result::Result<Vec<T>, _>>()
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))
+}
+
+/// Writes `checkpoint` to `path` through a temporary file and a rename, so that an interruption
+/// leaves the old checkpoint or the new one, never half of one.
+fn write_checkpoint(path: &Path, checkpoint: &Checkpoint) -> Result<()> {
+    let text = serde_json::to_string(checkpoint).map_err(|e| Error::Numerical(e.to_string()))?;
+    let temporary = path.with_extension("json.partial");
+    std::fs::write(&temporary, text).map_err(io_error(&temporary))?;
+    std::fs::rename(&temporary, path).map_err(io_error(path))
+}
+
 /// Locates the first loss of stability of `study` on `model`, and when it is a Hopf point with
 /// a Lyapunov coefficient, follows the orbits born there, writing into `dir`.
 ///
 /// # Errors
-/// Bad options; [`Error::Numerical`] when the first loss of stability is not a Hopf point or
-/// when either starting orbit fails (orbits found before a later failure stay on disk, and the
-/// failure is the branch's stop reason).
+/// Bad options; [`Error::Numerical`] when the first loss of stability is not a Hopf point; the
+/// shooting's error ([`Error::NewtonFailed`] or a numerical one) when either starting orbit
+/// fails. A later failure is the branch's stop reason, with the orbits before it on disk.
 pub fn run_orbits(
     study: &Study,
     model: &Model,
@@ -189,33 +219,55 @@ pub fn run_orbits(
             .expect("a valid template"),
     );
     bar.set_message("the first orbits from the Hopf point");
+    let checkpoint_path = dir.join("checkpoint.json");
+    let resume: Option<Checkpoint> = if opts.resume && checkpoint_path.exists() {
+        let text = std::fs::read_to_string(&checkpoint_path).map_err(io_error(&checkpoint_path))?;
+        Some(
+            serde_json::from_str(&text).map_err(|e| {
+                Error::input("--resume", format!("{}: {e}", checkpoint_path.display()))
+            })?,
+        )
+    } else {
+        None
+    };
+    // On a resumed run the orbits and events before the checkpoint are kept as they were.
+    let next = resume.as_ref().map_or(0, |c| c.next_index);
+    let mut rows: Vec<OrbitRow> = read_rows(&dir.join("orbits.csv"), resume.is_some())?;
+    rows.retain(|r| r.index < next);
+    let mut events: Vec<OrbitEventRow> = read_rows(&dir.join("events.csv"), resume.is_some())?;
+    events.retain(|e| e.after + 1 < next);
     let mut csv = CsvWriter::create(&dir.join("orbits.csv"))?;
+    for r in &rows {
+        csv.row(r)?;
+    }
     let followed = follow_rod_orbits(
         &dynamics,
         &start,
+        resume.as_ref(),
         &opts.settings,
         (s.omega_to_bar(lo), s.omega_to_bar(hi)),
         h0,
-        |row| {
+        |row, checkpoint| {
             bar.set_message(format!(
                 "orbit {}: omega = {:.6} rad/s, amplitude {:.3e} m, {}",
                 row.index, row.omega, row.amplitude, row.verdict
             ));
-            csv.row(row)
+            csv.row(row)?;
+            match checkpoint {
+                Some(c) => write_checkpoint(&checkpoint_path, c),
+                None => Ok(()),
+            }
         },
     );
     bar.finish_and_clear();
-    let (branch, rows) = followed?;
-    let events: Vec<OrbitEventRow> = branch
-        .events
-        .iter()
-        .map(|e| OrbitEventRow {
-            kind: e.kind,
-            after: e.after,
-            omega_from: s.omega_from_bar(e.p.0),
-            omega_to: s.omega_from_bar(e.p.1),
-        })
-        .collect();
+    let (branch, new_rows) = followed?;
+    rows.extend(new_rows);
+    events.extend(branch.events.iter().map(|e| OrbitEventRow {
+        kind: e.kind,
+        after: e.after,
+        omega_from: s.omega_from_bar(e.p.0),
+        omega_to: s.omega_from_bar(e.p.1),
+    }));
     let mut table = CsvWriter::create(&dir.join("events.csv"))?;
     for e in &events {
         table.row(e)?;
@@ -294,6 +346,7 @@ pub fn run_orbits(
         events,
         first: rows.first().cloned(),
         last: rows.last().cloned(),
+        resumed_at: resume.map(|c| c.next_index),
         seconds: started.elapsed().as_secs_f64(),
         out: dir.display().to_string(),
     };

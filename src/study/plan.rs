@@ -361,17 +361,14 @@ impl Plan {
                 }
                 Ok(())
             }
-            Plan::Orbits { .. } => {
-                let opts = super::orbits::OrbitsOptions::of_plan(self, f64::INFINITY)
-                    .expect("an orbits plan");
-                let checked = match opts.omega_range {
-                    // Without omega_max the range ends at branch.omega_max, checked there.
-                    (lo, hi) if hi.is_infinite() => super::orbits::OrbitsOptions {
-                        omega_range: (lo, lo + 1.0),
-                        ..opts
-                    },
-                    _ => opts,
-                };
+            Plan::Orbits { omega_max, .. } => {
+                // Without omega_max the range ends at branch.omega_max, checked there.
+                let upper = omega_max.unwrap_or(f64::MAX);
+                let mut checked =
+                    super::orbits::OrbitsOptions::of_plan(self, upper).expect("an orbits plan");
+                if omega_max.is_none() {
+                    checked.omega_range.1 = checked.omega_range.0 + 1.0;
+                }
                 checked.validate().map_err(|e| match e {
                     Error::Input { field, message } => Error::Input {
                         field: field.replace("orbits.", "study."),

@@ -161,7 +161,7 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
             if let OrbitStop::StepTooSmall(reason) = &report.stop {
                 failures.push(format!("the orbit branch stalled: {reason}"));
             }
-            json!({ "kind": "orbits", "report": report })
+            json!({ "kind": "orbits", "report": report, "options": opts })
         }
     };
     let model = Model::new(&study.physical())?;

@@ -58,7 +58,7 @@ pub struct EventRow {
 }
 
 /// A progress bar over `[0, omegabar_max]`, drawn on stderr (hidden when it is not a terminal).
-pub(crate) fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
+fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(1000);
     let style = ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} {msg}")
         .expect("a valid template");

@@ -2,14 +2,14 @@
 //! continuation of (4).
 //!
 //! **Start.** Near a Hopf point `(x_H, p_H)` with critical eigenvalue `i w` and mode `q` (scaled
-//! to size 1, `Re q` orthogonal to `Im q`), the orbits are `x = x_H + 2 Re(r e^{i w t} q) +
+//! as the problem's Lyapunov coefficient is, [`crate::continuation::Problem::mode_size`] 1, `Re q` orthogonal to `Im q`), the orbits are `x = x_H + 2 Re(r e^{i w t} q) +
 //! O(r^2)` with period `2 pi / w + O(r^2)` and `p - p_H = O(r^2)` (on the side set by the sign
 //! of the first Lyapunov coefficient). Two orbits are solved with the amplitude fixed instead
 //! of the parameter, `Re q . (x0 - x_H) / |Re q|^2 = 2 r` at `r = r_0` and `2 r_0`, from those
 //! guesses (the parameter is a poor unknown at small `r`, the amplitude a good one).
 //!
 //! **Continuation.** With `y = (x0 / X, T / T_0, p / P)` scaled by the first secant's change of
-//! `x0`, the Hopf period and `|p_H|`, the predictor is `y_k + ds s_k` along the unit secant
+//! `x0`, the Hopf period and `max(|p_H|, 1)`, the predictor is `y_k + ds s_k` along the unit secant
 //! `s_k = (y_k - y_{k-1}) / |y_k - y_{k-1}|`, and the corrector solves (4) with the condition
 //! `s_k . (y - y_pred) = 0`, so that folds in `p` (where a subcritical branch turns back and
 //! gains stability) are passed without special treatment. The step grows by 1.5 after a
@@ -20,6 +20,10 @@
 //! multipliers outside the unit circle, typed by the multiplier that crossed (nearest the unit
 //! circle at either end: real near `+1` a fold of cycles, real near `-1` period doubling, a
 //! complex pair a torus bifurcation). They are bracketed by the two orbits, not localized.
+//!
+//! **Resuming.** After every orbit from the second on, the observer is handed a [`Checkpoint`]
+//! (the last two orbits' unknowns, the scaling, the step, the next index); [`resume_orbits`]
+//! continues from one exactly as the interrupted run would have.
 
 use std::ops::ControlFlow;
 
@@ -36,8 +40,8 @@ use crate::error::ensure;
 #[serde(deny_unknown_fields, default)]
 pub struct OrbitBranchSettings {
     pub shooting: ShootingSettings,
-    /// The normal-form radius `r_0` of the first orbit, in the units of
-    /// [`ImplicitDynamics::size`] (the second has `2 r_0`).
+    /// The normal-form radius `r_0` of the first orbit, `x0 = x_H + 2 r_0 Re q` for the mode of
+    /// [`HopfStart`] (the second has `2 r_0`).
     pub amplitude: f64,
     /// Largest and smallest step, in units of the first secant.
     pub ds_max: f64,
@@ -53,7 +57,7 @@ impl Default for OrbitBranchSettings {
             amplitude: 1e-3,
             ds_max: 32.0,
             ds_min: 1.0 / 64.0,
-            max_orbits: 30,
+            max_orbits: 40,
         }
     }
 }
@@ -97,7 +101,7 @@ pub struct HopfStart {
 }
 
 /// What happened between two successive orbits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum OrbitEventKind {
     /// The parameter turned.
@@ -134,13 +138,69 @@ pub enum OrbitStop {
 
 /// A traced branch of orbits.
 pub struct OrbitBranch {
+    /// The orbits computed in this run; the first has index `first_index` on the branch (0 from a
+    /// Hopf point, more when the run resumed a [`Checkpoint`]).
     pub orbits: Vec<Orbit>,
+    pub first_index: usize,
     pub events: Vec<OrbitEvent>,
     pub stop: OrbitStop,
 }
 
-/// Follows the orbits from `start` while `p` stays in `[p_min, p_max]`. `observer` sees every
-/// accepted orbit (with its index) and may end the run.
+/// What the continuation keeps of an orbit: its unknowns, its stability and multipliers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OrbitSeed {
+    /// The state pinned by the phase condition (all unknowns), the period, the parameter.
+    pub u: Vec<f64>,
+    pub period: f64,
+    pub p: f64,
+    pub unstable: usize,
+    /// The nontrivial multipliers as `[re, im]`.
+    pub multipliers: Vec<[f64; 2]>,
+}
+
+impl OrbitSeed {
+    fn of(orbit: &Orbit) -> Self {
+        OrbitSeed {
+            u: orbit.states[0].clone(),
+            period: orbit.period,
+            p: orbit.p,
+            unstable: orbit.unstable,
+            multipliers: orbit.multipliers.iter().map(|m| [m.re, m.im]).collect(),
+        }
+    }
+
+    fn unknowns(&self, nx: usize) -> Vec<f64> {
+        self.u[..nx]
+            .iter()
+            .copied()
+            .chain([self.period, self.p])
+            .collect()
+    }
+
+    fn multipliers(&self) -> Vec<c64> {
+        self.multipliers
+            .iter()
+            .map(|m| c64::new(m[0], m[1]))
+            .collect()
+    }
+}
+
+/// Where a branch can be taken up again: its last two orbits, the scaling of the unknowns and
+/// the step, and the index the next orbit will have. Saved after every orbit (from the second
+/// on), it lets an interrupted run resume without losing any finished orbit
+/// ([`resume_orbits`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    pub previous: OrbitSeed,
+    pub last: OrbitSeed,
+    pub scale: Vec<f64>,
+    pub ds: f64,
+    pub next_index: usize,
+}
+
+/// Follows the orbits from `start` until one lies outside `[p_min, p_max]` (it is kept). `observer` sees every
+/// accepted orbit with its index and, from the second orbit on, the checkpoint after it; it may
+/// end the run.
 ///
 /// # Errors
 /// Bad settings; the failure of either starting orbit (there is no branch without them).
@@ -148,8 +208,8 @@ pub fn follow_orbits(
     dynamics: &impl ImplicitDynamics,
     start: &HopfStart,
     settings: &OrbitBranchSettings,
-    (p_min, p_max): (f64, f64),
-    mut observer: impl FnMut(usize, &Orbit) -> ControlFlow<()>,
+    range: (f64, f64),
+    mut observer: impl FnMut(usize, &Orbit, Option<&Checkpoint>) -> ControlFlow<()>,
 ) -> Result<OrbitBranch> {
     settings.validate()?;
     let nx = dynamics.differential();
@@ -180,33 +240,81 @@ pub fn follow_orbits(
             &condition,
             &settings.shooting,
         )?;
-        let index = orbits.len();
         orbits.push(orbit);
-        if observer(index, &orbits[index]).is_break() {
+        let index = orbits.len() - 1;
+        if index == 0 && observer(0, &orbits[0], None).is_break() {
             return Ok(OrbitBranch {
                 orbits,
+                first_index: 0,
                 events: Vec::new(),
                 stop: OrbitStop::Observer,
             });
         }
     }
-    let first = (orbits[0].unknowns(nx), orbits[1].unknowns(nx));
+    let (previous, last) = (OrbitSeed::of(&orbits[0]), OrbitSeed::of(&orbits[1]));
     let dx: f64 = (0..nx)
-        .map(|i| (first.1[i] - first.0[i]).powi(2))
+        .map(|i| (last.u[i] - previous.u[i]).powi(2))
         .sum::<f64>()
         .sqrt();
-    let scale: Vec<f64> = std::iter::repeat_n(dx.max(f64::MIN_POSITIVE), nx)
-        .chain([period0, start.p.abs().max(1.0)])
-        .collect();
+    let checkpoint = Checkpoint {
+        previous,
+        last,
+        scale: std::iter::repeat_n(dx.max(f64::MIN_POSITIVE), nx)
+            .chain([period0, start.p.abs().max(1.0)])
+            .collect(),
+        ds: 1.0,
+        next_index: 2,
+    };
+    if observer(1, &orbits[1], Some(&checkpoint)).is_break() {
+        return Ok(OrbitBranch {
+            orbits,
+            first_index: 0,
+            events: Vec::new(),
+            stop: OrbitStop::Observer,
+        });
+    }
+    let mut branch = resume_orbits(dynamics, &checkpoint, settings, range, observer)?;
+    orbits.append(&mut branch.orbits);
+    branch.orbits = orbits;
+    branch.first_index = 0;
+    Ok(branch)
+}
+
+/// Continues a branch from `checkpoint` (see [`follow_orbits`]); the orbits' indices go on from
+/// its `next_index`.
+///
+/// # Errors
+/// Bad settings, or a checkpoint whose unknowns do not fit the problem.
+pub fn resume_orbits(
+    dynamics: &impl ImplicitDynamics,
+    checkpoint: &Checkpoint,
+    settings: &OrbitBranchSettings,
+    (p_min, p_max): (f64, f64),
+    mut observer: impl FnMut(usize, &Orbit, Option<&Checkpoint>) -> ControlFlow<()>,
+) -> Result<OrbitBranch> {
+    settings.validate()?;
+    let nx = dynamics.differential();
+    let fits = |seed: &OrbitSeed| seed.u.len() == dynamics.dim();
+    if !(fits(&checkpoint.previous) && fits(&checkpoint.last) && checkpoint.scale.len() == nx + 2) {
+        return Err(crate::Error::input(
+            "checkpoint",
+            format!(
+                "its orbits do not have the problem's {} unknowns (another model or node count)",
+                dynamics.dim()
+            ),
+        ));
+    }
+    let mut state = checkpoint.clone();
+    let scale = checkpoint.scale.clone();
     let scaled = |y: &[f64]| -> Vec<f64> { y.iter().zip(&scale).map(|(a, s)| a / s).collect() };
+    let mut orbits = Vec::new();
     let mut events = Vec::new();
-    let mut ds = 1.0;
     let stop = loop {
-        let k = orbits.len();
+        let k = state.next_index;
         if k >= settings.max_orbits {
             break OrbitStop::MaxOrbits;
         }
-        let (a, b) = (&orbits[k - 2], &orbits[k - 1]);
+        let (a, b) = (&state.previous, &state.last);
         if !(p_min..=p_max).contains(&b.p) {
             break OrbitStop::ParameterLimit;
         }
@@ -215,10 +323,11 @@ pub fn follow_orbits(
         let chord: Vec<f64> = yb.iter().zip(&ya).map(|(b, a)| b - a).collect();
         let length = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
         let secant: Vec<f64> = chord.iter().map(|v| v / length).collect();
+        let mut ds = state.ds;
         let attempt = loop {
             let predicted: Vec<f64> = yb.iter().zip(&secant).map(|(y, s)| y + ds * s).collect();
             // The guess: the last orbit's state moved along the secant (algebraic part kept).
-            let mut guess = b.states[0].clone();
+            let mut guess = b.u.clone();
             for i in 0..nx {
                 guess[i] = predicted[i] * scale[i];
             }
@@ -251,8 +360,7 @@ pub fn follow_orbits(
         if orbit.iterations <= 3 {
             ds = (ds * 1.5).min(settings.ds_max);
         }
-        let turned = (b.p - a.p) * (orbit.p - b.p) < 0.0;
-        if turned {
+        if (b.p - a.p) * (orbit.p - b.p) < 0.0 {
             events.push(OrbitEvent {
                 kind: OrbitEventKind::Fold,
                 after: k - 1,
@@ -261,30 +369,37 @@ pub fn follow_orbits(
         }
         if orbit.unstable != b.unstable {
             events.push(OrbitEvent {
-                kind: crossing_kind(b, &orbit),
+                kind: crossing_kind(&b.multipliers(), &orbit.multipliers),
                 after: k - 1,
                 p: (b.p, orbit.p),
             });
         }
+        state = Checkpoint {
+            previous: state.last.clone(),
+            last: OrbitSeed::of(&orbit),
+            scale: scale.clone(),
+            ds,
+            next_index: k + 1,
+        };
         orbits.push(orbit);
-        if observer(k, &orbits[k]).is_break() {
+        if observer(k, &orbits[orbits.len() - 1], Some(&state)).is_break() {
             break OrbitStop::Observer;
         }
     };
     Ok(OrbitBranch {
         orbits,
+        first_index: checkpoint.next_index,
         events,
         stop,
     })
 }
 
-/// The kind of the multiplier that crossed the unit circle between `a` and `b`: the one
-/// nearest the circle at either orbit.
-fn crossing_kind(a: &Orbit, b: &Orbit) -> OrbitEventKind {
+/// The kind of the multiplier that crossed the unit circle between orbits of multipliers `a`
+/// and `b`: the one nearest the circle at either orbit.
+fn crossing_kind(a: &[c64], b: &[c64]) -> OrbitEventKind {
     let nearest = a
-        .multipliers
         .iter()
-        .chain(&b.multipliers)
+        .chain(b)
         .min_by(|x, y| (x.norm() - 1.0).abs().total_cmp(&(y.norm() - 1.0).abs()))
         .copied()
         .unwrap_or(c64::new(1.0, 0.0));

@@ -28,7 +28,7 @@ pub struct FlowSettings {
 impl Default for FlowSettings {
     fn default() -> Self {
         FlowSettings {
-            steps: 120,
+            steps: 100,
             step_tol: 1e-9,
             max_newton: 40,
         }
@@ -36,12 +36,12 @@ impl Default for FlowSettings {
 }
 
 impl FlowSettings {
-    /// Checks ranges: `steps >= 8`, `0 < step_tol < 1`, `max_newton >= 2`.
+    /// Checks ranges: `8 <= steps <= 100000`, `0 < step_tol < 1`, `max_newton >= 2`.
     pub fn validate(&self) -> Result<()> {
         ensure(
-            self.steps >= 8,
+            (8..=100_000).contains(&self.steps),
             "orbits.steps",
-            format!("must be >= 8, got {}", self.steps),
+            format!("must lie in [8, 100000], got {}", self.steps),
         )?;
         ensure(
             self.step_tol > 0.0 && self.step_tol < 1.0,

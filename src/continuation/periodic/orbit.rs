@@ -146,18 +146,28 @@ fn rms_amplitude(
     (sum / states.len() as f64).sqrt()
 }
 
-/// The Floquet multipliers of a monodromy matrix: the trivial one (nearest 1) and the others
-/// by decreasing modulus.
-pub fn floquet(monodromy: &Mat<f64>) -> Result<(c64, Vec<c64>)> {
+/// The Floquet multipliers of a monodromy matrix: the trivial one and the others by decreasing
+/// modulus. The trivial multiplier is the one whose eigenvalue problem the orbit's velocity
+/// `xdot` solves best, `min |Phi_x xdot - mu xdot|` (not simply the one nearest 1: next to a
+/// Hopf point the radial multiplier is `1 + O(r^2)` and may lie nearer 1 than the trivial one
+/// does numerically).
+pub fn floquet(monodromy: &Mat<f64>, xdot: &[f64]) -> Result<(c64, Vec<c64>)> {
     let mut values = monodromy.eigenvalues().map_err(|e| {
         Error::Numerical(format!("Floquet multipliers: eigen solver failed: {e:?}"))
     })?;
+    let n = xdot.len();
+    let image: Vec<f64> = (0..n)
+        .map(|r| (0..n).map(|c| monodromy[(r, c)] * xdot[c]).sum())
+        .collect();
+    let mismatch = |mu: c64| -> f64 {
+        image
+            .iter()
+            .zip(xdot)
+            .map(|(a, v)| (c64::new(*a, 0.0) - mu * *v).norm_sqr())
+            .sum()
+    };
     let trivial = (0..values.len())
-        .min_by(|&a, &b| {
-            let da = (values[a] - c64::new(1.0, 0.0)).norm();
-            let db = (values[b] - c64::new(1.0, 0.0)).norm();
-            da.total_cmp(&db)
-        })
+        .min_by(|&a, &b| mismatch(values[a]).total_cmp(&mismatch(values[b])))
         .ok_or_else(|| Error::Numerical("Floquet multipliers of an empty system".into()))?;
     let one = values.remove(trivial);
     values.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
@@ -165,8 +175,9 @@ pub fn floquet(monodromy: &Mat<f64>) -> Result<(c64, Vec<c64>)> {
 }
 
 /// Solves (4) from the guess `u0` (state; its differential part is `x_ref`), period `period`,
-/// parameter `p`, with the condition `condition`. The phase condition uses the velocity at the
-/// end of the first period map from the guess.
+/// parameter `p`, with the condition `condition`. The phase condition uses the BDF2 velocity at
+/// the end of the first period map from the guess (close to the velocity at the guess when the
+/// guess is close to an orbit; any vector transversal to the orbit serves).
 ///
 /// # Errors
 /// [`Error::NewtonFailed`] when the iteration does not converge in `max_iter` steps or the
@@ -202,6 +213,7 @@ pub fn shoot(
         let cond = condition.c.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>() - condition.value;
         let residual = dynamics.size(&r);
         let sens = map.sensitivity.expect("sensitivities were asked for");
+        let end_velocity = map.end_velocity;
         let mut states = map.states;
         states.pop();
         let amplitude = rms_amplitude(dynamics, &states, None);
@@ -211,7 +223,7 @@ pub fn shoot(
             && phase.abs() <= settings.tol * xdot_norm * (amplitude + settings.tol)
             && cond.abs() <= settings.tol * c_norm * (1.0 + norm(&y));
         if settled {
-            let (trivial, multipliers) = floquet(&sens.x0)?;
+            let (trivial, multipliers) = floquet(&sens.x0, &end_velocity)?;
             let unstable = multipliers.iter().filter(|m| m.norm() > 1.0).count();
             return Ok(Orbit {
                 states,
