@@ -98,14 +98,6 @@ impl Orbit {
     pub fn amplitude(&self, dynamics: &impl ImplicitDynamics, centre: Option<&[f64]>) -> f64 {
         rms_amplitude(dynamics, &self.states, centre)
     }
-
-    /// The point of the orbit as unknowns `(x0, T, p)` of (4).
-    pub fn unknowns(&self, nx: usize) -> Vec<f64> {
-        let mut y = self.states[0][..nx].to_vec();
-        y.push(self.period);
-        y.push(self.p);
-        y
-    }
 }
 
 /// The mean over a period of the sampled states `states` (equal steps, one period).
