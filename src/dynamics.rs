@@ -153,6 +153,11 @@ pub struct DynamicsSettings {
     pub newton_tol: f64,
     /// Newton iterations before the step is rejected and retried shorter.
     pub max_newton: usize,
+    /// Newton also ends when its update is at most `newton_kappa` in the error test's weighted
+    /// root-mean-square norm (`atol + rtol |u_i|` per unknown), the convergence test of stiff
+    /// codes (DASSL, RADAU): the solve then errs far less than the step's own local error.
+    /// `0`: off, the residual test alone (which for the stiff stretching asks round-off).
+    pub newton_kappa: f64,
     /// `false`: Newton's method proper, a fresh exact Jacobian at every iteration. `true`:
     /// keep the factorized exact Jacobian over iterations and steps while it converges (a
     /// chord method; about 80% of the cost of an iteration is the elastic Hessian).
@@ -171,6 +176,7 @@ impl Default for DynamicsSettings {
             adaptive: true,
             newton_tol: 1e-9,
             max_newton: 8,
+            newton_kappa: 0.0,
             reuse_jacobian: false,
         }
     }
@@ -216,6 +222,11 @@ impl DynamicsSettings {
             self.max_newton >= 1,
             "dynamics.max_newton",
             format!("must be >= 1, got {}", self.max_newton),
+        )?;
+        ensure(
+            (0.0..1.0).contains(&self.newton_kappa),
+            "dynamics.newton_kappa",
+            format!("must lie in [0, 1), got {}", self.newton_kappa),
         )
     }
 }
@@ -734,6 +745,43 @@ impl History {
     }
 }
 
+/// A step (2) whose Newton iteration also ends on a small update: `rms(du_i / w_i) <= kappa`
+/// with the weights `w` of the error test ([`DynamicsSettings::newton_kappa`]). Where the
+/// update is that small the iterate errs by at most about `kappa` (the chord contracts by 3 or
+/// is rebuilt), far below the local error the step is accepted with.
+struct ToleratedStep<'a> {
+    step: &'a ImplicitStep<'a>,
+    weights: &'a [f64],
+    kappa: f64,
+}
+
+impl System for ToleratedStep<'_> {
+    fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
+        self.step.residual(u)
+    }
+
+    fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        self.step.residual_and_jacobian(u)
+    }
+
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        self.step.retract(u, du)
+    }
+
+    fn settled(&self, it: &Iterate) -> Option<f64> {
+        let sum: f64 = it
+            .du
+            .iter()
+            .zip(self.weights)
+            .map(|(d, w)| (d / w).powi(2))
+            .sum();
+        let weighted = (sum / it.du.len() as f64).sqrt();
+        (weighted <= self.kappa)
+            .then_some(it.step)
+            .or_else(|| self.step.settled(it))
+    }
+}
+
 /// A factorized step Jacobian kept across steps, and the `c0` of the step it was built for.
 #[derive(Default)]
 struct Factored {
@@ -771,7 +819,16 @@ fn newton_step(
         } else {
             Jacobians::Fresh
         };
-        let solved = newton.run(step, guess.to_vec(), jacobians, "in the time step");
+        let weights: Vec<f64> = guess
+            .iter()
+            .map(|g| settings.atol + settings.rtol * g.abs())
+            .collect();
+        let tolerated = ToleratedStep {
+            step,
+            weights: &weights,
+            kappa: settings.newton_kappa,
+        };
+        let solved = newton.run(&tolerated, guess.to_vec(), jacobians, "in the time step");
         let (solution, steps) = match solved {
             Ok((u, report)) => (Some(u), report.iterations),
             Err(Error::NewtonFailed { iterations, .. }) => (None, iterations),
@@ -813,6 +870,68 @@ pub fn integrate(
     settings: &DynamicsSettings,
     observer: impl FnMut(&Sample) -> ControlFlow<()>,
 ) -> Result<Trajectory> {
+    integrate_from(
+        model,
+        rate,
+        Start::Initial(u0),
+        t_end,
+        settings,
+        observer,
+        None,
+    )
+}
+
+/// Where an integration starts: an initial state, or the saved state of an interrupted run.
+#[derive(Clone, Debug)]
+pub enum Start {
+    /// Free unknowns, twist in the natural chart (re-slaved first).
+    Initial(Vec<f64>),
+    /// An [`IntegratorState`] saved by an earlier run with the same model, rate and settings;
+    /// the run continues exactly as the uninterrupted one would have.
+    Resume(Box<IntegratorState>),
+}
+
+/// Everything the scheme carries from one accepted step to the next (after step `steps`, at
+/// time `t`): the last three points, the initial velocity, the carried chart, the next step
+/// and the counts. Saved by [`Checkpoints`], it lets an interrupted run continue bit for bit:
+/// the factorized Jacobian of the chord is dropped at every save, in the saved run too.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct IntegratorState {
+    pub t: f64,
+    /// The next step to try.
+    pub h: f64,
+    /// `(t, u)`, newest first, twist measured in `chart`.
+    pub points: Vec<(f64, Vec<f64>)>,
+    pub xdot0: Vec<f64>,
+    pub chart: Chart,
+    pub steps: usize,
+    pub rejected: usize,
+    pub newton_iterations: usize,
+    pub jacobians: usize,
+}
+
+/// Saving the integrator's state: `save` is called after every `every` accepted steps and at
+/// the end of the run.
+pub struct Checkpoints<'a> {
+    pub every: usize,
+    pub save: &'a mut dyn FnMut(&IntegratorState) -> Result<()>,
+}
+
+/// [`integrate`] from a [`Start`], saving [`IntegratorState`]s on the way when `checkpoints`
+/// asks for them. A resumed run calls `observer` for the samples after the saved one only.
+///
+/// # Errors
+/// Those of [`integrate`]; an input error when a resumed state does not fit the model; the
+/// errors of `save`.
+pub fn integrate_from(
+    model: &Model,
+    rate: Rate,
+    start: Start,
+    t_end: f64,
+    settings: &DynamicsSettings,
+    observer: impl FnMut(&Sample) -> ControlFlow<()>,
+    checkpoints: Option<Checkpoints>,
+) -> Result<Trajectory> {
     let mut trajectory = Trajectory {
         last: Sample::empty(rate.at(0.0), &model.chart),
         steps: 0,
@@ -821,33 +940,34 @@ pub fn integrate(
         jacobians: 0,
         stopped: false,
     };
-    run(model, rate, u0, t_end, settings, observer, &mut trajectory)?;
+    run(
+        model,
+        rate,
+        start,
+        t_end,
+        settings,
+        observer,
+        checkpoints,
+        &mut trajectory,
+    )?;
     Ok(trajectory)
 }
 
-/// [`integrate`], with the counts kept in `trajectory` when it fails.
+/// [`integrate_from`], with the counts kept in `trajectory` when it fails.
+#[allow(clippy::too_many_arguments)]
 fn run(
     model: &Model,
     rate: Rate,
-    u0: Vec<f64>,
+    start: Start,
     t_end: f64,
     settings: &DynamicsSettings,
     mut observer: impl FnMut(&Sample) -> ControlFlow<()>,
+    mut checkpoints: Option<Checkpoints>,
     trajectory: &mut Trajectory,
 ) -> Result<()> {
     settings.validate()?;
     rate.validate()?;
     let layout = model.rod.layout;
-    if u0.len() != layout.free_len() {
-        return Err(Error::input(
-            "dynamics.u0",
-            format!(
-                "expected {} free unknowns, got {}",
-                layout.free_len(),
-                u0.len()
-            ),
-        ));
-    }
     if !(t_end.is_finite() && t_end >= 0.0) {
         return Err(Error::input(
             "dynamics.t_end",
@@ -856,33 +976,73 @@ fn run(
     }
     model.check_resolution()?;
     let nx = layout.free_positions();
-    let u0 = slave_twist(model, &u0)?;
     let steady0 = Steady::new(model, rate.at(0.0));
-    let r0 = steady0.residual(&u0)?;
-    let m0 = mass(&steady0, &u0)?;
-    let llt = m0
-        .llt(Side::Lower)
-        .map_err(|_| Error::Numerical("the mass matrix Z_ff is not positive definite".into()))?;
-    let v0 = llt.solve(Mat::from_fn(nx, 1, |i, _| r0[i]));
-    let mut history = History {
-        points: vec![(0.0, u0.clone())],
-        xdot0: (0..nx).map(|i| v0[(i, 0)]).collect(),
+    let fits = |u: &[f64]| u.len() == layout.free_len();
+    let (mut history, mut chart, mut t, mut h) = match start {
+        Start::Initial(u0) => {
+            if !fits(&u0) {
+                return Err(Error::input(
+                    "dynamics.u0",
+                    format!(
+                        "expected {} free unknowns, got {}",
+                        layout.free_len(),
+                        u0.len()
+                    ),
+                ));
+            }
+            let u0 = slave_twist(model, &u0)?;
+            let r0 = steady0.residual(&u0)?;
+            let m0 = mass(&steady0, &u0)?;
+            let llt = m0.llt(Side::Lower).map_err(|_| {
+                Error::Numerical("the mass matrix Z_ff is not positive definite".into())
+            })?;
+            let v0 = llt.solve(Mat::from_fn(nx, 1, |i, _| r0[i]));
+            let history = History {
+                points: vec![(0.0, u0.clone())],
+                xdot0: (0..nx).map(|i| v0[(i, 0)]).collect(),
+            };
+            // The chart of the twist unknowns, carried along with the rod: rebased to every
+            // accepted state (where the twist unknowns are then unchanged), so that the step
+            // problem never measures the twist far from its chart.
+            let chart = model.chart.transported(&steady0.config(&u0).x);
+            trajectory.last = sample(&steady0, 0.0, rate.at(0.0), u0, &chart);
+            if observer(&trajectory.last).is_break() {
+                trajectory.stopped = true;
+                return Ok(());
+            }
+            (history, chart, 0.0, settings.dt0.min(t_end))
+        }
+        Start::Resume(state) => {
+            let state = *state;
+            let edges = layout.edges();
+            if state.points.is_empty()
+                || !state.points.iter().all(|(_, u)| fits(u))
+                || state.xdot0.len() != nx
+                || state.chart.tangents.len() != edges
+                || !(state.h > 0.0 && state.t.is_finite())
+            {
+                return Err(Error::input(
+                    "--resume",
+                    "the saved integrator state does not fit this model",
+                ));
+            }
+            trajectory.steps = state.steps;
+            trajectory.rejected = state.rejected;
+            trajectory.newton_iterations = state.newton_iterations;
+            trajectory.jacobians = state.jacobians;
+            let (t, u) = state.points[0].clone();
+            trajectory.last = sample(&steady0, t, rate.at(t), u, &state.chart);
+            let history = History {
+                points: state.points,
+                xdot0: state.xdot0,
+            };
+            (history, state.chart, state.t, state.h)
+        }
     };
-    // The chart of the twist unknowns, carried along with the rod: rebased to every accepted
-    // state (where the twist unknowns are then unchanged), so that the step problem never
-    // measures the twist far from its chart.
-    let mut chart = model.chart.transported(&steady0.config(&u0).x);
-    trajectory.last = sample(&steady0, 0.0, rate.at(0.0), u0, &chart);
-    if observer(&trajectory.last).is_break() {
-        trajectory.stopped = true;
-        return Ok(());
-    }
-    let mut t = 0.0;
     // Fixed steps: `t_end` divided into equal steps no longer than `dt0`, the times computed
     // as `t_end k/n` so that the last one is `t_end` exactly.
     let fixed = (!settings.adaptive)
         .then(|| ((t_end / settings.dt0) * (1.0 - 1e-12)).ceil().max(1.0) as usize);
-    let mut h = settings.dt0.min(t_end);
     let mut just_rejected = false;
     let mut cache = Factored::default();
     while t < t_end {
@@ -918,7 +1078,21 @@ fn run(
             c0,
             offset,
         };
-        let solved = newton_step(&step, &predicted, settings, &mut cache, trajectory)?;
+        // Newton starts from the polynomial predictor or from the one reached by the retraction
+        // from the last state (edges turned, not stretched at second order), whichever has the
+        // smaller residual: the polynomial's spurious stretch of turning edges can be most of
+        // the residual (the buckled rod), the retraction's first-order length change worse than
+        // it (a fast spin-up). The error estimate keeps the polynomial (Milne's device).
+        let last = &history.points[0].1;
+        let increment: Vec<f64> = predicted.iter().zip(last).map(|(p, l)| p - l).collect();
+        let retracted = step.retract(last, &increment);
+        let size = |u: &[f64]| step.residual(u).map_or(f64::INFINITY, |g| norm(&g));
+        let guess = if size(&retracted) < size(&predicted) {
+            retracted
+        } else {
+            predicted.clone()
+        };
+        let solved = newton_step(&step, &guess, settings, &mut cache, trajectory)?;
         let Some(u) = solved else {
             trajectory.rejected += 1;
             if !settings.adaptive {
@@ -983,6 +1157,22 @@ fn run(
         }
         if settings.adaptive {
             h = (h * factor).min(settings.dt_max);
+        }
+        if let Some(c) = checkpoints.as_mut()
+            && (trajectory.steps.is_multiple_of(c.every.max(1)) || t >= t_end)
+        {
+            (c.save)(&IntegratorState {
+                t,
+                h,
+                points: history.points.clone(),
+                xdot0: history.xdot0.clone(),
+                chart: chart.clone(),
+                steps: trajectory.steps,
+                rejected: trajectory.rejected,
+                newton_iterations: trajectory.newton_iterations,
+                jacobians: trajectory.jacobians,
+            })?;
+            cache = Factored::default();
         }
     }
     Ok(())
@@ -1315,7 +1505,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
             target: omega,
             ramp_time,
         },
-        u0,
+        Start::Initial(u0),
         t_end,
         &dynamics,
         |s| {
@@ -1340,6 +1530,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
             }
             ControlFlow::Continue(())
         },
+        None,
         &mut run_stats,
     );
     let breakdown = match outcome {

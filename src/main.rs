@@ -9,7 +9,7 @@ use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
 use helixbif::boundary::run_boundary;
 use helixbif::continuation::periodic::branch::OrbitStop;
-use helixbif::dynamics::{BisectSettings, DynamicsSettings, bisect};
+use helixbif::dynamics::{BisectSettings, bisect};
 use helixbif::fit::power_law;
 use helixbif::model::Model;
 use helixbif::output::Table;
@@ -22,7 +22,7 @@ use helixbif::study::run::run;
 use helixbif::study::runs::{
     DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
 };
-use helixbif::study::simulate::{SimulateOptions, run_simulate};
+use helixbif::study::simulate::{SimulateOptions, run_simulate, simulation_provenance};
 use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge, run_sweep};
 use helixbif::study::{Study, default_output, figures, sweep_figures};
@@ -163,6 +163,10 @@ enum Command {
         /// Output folder; default `output/<study name>/`.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Kinds `dynamics` and `orbits`: continue from the checkpoints an interrupted run left
+        /// in the output folder (finished simulations are read back, not run again).
+        #[arg(long)]
+        resume: bool,
     },
     /// omega_b over the parameter grid of a study of kind "sweep" (any other study is refused),
     /// in parallel and resumable; `--shard K/N` runs every N-th point (from the K-th) for
@@ -277,6 +281,10 @@ enum Command {
         /// Output folder; default `output/<study name>/simulate/`.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Continue from the checkpoint.json an interrupted run left in the output folder
+        /// (saved every 25 steps; a larger --t-end extends a finished run).
+        #[arg(long)]
+        resume: bool,
     },
     /// omega_b the way simulation studies found it: bisection on runs from rest, each judged by
     /// whether the rod settles on the steady state. Uses the study's [newton] table.
@@ -478,11 +486,11 @@ fn boundary_command(
     Ok(Box::new(report))
 }
 
-fn run_command(args: &StudyArgs, out: Option<&Path>) -> Outcome {
+fn run_command(args: &StudyArgs, out: Option<&Path>, resume: bool) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out);
     let started = std::time::Instant::now();
-    let result = run(&study, &dir)?;
+    let result = run(&study, &dir, resume)?;
     Ok(Box::new(RunReport {
         study: study.name.clone(),
         kind: study.study.as_ref().map_or("locate", |p| p.kind()).into(),
@@ -644,11 +652,17 @@ fn orbits_command(args: &StudyArgs, o: &OrbitsArgs, out: Option<&Path>) -> Outco
 fn simulate_command(args: &StudyArgs, mut opts: SimulateOptions, out: Option<&Path>) -> Outcome {
     let (study, model) = load(args)?;
     opts.newton = study.newton.clone();
+    opts.provenance = simulation_provenance(&study);
     let dir = out.map_or_else(
         || default_output(&study.name, &args.set).join("simulate"),
         Path::to_path_buf,
     );
-    let report = run_simulate(&model, &DynamicsSettings::default(), &opts, &dir)?;
+    let bar = indicatif::ProgressBar::new(1000).with_style(
+        indicatif::ProgressStyle::with_template("simulate [{elapsed_precise}] {bar:30} {msg}")
+            .expect("a valid template"),
+    );
+    let settings = study.integrator.settings(&model.scales);
+    let report = run_simulate(&model, &settings, &opts, &dir, &bar)?;
     Ok(Box::new(titled(&study, report)))
 }
 
@@ -760,7 +774,9 @@ fn main() -> ExitCode {
             };
             (locate_command(study, *tol, how), study.json)
         }
-        Command::Run { study, out } => (run_command(study, out.as_deref()), study.json),
+        Command::Run { study, out, resume } => {
+            (run_command(study, out.as_deref(), *resume), study.json)
+        }
         Command::Boundary {
             study,
             vary,
@@ -831,6 +847,7 @@ fn main() -> ExitCode {
             transient,
             shape_every,
             out,
+            resume,
         } => (
             simulate_command(
                 study,
@@ -843,6 +860,8 @@ fn main() -> ExitCode {
                     transient: *transient,
                     shape_every: *shape_every,
                     newton: Default::default(),
+                    resume: *resume,
+                    provenance: serde_json::Value::Null,
                 },
                 out.as_deref(),
             ),

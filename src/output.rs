@@ -37,6 +37,20 @@ impl CsvWriter {
         })
     }
 
+    /// Appends rows to the table at `path`, whose header is already written (a resumed run).
+    pub fn append(path: &Path) -> Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(io_error(path))?;
+        Ok(CsvWriter {
+            path: path.to_path_buf(),
+            writer: csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(file),
+        })
+    }
+
     pub fn row(&mut self, row: &impl Serialize) -> Result<()> {
         let to_io = |e: csv::Error| Error::Io {
             path: self.path.display().to_string(),
@@ -190,4 +204,27 @@ impl std::fmt::Display for LeftOut {
             None => write!(f, "row {}: {}", self.row, self.reason),
         }
     }
+}
+
+/// The rows of the CSV table at `path` (none when `read` is false or the file does not exist):
+/// the results an interrupted run had finished, read back on `--resume`.
+pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Result<Vec<T>> {
+    if !read || !path.exists() {
+        return Ok(Vec::new());
+    }
+    let mut reader = csv::Reader::from_path(path)
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
+    reader
+        .deserialize()
+        .collect::<std::result::Result<Vec<T>, _>>()
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))
+}
+
+/// Writes `value` as JSON to `path` through a temporary file and a rename, so that an
+/// interruption leaves the old file or the new one, never half of one (checkpoints).
+pub fn write_json_atomically(path: &Path, value: &impl Serialize) -> Result<()> {
+    let text = serde_json::to_string(value).map_err(|e| Error::Numerical(e.to_string()))?;
+    let temporary = path.with_extension("json.partial");
+    std::fs::write(&temporary, text).map_err(io_error(&temporary))?;
+    std::fs::rename(&temporary, path).map_err(io_error(path))
 }

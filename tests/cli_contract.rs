@@ -570,3 +570,134 @@ fn rung_field(v: &serde_json::Value, key: &str) -> Vec<f64> {
         .map(|r| r[key].as_f64().expect("a number"))
         .collect()
 }
+
+/// `simulate` killed mid-run (SIGKILL, no chance to tidy up) and started again with `--resume`
+/// writes the same `timeseries.csv` and `shapes.csv`, byte for byte, as a run never
+/// interrupted; a checkpoint of other options is refused with exit code 2, naming `--resume`.
+#[test]
+fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
+    let base = std::env::temp_dir().join(format!("helixbif-resume-{}", std::process::id()));
+    let (whole, part) = (base.join("whole"), base.join("part"));
+    let args = |out: &std::path::Path| -> Vec<String> {
+        [
+            "simulate",
+            "--set",
+            "discretization.nodes=16",
+            "--set",
+            "integrator.dt_max=0.02",
+            "--omega",
+            "1.0",
+            "--t-end",
+            "200",
+            "--shape-every",
+            "100",
+            "--json",
+            "--out",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([out.display().to_string()])
+        .collect()
+    };
+    let status = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(args(&whole))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    // The same run, killed once its checkpoint counts 2000 samples (of about 10000).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(args(&part))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let checkpoint = part.join("checkpoint.json");
+    let samples = |text: &str| -> u64 {
+        serde_json::from_str::<serde_json::Value>(text)
+            .ok()
+            .and_then(|v| v["samples"].as_u64())
+            .unwrap_or(0)
+    };
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            panic!("the run ended before it could be interrupted");
+        }
+        let text = std::fs::read_to_string(&checkpoint).unwrap_or_default();
+        if samples(&text) >= 2000 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let saved = samples(&std::fs::read_to_string(&checkpoint).unwrap());
+    let written = std::fs::read_to_string(part.join("timeseries.csv"))
+        .unwrap()
+        .lines()
+        .count() as u64;
+    assert!(saved < 9000, "interrupted at {saved} samples");
+    assert!(
+        written > saved,
+        "rows after the checkpoint: {written} vs {saved}"
+    );
+    let mut resumed = args(&part);
+    resumed.push("--resume".into());
+    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(&resumed)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for file in ["timeseries.csv", "shapes.csv"] {
+        let a = std::fs::read(whole.join(file)).unwrap();
+        let b = std::fs::read(part.join(file)).unwrap();
+        assert!(a == b, "{file} differs after the resume");
+    }
+    // Another rate into the same folder: refused.
+    let mut other = args(&part);
+    other[6] = "1.1".into();
+    other.push("--resume".into());
+    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        .args(&other)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--resume"), "{stderr}");
+    std::fs::remove_dir_all(&base).ok();
+}
+
+#[test]
+fn integrator_and_quadrature_fields_out_of_range_are_named() {
+    for (set, field) in [
+        ("integrator.rtol=0.5", "integrator.rtol"),
+        ("integrator.atol=-1", "integrator.atol"),
+        ("integrator.dt_max=0", "integrator.dt_max"),
+        ("integrator.jacobian=\"lu\"", "integrator.jacobian"),
+        ("fluid.points_per_blob=4", "fluid.points_per_blob"),
+    ] {
+        let (code, _, stderr) =
+            helixbif(&["simulate", "--omega", "0.2", "--t-end", "1", "--set", set]);
+        assert_eq!(code, 2, "{set}: {stderr}");
+        assert!(stderr.contains(field), "{set}: {stderr}");
+    }
+    let (code, _, stderr) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.2",
+        "--set",
+        "fluid.model=\"rpy\"",
+        "--set",
+        "fluid.points_per_blob=1",
+    ]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("fluid.points_per_blob") && stderr.contains("[2, 64]"),
+        "{stderr}"
+    );
+}

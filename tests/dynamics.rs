@@ -23,14 +23,16 @@ use helixbif::continuation::events::EventKind;
 use helixbif::continuation::newton::{NewtonSettings, System, norm};
 use helixbif::continuation::stability::spectrum;
 use helixbif::dynamics::{
-    BisectSettings, DynamicsSettings, ImplicitStep, Rate, bisect, integrate, least_stable_mode,
-    natural_chart_unknowns, perturb, rechart, slave_twist_in,
+    BisectSettings, Checkpoints, DynamicsSettings, ImplicitStep, IntegratorState, Rate, Start,
+    bisect, integrate, integrate_from, least_stable_mode, natural_chart_unknowns, perturb, rechart,
+    slave_twist_in,
 };
 use helixbif::model::Model;
 use helixbif::params::Physical;
 use helixbif::rod::frame::Chart;
 use helixbif::solve::solve_at;
 use helixbif::steady::{Steady, height};
+use helixbif::study::simulate::IntegratorTable;
 
 /// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
 /// inside a factorization (as in the command-line tool).
@@ -506,4 +508,153 @@ fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
     for (a, b) in moving.iter().zip(&drag) {
         assert!((a - b).norm() < 1e-7 * scale, "{a} vs {b}");
     }
+}
+
+/// The integrator's table defaults: the chord, and Newton ending on an update below
+/// `newton_kappa` in the error test's weighted norm.
+fn table_settings(model: &Model) -> DynamicsSettings {
+    IntegratorTable::default().settings(&model.scales)
+}
+
+/// A run interrupted after any checkpoint and resumed from the saved state continues bit for
+/// bit as the uninterrupted run (the buckled motion past `omega_b`, the chord in use): the same
+/// later states, the same counts, the same last sample.
+#[test]
+fn a_resumed_integration_equals_the_uninterrupted_one() {
+    let model = helix(20);
+    let omega = 1.15 * hopf(&model);
+    let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
+    let u0 = Steady::new(&model, 0.0).free_vector(&rest.config);
+    let settings = table_settings(&model);
+    let rate = Rate::Ramp {
+        target: omega,
+        ramp_time: 0.02,
+    };
+    let t_end = 0.3;
+    let run_from = |start: Start| {
+        let mut saved: Vec<IntegratorState> = Vec::new();
+        let mut save = |s: &IntegratorState| {
+            saved.push(s.clone());
+            Ok(())
+        };
+        let run = integrate_from(
+            &model,
+            rate,
+            start,
+            t_end,
+            &settings,
+            |_| ControlFlow::Continue(()),
+            Some(Checkpoints {
+                every: 7,
+                save: &mut save,
+            }),
+        )
+        .unwrap();
+        (run, saved)
+    };
+    let (whole, saved) = run_from(Start::Initial(u0));
+    println!(
+        "{} steps, {} rejected, {} iterations, {} Jacobians, {} checkpoints",
+        whole.steps,
+        whole.rejected,
+        whole.newton_iterations,
+        whole.jacobians,
+        saved.len()
+    );
+    assert!(saved.len() >= 4, "{} checkpoints", saved.len());
+    let last = saved.last().unwrap();
+    assert_eq!(last.t, t_end);
+    let k = saved.len() / 2;
+    let (resumed, saved_after) = run_from(Start::Resume(Box::new(saved[k].clone())));
+    assert_eq!(saved_after, saved[k + 1..].to_vec());
+    assert_eq!(resumed.last, whole.last);
+    assert_eq!(
+        (resumed.steps, resumed.rejected, resumed.newton_iterations),
+        (whole.steps, whole.rejected, whole.newton_iterations)
+    );
+    // The state survives its file: JSON written and read back is the same state.
+    let text = serde_json::to_string(&saved[k]).unwrap();
+    let back: IntegratorState = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, saved[k]);
+}
+
+/// Newton ending on a small weighted update (`newton_kappa`) errs, per step, by about `kappa`
+/// in the error test's norm (at most `kappa / (1 - 1/3)`: the chord contracts by 3 or is
+/// rebuilt): steps from the states of a run solved to the residual tolerance, taken again with
+/// `kappa`, land within that of the full solve's next state, with fewer iterations.
+#[test]
+fn newton_ended_on_a_small_update_errs_by_about_kappa_per_step() {
+    let model = helix(20);
+    let omega = 1.15 * hopf(&model);
+    let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
+    let u0 = Steady::new(&model, 0.0).free_vector(&rest.config);
+    let table = table_settings(&model);
+    let rate = Rate::Ramp {
+        target: omega,
+        ramp_time: 0.01,
+    };
+    let t_end = 0.04;
+    let tight = DynamicsSettings {
+        newton_kappa: 0.0,
+        newton_tol: 1e-10,
+        max_newton: 30,
+        ..table.clone()
+    };
+    let mut states: Vec<IntegratorState> = Vec::new();
+    let mut save = |s: &IntegratorState| {
+        states.push(s.clone());
+        Ok(())
+    };
+    integrate_from(
+        &model,
+        rate,
+        Start::Initial(u0),
+        t_end,
+        &tight,
+        |_| ControlFlow::Continue(()),
+        Some(Checkpoints {
+            every: 1,
+            save: &mut save,
+        }),
+    )
+    .unwrap();
+    assert!(states.len() > 40, "{} steps", states.len());
+    let nx = model.rod.layout.free_positions();
+    let (mut worst, mut iterations, mut tight_iterations) = (0.0f64, 0, 0);
+    for k in (5..states.len() - 1).step_by(5) {
+        let mut next = None;
+        let run = integrate_from(
+            &model,
+            rate,
+            Start::Resume(Box::new(states[k].clone())),
+            t_end,
+            &table,
+            |s| {
+                next = Some(s.u_chart.clone());
+                ControlFlow::Break(())
+            },
+            None,
+        )
+        .unwrap();
+        let next = next.unwrap();
+        let exact = &states[k + 1].points[0].1;
+        assert_eq!(states[k + 1].points[0].0, run.last.t, "the same step");
+        let sum: f64 = (0..nx)
+            .map(|i| {
+                let w = table.atol + table.rtol * exact[i].abs();
+                ((next[i] - exact[i]) / w).powi(2)
+            })
+            .sum();
+        worst = worst.max((sum / nx as f64).sqrt());
+        iterations += run.newton_iterations - states[k].newton_iterations;
+        tight_iterations += states[k + 1].newton_iterations - states[k].newton_iterations;
+    }
+    println!(
+        "kappa {}: largest weighted one-step difference {worst:.3e}; iterations {iterations} \
+         against {tight_iterations}",
+        table.newton_kappa
+    );
+    assert!(table.newton_kappa > 0.0);
+    assert!(worst <= 1.5 * table.newton_kappa, "{worst:e}");
+    assert!(iterations < tight_iterations);
 }

@@ -110,3 +110,32 @@ fn the_line_search_reaches_the_root_monotonically_from_a_far_start_and_a_failure
         "{message}"
     );
 }
+
+#[test]
+fn a_stale_chord_whose_step_makes_the_residual_grow_is_dropped_at_the_point_it_started_from() {
+    // The factorized Jacobian of a far point (a chord inherited from elsewhere, e.g. an earlier
+    // time step): from `start` its step overshoots and the residual grows.
+    let start = vec![2.1, 0.6];
+    let far = [0.4, -1.5];
+    let (_, stale) = CircleHyperbola.residual_and_jacobian(&far).unwrap();
+    let mut chord = Chord::holding(stale.partial_piv_lu());
+    let (u, report) = newton(1e-12, Globalization::Full)
+        .run(
+            &CircleHyperbola,
+            start.clone(),
+            Jacobians::Reuse(&mut chord),
+            "test",
+        )
+        .unwrap();
+    let h = &report.history;
+    println!("history {h:?}, built {}", chord.built);
+    // The stale step made the residual grow; the iteration went back to `start` (the same
+    // residual, to the bit), factorized there, and converged with that one factorization.
+    let g0 = h[0];
+    assert!(h[1] == g0, "back at the start: {h:?}");
+    assert!(error(&u) < 1e-11, "error {:e}", error(&u));
+    assert_eq!(chord.built, 2, "{h:?}");
+    // Without the retreat the chord would be rebuilt at the grown iterate: the history never
+    // holds a residual above the start's.
+    assert!(h.iter().all(|&g| g <= g0), "{h:?}");
+}

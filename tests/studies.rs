@@ -40,6 +40,7 @@ fn reduced(mut study: Study) -> Study {
             t_end,
             transient,
             ramp_time,
+            ..
         }) => {
             omegas.truncate(1);
             *t_end = 10.0;
@@ -93,7 +94,7 @@ fn every_study_parses_and_a_reduced_version_runs() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let small = reduced(study);
         let dir = temp_dir(&format!("study-{}", small.name));
-        let report = run(&small, &dir).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let report = run(&small, &dir, false).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(dir.join("meta.json").exists(), "{}", path.display());
         // Every SVG written is valid XML with labelled axes.
         let svgs: Vec<PathBuf> = std::fs::read_dir(&dir)
@@ -144,7 +145,7 @@ fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_th
     if let Some(Plan::Phase { m, .. }) = &mut small.study {
         *m = None;
     }
-    let report = run(&small, &dir.join("phase")).unwrap();
+    let report = run(&small, &dir.join("phase"), false).unwrap();
     assert_eq!(report["m"], 2.5, "{report}");
     std::fs::remove_dir_all(&dir).ok();
 }

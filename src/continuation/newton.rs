@@ -282,9 +282,14 @@ impl Newton {
             Jacobians::Fresh => (&mut own, false),
             Jacobians::Reuse(chord) => (chord, true),
         };
+        // The iterate a stale chord's step started from: where the iteration returns, with a
+        // fresh Jacobian, when that step made the residual grow.
+        let mut retreat: Option<Vec<f64>> = None;
         loop {
             let last = history.len() == self.max_iter;
-            let g = if reuse {
+            // Whether the chord holds the Jacobian at `u` itself.
+            let mut fresh = !reuse;
+            let mut g = if reuse {
                 system.residual(&u)?
             } else {
                 let (g, jac) = system.residual_and_jacobian(&u)?;
@@ -292,7 +297,19 @@ impl Newton {
                 chord.built += 1;
                 g
             };
-            let g_norm = system.size(&g);
+            let mut g_norm = system.size(&g);
+            if let (Some(&before), Some(start)) = (history.last(), retreat.take())
+                && !last
+                && (g_norm > before || g_norm.is_nan())
+            {
+                u = start;
+                let (g_start, jac) = system.residual_and_jacobian(&u)?;
+                chord.lu = Some(jac.partial_piv_lu());
+                chord.built += 1;
+                fresh = true;
+                g = g_start;
+                g_norm = system.size(&g);
+            }
             let contracting = history.last().is_none_or(|&before| g_norm <= before / 3.0);
             history.push(g_norm);
             if !g_norm.is_finite() {
@@ -307,7 +324,7 @@ impl Newton {
             if g_norm <= self.tol {
                 return Ok((u, report(history, 0.0)));
             }
-            if reuse && (!chord.holds() || !contracting) {
+            if reuse && !fresh && (!chord.holds() || !contracting) {
                 // A stale chord at the last iterate: no new factorization is worth making.
                 if last {
                     return Err(fail(no_convergence(), &history));
@@ -315,6 +332,10 @@ impl Newton {
                 let (_, jac) = system.residual_and_jacobian(&u)?;
                 chord.lu = Some(jac.partial_piv_lu());
                 chord.built += 1;
+                fresh = true;
+            }
+            if reuse && !fresh {
+                retreat = Some(u.clone());
             }
             let lu = chord.lu.as_ref().expect("a factorization is held here");
             let du =

@@ -132,7 +132,8 @@ impl Fluid {
             }),
             FluidModel::Rpy => {
                 let a = params.blob_radius.unwrap_or_else(|| rpy_blob_radius(r0));
-                Fluid::Rpy(Rpy::for_polygon(1.0, a / ell, natural))
+                let per_blob = params.points_per_blob.unwrap_or(rpy::POINTS_PER_BLOB);
+                Fluid::Rpy(Rpy::for_polygon(1.0, a / ell, per_blob, natural))
             }
         }
     }

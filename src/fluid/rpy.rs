@@ -308,13 +308,14 @@ impl Rpy {
     }
 
     /// RPY mobility for configurations of the polygon `natural`, with
-    /// `Q = max(2, ceil(POINTS_PER_BLOB * l_max / a))` points per edge from its longest edge.
-    pub fn for_polygon(mu: f64, blob_radius: f64, natural: &[Vector3<f64>]) -> Self {
+    /// `Q = max(2, ceil(per_blob * l_max / a))` points per edge from its longest edge
+    /// (`per_blob`: [`POINTS_PER_BLOB`] by default).
+    pub fn for_polygon(mu: f64, blob_radius: f64, per_blob: f64, natural: &[Vector3<f64>]) -> Self {
         let longest = natural
             .windows(2)
             .map(|e| (e[1] - e[0]).norm())
             .fold(0.0, f64::max);
-        let q = ((POINTS_PER_BLOB * longest / blob_radius).ceil() as usize).max(2);
+        let q = ((per_blob * longest / blob_radius).ceil() as usize).max(2);
         Self::new(mu, blob_radius, q)
     }
 

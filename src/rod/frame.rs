@@ -52,7 +52,7 @@ pub fn unwrap_offset(angle: f64, near: f64) -> f64 {
 /// The energy at another configuration is evaluated with the directors parallel-transported
 /// from this chart onto the new edges, so that the energy is a smooth function of positions and
 /// angles near the chart ("source frame").
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Chart {
     pub tangents: Vec<Vector3<f64>>,
     pub directors: Vec<Vector3<f64>>,

@@ -42,6 +42,9 @@ pub struct Study {
     pub continuation: ContinuationSettings,
     #[serde(default)]
     pub branch: BranchRange,
+    /// The time stepper of `simulate` and the `dynamics` study.
+    #[serde(default)]
+    pub integrator: crate::study::simulate::IntegratorTable,
     /// What `helixbif run` does with this study (absent: `locate`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub study: Option<Plan>,
@@ -79,6 +82,7 @@ impl Study {
             newton: NewtonSettings::default(),
             continuation: ContinuationSettings::default(),
             branch: BranchRange::default(),
+            integrator: Default::default(),
             study: None,
         }
     }
@@ -132,6 +136,7 @@ impl Study {
         study.resolve_per_turn()?;
         study.newton.validate()?;
         study.continuation.validate()?;
+        study.integrator.validate()?;
         if !(study.branch.omega_max.is_finite() && study.branch.omega_max != 0.0) {
             return Err(Error::input(
                 "branch.omega_max",

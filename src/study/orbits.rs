@@ -158,29 +158,6 @@ impl Section for OrbitsReport {
     }
 }
 
-/// The rows of a CSV file written by this command (none when `read` is false or the file is
-/// absent).
-fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Result<Vec<T>> {
-    if !read || !path.exists() {
-        return Ok(Vec::new());
-    }
-    let mut reader = csv::Reader::from_path(path)
-        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
-    reader
-        .deserialize()
-        .collect::<std::result::Result<Vec<T>, _>>()
-        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))
-}
-
-/// Writes `checkpoint` to `path` through a temporary file and a rename, so that an interruption
-/// leaves the old checkpoint or the new one, never half of one.
-fn write_checkpoint(path: &Path, checkpoint: &Checkpoint) -> Result<()> {
-    let text = serde_json::to_string(checkpoint).map_err(|e| Error::Numerical(e.to_string()))?;
-    let temporary = path.with_extension("json.partial");
-    std::fs::write(&temporary, text).map_err(io_error(&temporary))?;
-    std::fs::rename(&temporary, path).map_err(io_error(path))
-}
-
 /// Locates the first loss of stability of `study` on `model`, and when it is a Hopf point with
 /// a Lyapunov coefficient, follows the orbits born there, writing into `dir`.
 ///
@@ -232,9 +209,11 @@ pub fn run_orbits(
     };
     // On a resumed run the orbits and events before the checkpoint are kept as they were.
     let next = resume.as_ref().map_or(0, |c| c.next_index);
-    let mut rows: Vec<OrbitRow> = read_rows(&dir.join("orbits.csv"), resume.is_some())?;
+    let mut rows: Vec<OrbitRow> =
+        crate::output::read_rows(&dir.join("orbits.csv"), resume.is_some())?;
     rows.retain(|r| r.index < next);
-    let mut events: Vec<OrbitEventRow> = read_rows(&dir.join("events.csv"), resume.is_some())?;
+    let mut events: Vec<OrbitEventRow> =
+        crate::output::read_rows(&dir.join("events.csv"), resume.is_some())?;
     events.retain(|e| e.after + 1 < next);
     let mut csv = CsvWriter::create(&dir.join("orbits.csv"))?;
     for r in &rows {
@@ -254,7 +233,7 @@ pub fn run_orbits(
             ));
             csv.row(row)?;
             match checkpoint {
-                Some(c) => write_checkpoint(&checkpoint_path, c),
+                Some(c) => crate::output::write_json_atomically(&checkpoint_path, c),
                 None => Ok(()),
             }
         },

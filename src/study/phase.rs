@@ -141,7 +141,7 @@ fn exponent(m: Option<f64>, exponent_study: &str, dir: &Path) -> Result<f64> {
                 dir.display(),
                 own.display()
             );
-            super::run::run(&source, &own)?;
+            super::run::run(&source, &own, false)?;
             own.join("fit.json")
         }
     };

@@ -176,6 +176,10 @@ pub enum Plan {
         transient: f64,
         #[serde(default = "default_ramp_time")]
         ramp_time: f64,
+        /// Also follow the periodic orbits born at the Hopf point (`orbits/`, the orbit kind's
+        /// defaults) and draw their period averages with the time averages.
+        #[serde(default)]
+        orbit_branch: bool,
     },
     /// The branch of periodic orbits born at the Hopf point that `locate` finds: `max_orbits`
     /// orbits of `steps` equal BDF2 steps per period, the first of normal-form radius
@@ -335,6 +339,7 @@ impl Plan {
                 t_end,
                 transient,
                 ramp_time,
+                ..
             } => {
                 if omegas.is_empty() || omegas.iter().any(|w| !w.is_finite() || *w <= 0.0) {
                     return Err(Error::input(

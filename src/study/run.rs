@@ -39,7 +39,9 @@ pub fn slug(label: &str) -> String {
 
 /// Runs the study into `dir`; returns a summary for the terminal. A branch that stalls or a sweep
 /// point that fails makes it a numerical failure, after every result and figure is written.
-pub fn run(study: &Study, dir: &Path) -> Result<Value> {
+/// With `resume`, the long kinds (`dynamics`, `orbits`) continue from their checkpoints in
+/// `dir` (finished simulations are read back, not run again); the others run afresh.
+pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
     create_dir(dir)?;
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
@@ -145,7 +147,7 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
         }
         Plan::Shapes { .. } => super::shapes::run_shapes(study, dir)?,
         Plan::Dynamics { .. } => {
-            let (rows, failed) = super::simulate::run_dynamics(study, dir)?;
+            let (rows, failed) = super::simulate::run_dynamics(study, dir, resume)?;
             if failed > 0 {
                 failures.push(format!(
                     "{failed} simulations failed (status column of dynamics.csv)"
@@ -155,8 +157,10 @@ pub fn run(study: &Study, dir: &Path) -> Result<Value> {
         }
         Plan::Orbits { .. } => {
             let model = Model::new(&study.physical())?;
-            let opts =
-                OrbitsOptions::of_plan(&plan, study.branch.omega_max).expect("an orbits plan");
+            let opts = OrbitsOptions {
+                resume,
+                ..OrbitsOptions::of_plan(&plan, study.branch.omega_max).expect("an orbits plan")
+            };
             let report = super::orbits::run_orbits(study, &model, &opts, dir)?;
             if let OrbitStop::StepTooSmall(reason) = &report.stop {
                 failures.push(format!("the orbit branch stalled: {reason}"));

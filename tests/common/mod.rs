@@ -35,6 +35,7 @@ pub fn straight_rod(length: f64, r0: f64, alpha_deg: f64, nodes: usize) -> Physi
             quadrature: Default::default(),
             model: Default::default(),
             blob_radius: None,
+            points_per_blob: None,
         },
         shape: ShapeParams::Straight { length, alpha_deg },
         discretization: Discretization {
