@@ -261,6 +261,9 @@ struct SimulationCheckpoint {
     key: serde_json::Value,
     samples: usize,
     shape_lines: usize,
+    /// Wall-clock seconds the run had taken up to the save, over all its sessions.
+    #[serde(default)]
+    seconds: f64,
     state: IntegratorState,
 }
 
@@ -320,6 +323,7 @@ pub struct SimulateReport {
     pub eta_std: Option<f64>,
     /// Start of the statistics (s).
     pub transient: f64,
+    /// Wall-clock seconds of the run, over all its sessions (a resumed run counts the saved ones).
     pub seconds: f64,
     /// The output folder.
     pub out: String,
@@ -396,6 +400,7 @@ pub fn run_simulate(
     };
     // On a resumed run the rows up to the checkpoint are kept and read back (for the
     // statistics), the ones after it dropped: they are computed again.
+    let earlier_seconds = saved.as_ref().map_or(0.0, |c| c.seconds);
     let (start_from, mut series, mut shapes, mut rows, mut count, mut shape_lines) = match saved {
         Some(saved) => {
             truncate_lines(&series_path, 1, saved.samples)?;
@@ -502,6 +507,7 @@ pub fn run_simulate(
                 key: key.clone(),
                 samples,
                 shape_lines,
+                seconds: earlier_seconds + start.elapsed().as_secs_f64(),
                 state: state.clone(),
             },
         )
@@ -575,7 +581,7 @@ pub fn run_simulate(
         eta_mean: eta.map(|s| s.0),
         eta_std: eta.map(|s| s.1),
         transient: opts.transient,
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: earlier_seconds + start.elapsed().as_secs_f64(),
         out: dir.display().to_string(),
     })
 }
