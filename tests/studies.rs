@@ -48,15 +48,11 @@ fn reduced(mut study: Study) -> Study {
             *ramp_time = 2.0;
         }
         Some(Plan::Branch { cases }) => cases.truncate(2),
-        Some(Plan::Orbits {
-            max_orbits,
-            omega_max,
-            ..
-        }) => {
+        Some(Plan::Orbits(orbits)) => {
             // At N = 16 the Hopf point lies near 1.33 rad/s.
-            *max_orbits = 3;
+            orbits.max_orbits = 3;
             study.branch.omega_max = 2.0;
-            *omega_max = None;
+            orbits.omega_max = None;
         }
         Some(Plan::Boundary {
             from, to, cases, ..

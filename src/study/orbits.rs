@@ -22,7 +22,7 @@ use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::report::Section;
 use crate::steady::height;
 use crate::study::Study;
-use crate::study::plan::Plan;
+use crate::study::plan::OrbitPlan;
 use crate::study::runs::{run_branch, run_locate_critical};
 use crate::{Error, Result};
 
@@ -50,22 +50,16 @@ pub fn branch_settings(max_orbits: usize, steps: usize, amplitude: f64) -> Orbit
 }
 
 impl OrbitsOptions {
-    /// The options of a `kind = "orbits"` plan (`None` for another kind), the range's upper end
-    /// `omega_max` unless the plan sets it.
-    pub fn of_plan(plan: &Plan, omega_max: f64) -> Option<Self> {
-        match plan {
-            Plan::Orbits {
-                max_orbits,
-                steps,
-                amplitude,
-                omega_min,
-                omega_max: upper,
-            } => Some(OrbitsOptions {
-                settings: branch_settings(*max_orbits, *steps, *amplitude),
-                omega_range: (omega_min.unwrap_or(0.0), upper.unwrap_or(omega_max)),
-                resume: false,
-            }),
-            _ => None,
+    /// The options an orbit plan sets, the range's upper end `omega_max` unless the plan sets
+    /// it.
+    pub fn of_plan(plan: &OrbitPlan, omega_max: f64) -> Self {
+        OrbitsOptions {
+            settings: branch_settings(plan.max_orbits, plan.steps, plan.amplitude),
+            omega_range: (
+                plan.omega_min.unwrap_or(0.0),
+                plan.omega_max.unwrap_or(omega_max),
+            ),
+            resume: false,
         }
     }
 

@@ -176,27 +176,67 @@ pub enum Plan {
         transient: f64,
         #[serde(default = "default_ramp_time")]
         ramp_time: f64,
-        /// Also follow the periodic orbits born at the Hopf point (`orbits/`, the orbit kind's
-        /// defaults) and draw their period averages with the time averages.
+        /// Also follow the periodic orbits born at the Hopf point (`orbits/`) and draw their
+        /// period averages with the time averages.
         #[serde(default)]
         orbit_branch: bool,
-    },
-    /// The branch of periodic orbits born at the Hopf point that `locate` finds: `max_orbits`
-    /// orbits of `steps` equal BDF2 steps per period, the first of normal-form radius
-    /// `amplitude` (reference lengths), while `omega` stays in `[omega_min, omega_max]` (rad/s;
-    /// default `[0, branch.omega_max]`).
-    Orbits {
-        #[serde(default = "default_max_orbits")]
-        max_orbits: usize,
-        #[serde(default = "default_orbit_steps")]
-        steps: usize,
-        #[serde(default = "default_orbit_amplitude")]
-        amplitude: f64,
+        /// The orbit branch's settings (`[study.orbits]`; the orbit kind's defaults).
         #[serde(default)]
-        omega_min: Option<f64>,
-        #[serde(default)]
-        omega_max: Option<f64>,
+        orbits: OrbitPlan,
     },
+    /// The branch of periodic orbits born at the Hopf point that `locate` finds.
+    Orbits(OrbitPlan),
+}
+
+/// The branch of periodic orbits born at the Hopf point that `locate` finds: `max_orbits`
+/// orbits of `steps` equal BDF2 steps per period, the first of normal-form radius `amplitude`
+/// (reference lengths), while `omega` stays in `[omega_min, omega_max]` (rad/s; default
+/// `[0, branch.omega_max]`, or the rates' range for a dynamics study). The fields of a
+/// `kind = "orbits"` study, and the `[study.orbits]` table of a dynamics study.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitPlan {
+    #[serde(default = "default_max_orbits")]
+    pub max_orbits: usize,
+    #[serde(default = "default_orbit_steps")]
+    pub steps: usize,
+    #[serde(default = "default_orbit_amplitude")]
+    pub amplitude: f64,
+    #[serde(default)]
+    pub omega_min: Option<f64>,
+    #[serde(default)]
+    pub omega_max: Option<f64>,
+}
+
+impl Default for OrbitPlan {
+    fn default() -> Self {
+        OrbitPlan {
+            max_orbits: default_max_orbits(),
+            steps: default_orbit_steps(),
+            amplitude: default_orbit_amplitude(),
+            omega_min: None,
+            omega_max: None,
+        }
+    }
+}
+
+impl OrbitPlan {
+    /// Checks the ranges, the fields named `study.<field>` (`prefix = "study"`) or
+    /// `study.orbits.<field>`.
+    fn validate(&self, prefix: &str) -> Result<()> {
+        // Without omega_max the range ends where the study says, checked there.
+        let lo = self.omega_min.unwrap_or(0.0);
+        let upper = self.omega_max.unwrap_or(lo + 1.0);
+        super::orbits::OrbitsOptions::of_plan(self, upper)
+            .validate()
+            .map_err(|e| match e {
+                Error::Input { field, message } => Error::Input {
+                    field: field.replace("orbits.", &format!("{prefix}.")),
+                    message,
+                },
+                other => other,
+            })
+    }
 }
 
 fn default_max_orbits() -> usize {
@@ -234,7 +274,7 @@ impl Plan {
             Plan::Boundary { .. } => "boundary",
             Plan::Shapes { .. } => "shapes",
             Plan::Dynamics { .. } => "dynamics",
-            Plan::Orbits { .. } => "orbits",
+            Plan::Orbits(_) => "orbits",
         }
     }
 
@@ -339,8 +379,10 @@ impl Plan {
                 t_end,
                 transient,
                 ramp_time,
+                orbits,
                 ..
             } => {
+                orbits.validate("study.orbits")?;
                 if omegas.is_empty() || omegas.iter().any(|w| !w.is_finite() || *w <= 0.0) {
                     return Err(Error::input(
                         "study.omegas",
@@ -366,22 +408,7 @@ impl Plan {
                 }
                 Ok(())
             }
-            Plan::Orbits { omega_max, .. } => {
-                // Without omega_max the range ends at branch.omega_max, checked there.
-                let upper = omega_max.unwrap_or(f64::MAX);
-                let mut checked =
-                    super::orbits::OrbitsOptions::of_plan(self, upper).expect("an orbits plan");
-                if omega_max.is_none() {
-                    checked.omega_range.1 = checked.omega_range.0 + 1.0;
-                }
-                checked.validate().map_err(|e| match e {
-                    Error::Input { field, message } => Error::Input {
-                        field: field.replace("orbits.", "study."),
-                        message,
-                    },
-                    other => other,
-                })
-            }
+            Plan::Orbits(orbits) => orbits.validate("study"),
             Plan::Locate {
                 accuracy,
                 max_nodes,

@@ -155,11 +155,11 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
             }
             json!({ "kind": "dynamics", "rows": rows })
         }
-        Plan::Orbits { .. } => {
+        Plan::Orbits(orbits) => {
             let model = Model::new(&study.physical())?;
             let opts = OrbitsOptions {
                 resume,
-                ..OrbitsOptions::of_plan(&plan, study.branch.omega_max).expect("an orbits plan")
+                ..OrbitsOptions::of_plan(orbits, study.branch.omega_max)
             };
             let report = super::orbits::run_orbits(study, &model, &opts, dir)?;
             if let OrbitStop::StepTooSmall(reason) = &report.stop {

@@ -641,6 +641,7 @@ pub fn run_dynamics(
         transient,
         ramp_time,
         orbit_branch,
+        orbits: orbit_plan,
     }) = &study.study
     else {
         return Err(Error::input("study.kind", "expected a dynamics study"));
@@ -715,9 +716,8 @@ pub fn run_dynamics(
     let orbits: Vec<OrbitRow> = if *orbit_branch {
         let orbits_dir = dir.join("orbits");
         let opts = OrbitsOptions {
-            settings: crate::continuation::periodic::branch::OrbitBranchSettings::default(),
-            omega_range: (0.0, omega_max),
             resume,
+            ..OrbitsOptions::of_plan(orbit_plan, omega_max)
         };
         crate::study::orbits::run_orbits(study, &model, &opts, &orbits_dir)?;
         crate::output::read_rows(&orbits_dir.join("orbits.csv"), true)?
