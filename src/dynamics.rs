@@ -607,8 +607,12 @@ impl TwistBlock<'_> {
 }
 
 impl System for TwistBlock<'_> {
+    /// `R_theta = -dE/dtheta` at the free angles.
     fn residual(&self, twist: &[f64]) -> Result<Vec<f64>> {
-        Ok(self.still.residual(&self.with_twist(twist))?[self.nx..].to_vec())
+        let config = self.still.config(&self.with_twist(twist));
+        let model = self.still.model;
+        let g = model.rod.twist_gradient(&config, &self.still.chart);
+        Ok(g[1..].iter().map(|v| -v).collect())
     }
 
     fn residual_and_jacobian(&self, twist: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {

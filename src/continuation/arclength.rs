@@ -51,11 +51,13 @@ use std::cell::RefCell;
 use std::ops::ControlFlow;
 
 use faer::Mat;
+use faer::linalg::solvers::PartialPivLu;
 use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
 use super::newton::{
-    self, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System, norm,
+    self, Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System,
+    norm,
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
@@ -183,15 +185,6 @@ fn bordered_matrix(lin: &Linearization, r_u: &[f64], r_p: f64) -> Mat<f64> {
     a
 }
 
-/// Solves the bordered system `[G_u G_p; r_u^T r_p] z = rhs`.
-fn bordered_solve(lin: &Linearization, r_u: &[f64], r_p: f64, rhs: &[f64]) -> Option<Vec<f64>> {
-    let n = lin.g.len();
-    let b = Mat::from_fn(n + 1, 1, |i, _| rhs[i]);
-    let z = bordered_matrix(lin, r_u, r_p).partial_piv_lu().solve(&b);
-    let z: Vec<f64> = (0..=n).map(|i| z[(i, 0)]).collect();
-    z.iter().all(|v| v.is_finite()).then_some(z)
-}
-
 /// The unit tangent at a point whose linearization is `lin`: the null vector of `[G_u G_p]`
 /// with `<r, t> = 1` (so it keeps the orientation of `r`), normalized in the metric.
 pub fn tangent(
@@ -200,14 +193,37 @@ pub fn tangent(
     r_u: &[f64],
     r_p: f64,
 ) -> Result<(Vec<f64>, f64)> {
+    tangent_over(lin, metric, r_u, r_p, None)
+}
+
+/// [`tangent`], over `lu` when it is the factorization of the bordered matrix
+/// `[G_u G_p; w_u r_u^T w_p r_p]` already at hand (the corrector's last one, whose border row is
+/// the same), else over a new one.
+fn tangent_over(
+    lin: &Linearization,
+    metric: &Metric,
+    r_u: &[f64],
+    r_p: f64,
+    lu: Option<&PartialPivLu<f64>>,
+) -> Result<(Vec<f64>, f64)> {
     let n = lin.g.len();
-    let mut rhs = vec![0.0; n + 1];
-    rhs[n] = 1.0;
-    let ru: Vec<f64> = r_u.iter().map(|v| metric.wu * v).collect();
-    let z = bordered_solve(lin, &ru, metric.wp * r_p, &rhs)
-        .ok_or_else(|| Error::Numerical("singular bordered matrix for the tangent".into()))?;
-    let (tu, tp) = (&z[..n], z[n]);
-    let len = metric.dot(tu, tp, tu, tp).sqrt();
+    let rhs = Mat::from_fn(n + 1, 1, |i, _| if i == n { 1.0 } else { 0.0 });
+    let z = match lu {
+        Some(lu) => lu.solve(&rhs),
+        None => {
+            let ru: Vec<f64> = r_u.iter().map(|v| metric.wu * v).collect();
+            bordered_matrix(lin, &ru, metric.wp * r_p)
+                .partial_piv_lu()
+                .solve(&rhs)
+        }
+    };
+    if !z.is_all_finite() {
+        return Err(Error::Numerical(
+            "singular bordered matrix for the tangent".into(),
+        ));
+    }
+    let (tu, tp): (Vec<f64>, f64) = ((0..n).map(|i| z[(i, 0)]).collect(), z[(n, 0)]);
+    let len = metric.dot(&tu, tp, &tu, tp).sqrt();
     Ok((tu.iter().map(|v| v / len).collect(), tp / len))
 }
 
@@ -221,6 +237,20 @@ pub struct Corrected {
     /// residual met `tol`): the precision of the point, which the precision of an event located
     /// from it never claims to beat.
     pub uncertainty: f64,
+    /// The factorized bordered matrix at the point, when the corrector made it there.
+    factorized: Option<PartialPivLu<f64>>,
+    /// The tangent the corrector's hyperplane was normal to.
+    normal: (Vec<f64>, f64),
+}
+
+impl Corrected {
+    /// The unit tangent at the point, oriented along the tangent the corrector's hyperplane
+    /// was normal to: [`tangent`] with that border row, over the corrector's last factorization
+    /// when it made one at the point (the same matrix).
+    pub fn tangent(&self, metric: &Metric) -> Result<(Vec<f64>, f64)> {
+        let (r_u, r_p) = &self.normal;
+        tangent_over(&self.lin, metric, r_u, *r_p, self.factorized.as_ref())
+    }
 }
 
 /// Newton's method on the bordered system (2), from the predicted point `(u, p)` on the
@@ -250,7 +280,13 @@ pub fn correct(
     };
     let mut z = u;
     z.push(p);
-    let (mut z, report) = newton.run(&system, z, Jacobians::Fresh, "in the corrector")?;
+    let mut kept = Chord::default();
+    let (mut z, report) = newton.run(
+        &system,
+        z,
+        Jacobians::FreshKept(&mut kept),
+        "in the corrector",
+    )?;
     let p = z.pop().expect("the parameter");
     let lin = system
         .last
@@ -262,6 +298,8 @@ pub fn correct(
         iterations: report.iterations,
         lin,
         uncertainty: report.precision,
+        factorized: kept.take(),
+        normal: (t_u.to_vec(), t_p),
     })
 }
 
@@ -671,7 +709,7 @@ impl<'a, P: Problem> Continuation<'a, P> {
                 cosine.clamp(-1.0, 1.0).acos().to_degrees()
             )));
         }
-        let (tu, tp) = tangent(&c.lin, metric, &last.tangent_u, last.tangent_p)?;
+        let (tu, tp) = c.tangent(metric)?;
         let spectrum = stability(
             problem,
             &c.u,

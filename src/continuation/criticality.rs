@@ -171,7 +171,9 @@ const LEVELS: usize = 10;
 /// Richardson tableau over `h_k = h0 2^-k`, `T[k][j] = T[k][j-1] + (T[k][j-1] - T[k-1][j-1]) /
 /// (4^j - 1)`, each entry with the error estimate `max(|T[k][j] - T[k][j-1]|, |T[k][j] -
 /// T[k-1][j-1]|)`. The entry with the smallest estimate wins; the halving stops when the
-/// diagonal has become worse than twice that (round-off has taken over) or after [`LEVELS`].
+/// diagonal has become worse than twice that (round-off has taken over), when that estimate has
+/// fallen below the round-off allowance (which no smaller step improves on), or after
+/// [`LEVELS`].
 /// Returns the value and its error estimate plus the round-off allowance ([`ROUND_OFF`] times
 /// the scale of the terms at the winning step).
 fn extrapolated(mut value: impl FnMut(f64) -> Result<(f64, f64)>, h0: f64) -> Result<(f64, f64)> {
@@ -190,7 +192,11 @@ fn extrapolated(mut value: impl FnMut(f64) -> Result<(f64, f64)>, h0: f64) -> Re
             }
             row.push(t);
         }
-        if k > 0 && (row[k] - previous[k - 1]).abs() >= 2.0 * best.1 {
+        // Round-off has taken over, or the error estimate has fallen below the round-off
+        // allowance, which no smaller step can improve on.
+        if k > 0
+            && ((row[k] - previous[k - 1]).abs() >= 2.0 * best.1 || best.1 <= ROUND_OFF * best.2)
+        {
             break;
         }
         previous = row;

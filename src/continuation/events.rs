@@ -31,7 +31,7 @@
 
 use faer::c64;
 
-use super::arclength::{Metric, Point, correct, stability, tangent};
+use super::arclength::{Metric, Point, correct, stability};
 use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
 use crate::Result;
@@ -231,7 +231,7 @@ impl<'a, P: Problem> Sampler<'a, P> {
             self.settings,
         )?;
         let tangent_p = if self.with_tangent {
-            tangent(&c.lin, self.metric, &a.tangent_u, a.tangent_p)?.1
+            c.tangent(self.metric)?.1
         } else {
             a.tangent_p
         };

@@ -95,8 +95,14 @@ pub enum Globalization {
 
 /// Where the factorized Jacobian of each iterate comes from.
 pub enum Jacobians<'c> {
-    /// A fresh Jacobian at every iterate.
+    /// A fresh Jacobian at every iterate, factorized only where a step is taken from it (not
+    /// at an iterate whose residual meets the tolerance).
     Fresh,
+    /// As [`Jacobians::Fresh`], and the [`Chord`] is left holding the factorization made at the
+    /// solution returned, if one was made there (the iteration ended on [`System::settled`],
+    /// which needs the step); empty otherwise. A caller that solves with the same matrix
+    /// afterwards (the tangent of the continuation) reuses it.
+    FreshKept(&'c mut Chord),
     /// The factorization held by the [`Chord`], kept while the residual falls by at least a
     /// factor 3 per iteration.
     Reuse(&'c mut Chord),
@@ -127,6 +133,10 @@ impl Chord {
     /// Whether a factorization is held.
     pub fn holds(&self) -> bool {
         self.lu.is_some()
+    }
+    /// The factorization held, if any, taken out of the chord.
+    pub fn take(&mut self) -> Option<PartialPivLu<f64>> {
+        self.lu.take()
     }
 }
 
@@ -280,8 +290,12 @@ impl Newton {
         let mut own = Chord::default();
         let (chord, reuse) = match jacobians {
             Jacobians::Fresh => (&mut own, false),
+            Jacobians::FreshKept(chord) => (chord, false),
             Jacobians::Reuse(chord) => (chord, true),
         };
+        // A fresh Jacobian not yet factorized (Newton's method proper factorizes it only when
+        // a step is taken from its iterate).
+        let mut pending: Option<Mat<f64>> = None;
         // The iterate a stale chord's step started from: where the iteration returns, with a
         // fresh Jacobian, when that step made the residual grow.
         let mut retreat: Option<Vec<f64>> = None;
@@ -293,8 +307,8 @@ impl Newton {
                 system.residual(&u)?
             } else {
                 let (g, jac) = system.residual_and_jacobian(&u)?;
-                chord.lu = Some(jac.partial_piv_lu());
-                chord.built += 1;
+                chord.lu = None;
+                pending = Some(jac);
                 g
             };
             let mut g_norm = system.size(&g);
@@ -336,6 +350,10 @@ impl Newton {
             }
             if reuse && !fresh {
                 retreat = Some(u.clone());
+            }
+            if let Some(jac) = pending.take() {
+                chord.lu = Some(jac.partial_piv_lu());
+                chord.built += 1;
             }
             let lu = chord.lu.as_ref().expect("a factorization is held here");
             let du =

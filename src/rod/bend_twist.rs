@@ -31,7 +31,7 @@
 //! against the plain eight-variable derivative of [`BendTwist::energy`]).
 
 use nalgebra::{Const, RealField, SMatrix, SVector, U1, Vector3, convert};
-use num_dual::{Derivative, Dual2SVec64, gradient};
+use num_dual::{Derivative, Dual2SVec64, DualSVec64, gradient};
 
 use super::frame::transport;
 
@@ -189,6 +189,26 @@ impl BendTwist {
         gradient(|w| self.energy(&w), v)
     }
 
+    /// The exact derivatives `dE/dtheta0`, `dE/dtheta1` of the energy with respect to the two
+    /// angles. The angles enter only the last stage (the material strains from the projections
+    /// and the reference twist, [`material_strains`]), so the frames and projections are plain
+    /// numbers and only that stage carries first-order jets, in the two angles: a fraction of
+    /// the cost of [`BendTwist::gradient`], for the twist balance `dE/dtheta = 0` alone.
+    pub fn twist_gradient(&self, v: &SVector<f64, STENCIL>) -> [f64; 2] {
+        let edge = |k: usize| Vector3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+        let f0 = edge_frame(&self.source_t[0], &self.source_d[0], &edge(0));
+        let f1 = edge_frame(&self.source_t[1], &self.source_d[1], &edge(1));
+        let (projections, mref) = frame_projections(&f0, &f1, self.twist_offset);
+        let plain = DualSVec64::<2>::from_re;
+        let theta = [plain(v[6]).derivative(0), plain(v[7]).derivative(1)];
+        let (k1, k2, m) = material_strains(projections.map(plain), plain(mref), theta);
+        let d = self
+            .energy_of_strains(k1, k2, m)
+            .eps
+            .unwrap_generic(Const::<2>, U1);
+        [d[0], d[1]]
+    }
+
     /// Energy, exact gradient and exact Hessian, in the three stages of the
     /// [module documentation](self).
     pub fn hessian(
@@ -222,7 +242,7 @@ mod tests {
     /// explicit transport), and the staged Hessian against the plain eight-variable forward
     /// derivative of the same energy, at stencils whose edges have turned far from their chart
     /// tangents (so the transport is finite) and with twisted, stretched edges; to 1e-12
-    /// relative.
+    /// relative. The angle derivatives of [`BendTwist::twist_gradient`] against the same.
     #[test]
     fn staged_hessian_equals_the_plain_forward_derivative() {
         let rotation = |axis: Vector3<f64>, angle: f64| {
@@ -283,6 +303,11 @@ mod tests {
             assert!(
                 (h - h_ref).amax() <= 1e-12 * scale_h,
                 "Hessian {h} vs {h_ref}"
+            );
+            let twist = stencil.twist_gradient(&v);
+            assert!(
+                (twist[0] - g_ref[6]).abs().max((twist[1] - g_ref[7]).abs()) <= 1e-12 * scale_g,
+                "twist gradient {twist:?} vs {g_ref}"
             );
         }
     }

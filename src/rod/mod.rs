@@ -191,6 +191,19 @@ impl Rod {
         g
     }
 
+    /// `dE/dtheta^j` for every edge `j` (stretching does not depend on the angles): the angle
+    /// part of [`Rod::gradient`], at a fraction of its cost ([`BendTwist::twist_gradient`]).
+    pub fn twist_gradient(&self, config: &Config, chart: &Chart) -> Vec<f64> {
+        let mut g = vec![0.0; self.layout.edges()];
+        for i in 1..self.layout.nodes() - 1 {
+            let (s, v) = self.stencil(i, config, chart);
+            let [g0, g1] = s.twist_gradient(&v);
+            g[i - 1] += g0;
+            g[i] += g1;
+        }
+        g
+    }
+
     /// Gradient and Hessian (dense) of the elastic energy over the full configuration vector.
     pub fn hessian(&self, config: &Config, chart: &Chart) -> (Vec<f64>, Mat<f64>) {
         let n = self.layout.full_len();
