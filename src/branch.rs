@@ -168,6 +168,10 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         self.steady(0.0).retract(u, du)
     }
 
+    fn interpolate(&self, u0: &[f64], u1: &[f64], w: f64) -> Vec<f64> {
+        self.steady(0.0).interpolate(u0, u1, w)
+    }
+
     fn stability_pair(
         &self,
         u: &[f64],

@@ -576,6 +576,7 @@ fn slave_twist_with(
     let newton = Newton {
         tol,
         max_iter: 50,
+        min_steps: 0,
         globalization: Globalization::Full,
     };
     let (twist, _) = newton
@@ -808,6 +809,7 @@ fn newton_step(
     let newton = Newton {
         tol: settings.newton_tol,
         max_iter: settings.max_newton,
+        min_steps: 0,
         globalization: Globalization::Full,
     };
     if (cache.c0 / step.c0 - 1.0).abs() > 0.2 {

@@ -31,6 +31,7 @@ fn newton(tol: f64, globalization: Globalization) -> Newton {
     Newton {
         tol,
         max_iter: 60,
+        min_steps: 0,
         globalization,
     }
 }

@@ -56,8 +56,7 @@ use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
 use super::newton::{
-    self, Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System,
-    norm,
+    self, Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System, norm,
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
@@ -254,7 +253,8 @@ impl Corrected {
 }
 
 /// Newton's method on the bordered system (2), from the predicted point `(u, p)` on the
-/// hyperplane normal to `(t_u, t_p)`: full steps, a fresh Jacobian at every iterate.
+/// hyperplane normal to `(t_u, t_p)`: full steps, a fresh Jacobian at every iterate, at least
+/// one step (the predicted point is never accepted as it is).
 pub fn correct(
     problem: &impl Problem,
     u: Vec<f64>,
@@ -276,6 +276,7 @@ pub fn correct(
     let newton = Newton {
         tol: settings.tol,
         max_iter: settings.max_corrector,
+        min_steps: 1,
         globalization: Globalization::Full,
     };
     let mut z = u;

@@ -36,8 +36,8 @@
 //! price of a point is a few Newton solves from a close guess and as many spectra.
 //!
 //! Along the curve the rest of the spectrum (the tracked pair removed) is watched. A change of
-//! its unstable count is a codimension-two point, pinned down on the curve by the Illinois
-//! secant method on the real part of the eigenvalue that crossed (each sample a point of the
+//! its unstable count is a codimension-two point, pinned down on the curve by Brent's
+//! method on the real part of the eigenvalue that crossed (each sample a point of the
 //! curve): a **double Hopf** point when that eigenvalue is complex (a second oscillatory mode
 //! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
 //! `q` part of the tangent is a **turning point** of the curve, the extremum of `q(p)` found by
@@ -46,7 +46,7 @@
 //! zero of `w^2` along the curve (secant, bracketed by the first sample whose pair is real).
 //! With [`CurveSettings::criticality`], every point carries its first Lyapunov coefficient
 //! ([`super::criticality`]), and where it changes sign (both signs resolved) the curve passes a
-//! **generalized Hopf** (Bautin) point, the zero of `l1` along the curve (Illinois, each sample a
+//! **generalized Hopf** (Bautin) point, the zero of `l1` along the curve (Brent's method, each sample a
 //! point of the curve with its coefficient), where the Hopf bifurcation turns from super- to
 //! subcritical.
 
@@ -56,7 +56,7 @@ use faer::c64;
 
 use super::arclength::{AtParameter, stability};
 use super::criticality::{Lyapunov, Verdict, first_lyapunov};
-use super::events::{Event, Illinois};
+use super::events::{Event, Zeroin};
 use super::newton::{self, NewtonSettings};
 use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
@@ -781,7 +781,7 @@ struct Sample<M> {
 }
 
 /// Pins down where the unstable count of the rest of the spectrum changes between `last`
-/// (`sigma = 0`) and `new` (`sigma = sigma_new`) by the Illinois variant of regula falsi on the
+/// (`sigma = 0`) and `new` (`sigma = sigma_new`) by Brent's method on the
 /// real part of the eigenvalue that crossed (identified afresh in each bracket), each sample a
 /// corrected point of the curve.
 #[allow(clippy::too_many_arguments)]
@@ -817,7 +817,12 @@ fn locate_codim2<F: Family>(
         if growing { re } else { -re }
     };
     let tol = tracer.continuation.event_tol;
-    let mut weights = Illinois::new();
+    let ends = |lo: &Sample<F::Member>, hi: &Sample<F::Member>| {
+        let c = crossing(&lo.rest, &hi.rest);
+        ((lo.sigma, f(lo, c)), (hi.sigma, f(hi, c)))
+    };
+    let (near, far) = ends(&lo, &hi);
+    let mut zeroin = Zeroin::new(near, far);
     let mut samples = 0;
     while hi.sigma - lo.sigma > tol {
         samples += 1;
@@ -826,9 +831,13 @@ fn locate_codim2<F: Family>(
                 "a codimension-two point not resolved within 100 samples".into(),
             ));
         }
-        let c = crossing(&lo.rest, &hi.rest);
-        let (f_lo, f_hi) = weights.weighted(f(&lo, c), f(&hi, c));
-        let sigma = illinois_sample((lo.sigma, f_lo), (hi.sigma, f_hi), tol);
+        // The crossing eigenvalue is identified afresh in each bracket; where that changes the
+        // values at the ends, the search restarts from them.
+        let (near, far) = ends(&lo, &hi);
+        if !zeroin.holds(near, far) {
+            zeroin = Zeroin::new(near, far);
+        }
+        let sigma = zeroin.propose(tol / 3.0);
         let corrected = corrected_between(
             tracer,
             (lo.sigma, &lo.at),
@@ -846,12 +855,12 @@ fn locate_codim2<F: Family>(
             evaluations: corrected.evaluations,
         };
         let beyond = sample.rest.unstable != base;
+        zeroin.record(sigma, f(&sample, crossing(&lo.rest, &hi.rest)), beyond);
         if beyond {
             hi = sample;
         } else {
             lo = sample;
         }
-        weights.replaced(beyond);
     }
     let c = crossing(&lo.rest, &hi.rest);
     let best = if f(&lo, c).abs() <= f(&hi, c).abs() {
@@ -875,19 +884,6 @@ fn locate_codim2<F: Family>(
         precision: tol,
     };
     Ok((special, best.at.member))
-}
-
-/// The next sample of a bracketed search in `sigma` with (weighted) values `f_lo <= 0 < f_hi`
-/// at its ends: the secant zero, kept a third of `tol` inside the bracket; the midpoint where
-/// the values do not bracket a zero.
-fn illinois_sample((lo, f_lo): (f64, f64), (hi, f_hi): (f64, f64), tol: f64) -> f64 {
-    let margin = tol / 3.0;
-    let secant = lo - f_lo * (hi - lo) / (f_hi - f_lo);
-    if f_lo <= 0.0 && f_hi > 0.0 && secant.is_finite() {
-        secant.clamp(lo + margin, hi - margin)
-    } else {
-        0.5 * (lo + hi)
-    }
 }
 
 /// The curve's point at `sigma` inside the bracket `[lo, hi]` along `step`, corrected from the
@@ -914,7 +910,7 @@ fn resolved_signs_differ(a: &Lyapunov, b: &Lyapunov) -> bool {
 }
 
 /// Pins down the zero of the first Lyapunov coefficient between `last` (`sigma = 0`) and `new`
-/// (`sigma = sigma_new`), whose signs differ, by the Illinois variant of regula falsi on `l1`,
+/// (`sigma = sigma_new`), whose signs differ, by Brent's method on `l1`,
 /// each sample a corrected point of the curve with its coefficient. It ends when the bracket is
 /// within `event_tol` or when a sample's `|l1|` is within its precision (the zero is then known
 /// as well as `l1` is); the precision reported is the bracket's width, or the precision of `l1`
@@ -932,14 +928,13 @@ fn locate_generalized_hopf<F: Family>(
     let sign = if l1(last) < 0.0 { 1.0 } else { -1.0 };
     let (mut lo, mut hi) = ((0.0, last.clone()), (sigma_new, new.clone()));
     let tol = tracer.continuation.event_tol;
-    let mut weights = Illinois::new();
+    let mut zeroin = Zeroin::new((0.0, sign * l1(last)), (sigma_new, sign * l1(new)));
     let mut best: Option<(f64, At<F::Member>)> = None;
     for _ in 0..60 {
         if hi.0 - lo.0 <= tol {
             break;
         }
-        let (f_lo, f_hi) = weights.weighted(sign * l1(&lo.1), sign * l1(&hi.1));
-        let sigma = illinois_sample((lo.0, f_lo), (hi.0, f_hi), tol);
+        let sigma = zeroin.propose(tol / 3.0);
         let corrected =
             corrected_between(tracer, (lo.0, &lo.1), (hi.0, &hi.1), sigma, step, sigma_new)?;
         let at = tracer.with_lyapunov(corrected.at);
@@ -951,12 +946,12 @@ fn locate_generalized_hopf<F: Family>(
             break;
         }
         let beyond = sign * l.l1 > 0.0;
+        zeroin.record(sigma, sign * l.l1, beyond);
         if beyond {
             hi = (sigma, at);
         } else {
             lo = (sigma, at);
         }
-        weights.replaced(beyond);
     }
     // Known to the bracket, or, where l1 itself ran out of precision, to that precision over
     // the slope of l1 along the curve.

@@ -8,15 +8,17 @@
 //!   the precision asked), so the unstable count does not change: noticed and reported, never
 //!   typed by a guess.
 //!
-//! Between the points `a` and `b` the branch is sampled at arclength `sigma` from `a` (predictor
-//! along `a`'s tangent, corrector on the hyperplane). The bracket of an event is kept by a robust
-//! test, not by the sign of an interpolated function: a sample lies beyond the event when its
-//! unstable count differs from the count at the bracket's lower end (a crossing), or when its
-//! tangent has turned (a fold). The Illinois variant of regula falsi on a scalar function (the
-//! real part of the crossing eigenvalue, followed from sample to sample as the nearest one, or
-//! the `p` part of the tangent) only proposes where to sample next; bisection takes over where
-//! that function disagrees with the sides. So the final bracket always contains the change of
-//! the count, even where the nearest-eigenvalue tracking jumps between two pairs.
+//! Between the points `a` and `b` the branch is sampled at arclength `sigma` from `a` (predicted
+//! by interpolating between the two samples that bracket `sigma`, corrected on the hyperplane
+//! normal to `a`'s tangent). The bracket of an event is kept by a robust test, not by the sign
+//! of an interpolated function: a sample lies beyond the event when its unstable count differs
+//! from the count at the bracket's lower end (a crossing), or when its tangent has turned (a
+//! fold). Brent's method ([`Zeroin`]: inverse quadratic interpolation, secant, bisection) on a
+//! continuous, signed test function (the real part of the crossing eigenvalue, followed from
+//! sample to sample as the nearest one, or the `p` part of the tangent) only proposes where to
+//! sample next, the sign of each value taken from its side. So the final bracket always
+//! contains the change of the count, even where the nearest-eigenvalue tracking jumps between
+//! two pairs.
 //!
 //! The search stops when the bracket in the parameter is narrower than
 //! `event_tol * max(|p|, 1e-6 P)` (relative, `P` the parameter scale only guarding `p = 0`) and
@@ -28,6 +30,8 @@
 //! whichever eigenvalue lies nearest the axis elsewhere. Several crossings in one step (a branch
 //! point and a Hopf point close together) are located one after the other, each from the far
 //! side of the one before, and all are reported.
+
+use std::cell::RefCell;
 
 use faer::c64;
 
@@ -128,46 +132,131 @@ pub fn modes_exchanged(a: &Spectrum, b: &Spectrum) -> bool {
     a.unstable == b.unstable && a.unstable > 0 && newly(a, b) && newly(b, a)
 }
 
-/// The Illinois weights of regula falsi: an end of the bracket that stays put twice in a row
-/// has its function value halved, so that the secant does not stall against it.
+/// Brent's method ("zeroin", Brent 1973, ch. 4) for the zero of a scalar function inside a
+/// bracket: inverse quadratic interpolation through the last three values, or the secant
+/// through the last two, where that shrinks the bracket fast enough; bisection where not. Its
+/// order on a smooth function is about 1.84 (the secant's 1.62, Illinois' 1.44), and it never
+/// takes more than about the square of bisection's count.
+///
+/// The caller samples where [`Zeroin::propose`] says and tells it the value and the side
+/// ([`Zeroin::record`]): the side comes from the caller's own robust test (the unstable count),
+/// and a value whose sign disagrees with it (an eigenvalue tracked to the wrong mode) is taken
+/// with the sign of the side, so the interpolation only ever proposes inside the bracket.
+/// Ending the search is the caller's.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Illinois {
-    w_lo: f64,
-    w_hi: f64,
-    /// Which end the last sample replaced: 1 the far one, -1 the near one, 0 none yet.
-    side: i8,
+pub(crate) struct Zeroin {
+    /// `(x, f)`: the end `b` of smaller `|f|`, the other end `c` (the sign of `f` differs),
+    /// and `a`, the `b` before the last sample.
+    a: (f64, f64),
+    b: (f64, f64),
+    c: (f64, f64),
+    /// The last step from `b`, and the one before.
+    d: f64,
+    e: f64,
 }
 
-impl Illinois {
-    pub(crate) fn new() -> Self {
-        Illinois {
-            w_lo: 1.0,
-            w_hi: 1.0,
-            side: 0,
+impl Zeroin {
+    /// The search between `(x0, f0)` and `(x1, f1)`, whose values have opposite signs (`f0 <= 0`
+    /// on the near side, `f1 > 0` beyond, with the signs of the sides forced as in
+    /// [`Zeroin::record`]).
+    pub(crate) fn new(near: (f64, f64), beyond: (f64, f64)) -> Self {
+        let near = (near.0, signed(near.1, false));
+        let beyond = (beyond.0, signed(beyond.1, true));
+        let mut z = Zeroin {
+            a: near,
+            b: beyond,
+            c: near,
+            d: beyond.0 - near.0,
+            e: beyond.0 - near.0,
+        };
+        z.order();
+        z
+    }
+
+    /// Whether the bracket's ends carry the values `near` (the side before the zero) and `far`
+    /// (beyond it): false when the function has changed under the search.
+    pub(crate) fn holds(&self, near: (f64, f64), far: (f64, f64)) -> bool {
+        let ends = [self.b, self.c];
+        let has = |(x, f): (f64, f64), beyond: bool| ends.contains(&(x, signed(f, beyond)));
+        has(near, false) && has(far, true)
+    }
+
+    /// Makes `b` the end of smaller `|f|`.
+    fn order(&mut self) {
+        if self.c.1.abs() < self.b.1.abs() {
+            self.a = self.b;
+            self.b = self.c;
+            self.c = self.a;
         }
     }
 
-    /// The function values at the two ends, weighted.
-    pub(crate) fn weighted(&self, f_lo: f64, f_hi: f64) -> (f64, f64) {
-        (f_lo * self.w_lo, f_hi * self.w_hi)
-    }
-
-    /// Records that the new sample replaced the far end (`beyond`) or the near one.
-    pub(crate) fn replaced(&mut self, beyond: bool) {
-        if beyond {
-            self.w_hi = 1.0;
-            if self.side == 1 {
-                self.w_lo *= 0.5;
+    /// Where to sample next: at least `min_step` from `b` (towards `c`), so that a zero found
+    /// to within `min_step` is closed off by one sample beside it.
+    pub(crate) fn propose(&mut self, min_step: f64) -> f64 {
+        let ((a, fa), (b, fb), (c, fc)) = (self.a, self.b, self.c);
+        let xm = 0.5 * (c - b);
+        let bisect = if self.e.abs() >= min_step && fa.abs() > fb.abs() {
+            let s = fb / fa;
+            let (mut p, mut q) = if a == c {
+                // Secant through b and a.
+                (2.0 * xm * s, 1.0 - s)
+            } else {
+                // Inverse quadratic interpolation through a, b and c.
+                let (q, r) = (fa / fc, fb / fc);
+                (
+                    s * (2.0 * xm * q * (q - r) - (b - a) * (r - 1.0)),
+                    (q - 1.0) * (r - 1.0) * (s - 1.0),
+                )
+            };
+            if p > 0.0 {
+                q = -q;
+            } else {
+                p = -p;
             }
-            self.side = 1;
+            // Accepted only inside the bracket and shorter than half the step before last.
+            if 2.0 * p < 3.0 * xm * q - (min_step * q).abs() && p < (0.5 * self.e * q).abs() {
+                self.e = self.d;
+                self.d = p / q;
+                false
+            } else {
+                true
+            }
         } else {
-            self.w_lo = 1.0;
-            if self.side == -1 {
-                self.w_hi *= 0.5;
-            }
-            self.side = -1;
+            true
+        };
+        if bisect {
+            self.d = xm;
+            self.e = xm;
+        }
+        b + if self.d.abs() > min_step {
+            self.d
+        } else {
+            min_step.copysign(xm)
         }
     }
+
+    /// The value `f` at the sample `x` proposed last, on the far side of the zero when
+    /// `beyond` (its sign forced to that side's).
+    pub(crate) fn record(&mut self, x: f64, f: f64, beyond: bool) {
+        self.a = self.b;
+        self.b = (x, signed(f, beyond));
+        if (self.b.1 > 0.0) == (self.c.1 > 0.0) {
+            self.c = self.a;
+            self.d = x - self.a.0;
+            self.e = self.d;
+        }
+        self.order();
+    }
+}
+
+/// `|f|` with the sign of the side: positive beyond the zero, negative before it (never zero).
+fn signed(f: f64, beyond: bool) -> f64 {
+    let magnitude = if f.is_finite() {
+        f.abs().max(f64::MIN_POSITIVE)
+    } else {
+        f64::MAX
+    };
+    if beyond { magnitude } else { -magnitude }
 }
 
 /// One evaluation inside the bracket.
@@ -194,6 +283,8 @@ struct Sampler<'a, P: Problem> {
     p_scale: f64,
     /// Whether samples need the tangent (a fold; next to a branch point it is ill-defined).
     with_tangent: bool,
+    /// `(sigma, u, p)` of `a`, `b` and every sample so far: the predictor's support.
+    states: RefCell<Vec<(f64, Vec<f64>, f64)>>,
 }
 
 impl<'a, P: Problem> Sampler<'a, P> {
@@ -214,17 +305,35 @@ impl<'a, P: Problem> Sampler<'a, P> {
             step: (b.s - a.s).abs(),
             p_scale: problem.scales().1,
             with_tangent,
+            states: RefCell::new(vec![(0.0, a.u.clone(), a.p), (b.s - a.s, b.u.clone(), b.p)]),
         }
     }
 
+    /// The branch at arclength `sigma` from `a`, corrected on the hyperplane normal to `a`'s
+    /// tangent. Predicted along `a`'s tangent for the first sample of the step, then
+    /// interpolated ([`Problem::interpolate`]) between the two states of the step nearest to
+    /// `sigma` (`a`, `b` and the samples so far): as the samples close in on an event the
+    /// prediction comes within the square of their spacing of the branch, and the corrector
+    /// has one step left to take.
     fn at(&self, sigma: f64) -> Result<Sample> {
         let a = self.a;
-        let step: Vec<f64> = a.tangent_u.iter().map(|t| sigma * t).collect();
-        let predicted = self.problem.retract(&a.u, &step);
+        let (predicted, p) = {
+            let states = self.states.borrow();
+            if states.len() > 2 {
+                let mut near: Vec<&(f64, Vec<f64>, f64)> = states.iter().collect();
+                near.sort_by(|x, y| (x.0 - sigma).abs().total_cmp(&(y.0 - sigma).abs()));
+                let ((s0, u0, p0), (s1, u1, p1)) = (near[0], near[1]);
+                let w = (sigma - s0) / (s1 - s0);
+                (self.problem.interpolate(u0, u1, w), p0 + w * (p1 - p0))
+            } else {
+                let step: Vec<f64> = a.tangent_u.iter().map(|t| sigma * t).collect();
+                (self.problem.retract(&a.u, &step), a.p + sigma * a.tangent_p)
+            }
+        };
         let c = correct(
             self.problem,
             predicted,
-            a.p + sigma * a.tangent_p,
+            p,
             &a.tangent_u,
             a.tangent_p,
             self.metric,
@@ -243,6 +352,7 @@ impl<'a, P: Problem> Sampler<'a, P> {
             self.settings,
             Some(&a.spectrum),
         )?;
+        self.states.borrow_mut().push((sigma, c.u.clone(), c.p));
         Ok(Sample {
             sigma,
             u: c.u,
@@ -267,13 +377,23 @@ impl<'a, P: Problem> Sampler<'a, P> {
     /// Adds `event` to `events`, as part of the last one when both are crossings of the same
     /// kind closer in `p` than the tolerance: two eigenvalues that cross where the precision
     /// asked cannot tell apart (the two bending planes of a round rod, equal but for round-off)
-    /// are one event of multiplicity two, not two events in an order set by round-off.
+    /// are one event of multiplicity two, not two events in an order set by round-off. Its
+    /// multiplicity is the net change of the count across the merged crossings (in pairs for a
+    /// Hopf point), at least one: round-off may make the count step back and forth between
+    /// samples within the tolerance of a double crossing (0, 1, 0, 2), which is still one
+    /// crossing of two eigenvalues.
     fn push(&self, events: &mut Vec<Event>, event: Event) {
         if let Some(last) = events.last_mut()
             && last.kind == event.kind
             && (event.p - last.p).abs() <= self.p_tol(last.p)
         {
-            last.multiplicity += event.multiplicity;
+            let net = last.unstable_before.abs_diff(event.unstable_after);
+            last.multiplicity = if last.kind == EventKind::Hopf {
+                net.div_ceil(2)
+            } else {
+                net
+            }
+            .max(1);
             last.unstable_after = event.unstable_after;
             last.bracket = (
                 last.bracket.0.min(event.bracket.0),
@@ -305,8 +425,10 @@ impl<'a, P: Problem> Sampler<'a, P> {
     }
 
     /// Narrows `[lo, hi]` (with `beyond(lo)` false and `beyond(hi)` true) until it converges.
-    /// `f` is negative on `lo`'s side when the tracking is sound; its Illinois-weighted secant
-    /// proposes the next sample, bisection is the fallback.
+    /// `f` is negative on `lo`'s side when the tracking is sound; Brent's method on it
+    /// ([`Zeroin`]) proposes the next sample. `f` may depend on the bracket (the crossing
+    /// eigenvalue is identified afresh in each one): where its values at the ends change with a
+    /// new bracket, the search restarts from the ends with the new values.
     fn bracket(
         &self,
         mut lo: Sample,
@@ -314,7 +436,10 @@ impl<'a, P: Problem> Sampler<'a, P> {
         beyond: impl Fn(&Sample) -> bool,
         f: impl Fn(&Sample, &Sample, &Sample) -> f64,
     ) -> Result<(Sample, Sample)> {
-        let mut weights = Illinois::new();
+        let ends =
+            |lo: &Sample, hi: &Sample| ((lo.sigma, f(lo, lo, hi)), (hi.sigma, f(hi, lo, hi)));
+        let (near, far) = ends(&lo, &hi);
+        let mut zeroin = Zeroin::new(near, far);
         let mut iterations = 0;
         while !self.converged(&lo, &hi) {
             iterations += 1;
@@ -324,16 +449,19 @@ impl<'a, P: Problem> Sampler<'a, P> {
                     self.settings.event_tol, lo.p, hi.p
                 )));
             }
-            let (f_lo, f_hi) = weights.weighted(f(&lo, &lo, &hi), f(&hi, &lo, &hi));
-            let sigma = secant(&lo, &hi, f_lo, f_hi, self.margin(&lo));
+            let (near, far) = ends(&lo, &hi);
+            if !zeroin.holds(near, far) {
+                zeroin = Zeroin::new(near, far);
+            }
+            let sigma = zeroin.propose(self.margin(&lo));
             let s = self.at(sigma)?;
             let past = beyond(&s);
+            zeroin.record(sigma, f(&s, &lo, &hi), past);
             if past {
                 hi = s;
             } else {
                 lo = s;
             }
-            weights.replaced(past);
         }
         Ok((lo, hi))
     }

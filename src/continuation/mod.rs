@@ -45,6 +45,12 @@ pub trait Problem {
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         u.iter().zip(du).map(|(a, b)| a + b).collect()
     }
+    /// The point a fraction `w` of the way from `u0` to `u1` (`w` outside `[0, 1]`
+    /// extrapolates), two nearby solutions: a predictor between samples of a branch. Any map
+    /// equal to `u0 + w (u1 - u0)` to first order in `u1 - u0`; the default is that.
+    fn interpolate(&self, u0: &[f64], u1: &[f64], w: f64) -> Vec<f64> {
+        u0.iter().zip(u1).map(|(a, b)| a + w * (b - a)).collect()
+    }
     /// The stability pair `(K, M)` at a solution: the linearized dynamics `M dv/dt = K v`,
     /// eigenproblem `K v = s M v`, `M` symmetric positive definite. `lin` is the linearization
     /// at `(u, p)`, which the engine always has at hand when it asks.

@@ -147,6 +147,13 @@ pub struct Newton {
     pub tol: f64,
     /// Steps allowed.
     pub max_iter: usize,
+    /// Steps taken before the iteration may end (by the tolerance or [`System::settled`]): 1
+    /// where the starting point is a prediction, whose small residual or small first correction
+    /// says less than a Newton step does (next to a fold, a point off the branch by `dp` has a
+    /// residual of only `|G_p| dp`; in the stiff directions that a metric does not see, a small
+    /// correction hides a residual, and a Jacobian, off by much more), 0 where the start is
+    /// already a good iterate.
+    pub min_steps: usize,
     pub globalization: Globalization,
 }
 
@@ -156,6 +163,7 @@ impl From<&NewtonSettings> for Newton {
         Newton {
             tol: settings.tol,
             max_iter: settings.max_iter,
+            min_steps: 0,
             globalization: Globalization::Backtrack {
                 min_damping: settings.min_damping,
                 max_growth: settings.max_growth,
@@ -335,7 +343,8 @@ impl Newton {
                 history,
                 precision,
             };
-            if g_norm <= self.tol {
+            let stepped = history.len() > self.min_steps;
+            if g_norm <= self.tol && stepped {
                 return Ok((u, report(history, 0.0)));
             }
             if reuse && !fresh && (!chord.holds() || !contracting) {
@@ -356,8 +365,14 @@ impl Newton {
                 chord.built += 1;
             }
             let lu = chord.lu.as_ref().expect("a factorization is held here");
-            let du =
-                newton_step(lu, &g).ok_or_else(|| fail("singular Jacobian".into(), &history))?;
+            let Some(du) = newton_step(lu, &g) else {
+                // A start that meets the tolerance at a singular point (a branch point) has no
+                // step to take: it is the solution.
+                if g_norm <= self.tol {
+                    return Ok((u, report(history, 0.0)));
+                }
+                return Err(fail("singular Jacobian".into(), &history));
+            };
             let step = norm(&du);
             let iterate = Iterate {
                 u: &u,
@@ -367,7 +382,7 @@ impl Newton {
                 previous_step,
                 last,
             };
-            if let Some(precision) = system.settled(&iterate) {
+            if stepped && let Some(precision) = system.settled(&iterate) {
                 return Ok((u, report(history, precision)));
             }
             if last {

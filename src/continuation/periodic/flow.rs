@@ -145,6 +145,7 @@ pub fn period_map(
     let newton = Newton {
         tol: settings.step_tol,
         max_iter: settings.max_newton,
+        min_steps: 0,
         globalization: Globalization::Full,
     };
     let first_state = dynamics.consistent(p, u0)?;
