@@ -436,6 +436,28 @@ pub fn stability(
     leading(&k, &m, settings.eigenvalues, settings.eigen, prior)
 }
 
+/// How much farther than the arclength at which an eigenvalue is predicted to reach the
+/// imaginary axis the next step may go ([`crossing_ahead`]): a little, so that the crossing falls
+/// inside the step, a third of the way from its end, and is bracketed by a step only a little
+/// longer than the distance to it.
+const LOOKAHEAD: f64 = 1.5;
+
+/// The arclength from `b` after which one of its leading eigenvalues reaches the imaginary
+/// axis, extrapolated linearly from the point before (`s_a`, `spectrum_a`): each eigenvalue of
+/// `b` is matched with the nearest one at `a`, and one that approaches the axis at the rate
+/// `rho = d Re s / ds` gets there after `-Re s / rho`. `None` when none approaches.
+fn crossing_ahead(s_a: f64, spectrum_a: &Spectrum, b: &Point) -> Option<f64> {
+    let ds = b.s - s_a;
+    b.spectrum
+        .leading
+        .iter()
+        .filter_map(|s| {
+            let rate = (s.re - spectrum_a.nearest(*s).re) / ds;
+            (s.re * rate < 0.0).then(|| -s.re / rate)
+        })
+        .min_by(f64::total_cmp)
+}
+
 /// How the unstable count changes between two spectra: `Ok(true)` if one event explains it,
 /// `Ok(false)` if none happened, `Err(multiplicity)` if several eigenvalues crossed otherwise
 /// than as one complex pair.
@@ -579,6 +601,9 @@ pub struct Continuation<'a, P: Problem> {
     /// Largest change of the parameter in one step.
     dp_max: f64,
     last: Point,
+    /// The arclength and leading spectrum of the point before `last`: with `last`, the rates at
+    /// which its eigenvalues move ([`crossing_ahead`]).
+    before: Option<(f64, Spectrum)>,
     ds: f64,
     /// Consecutive shortenings of the step (at most four).
     halvings: usize,
@@ -635,6 +660,7 @@ impl<'a, P: Problem> Continuation<'a, P> {
             detectors: vec![Box::new(FoldDetector), Box::new(CrossingDetector)],
             dp_max: settings.max_parameter_step * (limits.p_max - limits.p_min),
             last: first,
+            before: None,
             ds: settings.ds,
             halvings: 0,
             indefinite: None,
@@ -775,10 +801,18 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
                 Err(e) => return Some(Err(e)),
             }
         }
-        // No step moves the parameter by more than a fraction of the range followed, so that a
-        // stable window between two events is not stepped over.
+        // No step moves the parameter by more than a fraction of the range followed, nor goes
+        // much past where an eigenvalue is predicted to reach the axis, so that a stable window
+        // between two events is not stepped over.
         if (self.ds * self.last.tangent_p).abs() > self.dp_max {
             self.ds = (self.dp_max / self.last.tangent_p.abs()).max(self.settings.ds_min);
+        }
+        if let Some(ahead) = self
+            .before
+            .as_ref()
+            .and_then(|(s, spectrum)| crossing_ahead(*s, spectrum, &self.last))
+        {
+            self.ds = self.ds.min(LOOKAHEAD * ahead).max(self.settings.ds_min);
         }
         let next = match self.attempt() {
             Ok(next) => next,
@@ -810,7 +844,8 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
             6.. => (self.ds * 0.7).max(self.settings.ds_min),
             _ => self.ds,
         };
-        self.last = next.clone();
+        let last = std::mem::replace(&mut self.last, next.clone());
+        self.before = Some((last.s, last.spectrum));
         self.rechart = true;
         Some(Ok(Outcome::Accepted {
             point: next,

@@ -140,7 +140,7 @@ impl Default for ContinuationSettings {
             tol: 1e-9,
             event_tol: 1e-8,
             eigenvalues: 6,
-            max_parameter_step: 1.0 / 60.0,
+            max_parameter_step: 0.25,
             eigen: EigenMethod::Auto,
         }
     }
