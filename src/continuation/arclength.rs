@@ -443,17 +443,23 @@ pub fn stability(
 const LOOKAHEAD: f64 = 1.5;
 
 /// The arclength from `b` after which one of its leading eigenvalues reaches the imaginary
-/// axis, extrapolated linearly from the point before (`s_a`, `spectrum_a`): each eigenvalue of
-/// `b` is matched with the nearest one at `a`, and one that approaches the axis at the rate
-/// `rho = d Re s / ds` gets there after `-Re s / rho`. `None` when none approaches.
+/// axis, extrapolated linearly from the point before (`s_a`, `spectrum_a`). The `k`-th largest
+/// real part is a continuous function along the branch, and a crossing is the first of them
+/// reaching zero; each one that approaches the axis at the rate `rho = d Re s_k / ds` (from its
+/// values at the two points, ranked alike) gets there after `-Re s_k / rho`. Ranks, not the
+/// nearest eigenvalue: in the co-rotating frame the whole spectrum moves along the imaginary
+/// axis with `omega` (modes at rest in the lab sit at `Im s ~ omega`), farther in a step than the
+/// modes lie apart, so that nearest neighbours would pair different modes. A mode that overtakes
+/// another is caught by the rank it rises through. `None` when none approaches.
 fn crossing_ahead(s_a: f64, spectrum_a: &Spectrum, b: &Point) -> Option<f64> {
     let ds = b.s - s_a;
     b.spectrum
         .leading
         .iter()
-        .filter_map(|s| {
-            let rate = (s.re - spectrum_a.nearest(*s).re) / ds;
-            (s.re * rate < 0.0).then(|| -s.re / rate)
+        .zip(&spectrum_a.leading)
+        .filter_map(|(now, before)| {
+            let rate = (now.re - before.re) / ds;
+            (now.re * rate < 0.0).then(|| -now.re / rate)
         })
         .min_by(f64::total_cmp)
 }
