@@ -284,6 +284,22 @@ fn krylov_and_dense_agree_along_the_representative_branch_at_60_nodes() {
 }
 
 #[test]
+fn krylov_and_dense_agree_along_the_representative_branch_at_85_nodes() {
+    helix_branch_agrees(85);
+}
+
+#[test]
+fn krylov_and_dense_agree_on_the_rpy_line_at_240_nodes() {
+    // A few points of the branch from rest on the RPY-regularized fluid (docs/model.md section
+    // 9), where the pencil has 714 unknowns.
+    let mut physical = Physical::representative();
+    physical.fluid.model = helixbif::fluid::FluidModel::Rpy;
+    physical.discretization.nodes = 240;
+    let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15);
+    assert!(points >= 4, "{points}");
+}
+
+#[test]
 fn krylov_and_dense_agree_along_the_tight_arc_branch() {
     // The R/L = 0.29 arc of studies/fig2_straight_and_curved.toml (22 nodes), to 2 rad/s: past
     // 0.947 rad/s, where the chart of the twist angles moves.
@@ -303,7 +319,7 @@ fn krylov_and_dense_agree_along_the_tight_arc_branch() {
 
 #[test]
 fn located_omega_b_does_not_depend_on_the_eigensolver() {
-    for nodes in [30, 60] {
+    for nodes in [30, 60, 85] {
         let mut physical = Physical::representative();
         physical.discretization.nodes = nodes;
         let model = Model::new(&physical).unwrap();

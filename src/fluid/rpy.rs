@@ -172,6 +172,18 @@ const LANES: usize = 4;
 /// One `f64` per lane.
 type Lanes = wide::f64x4;
 
+/// Whether the processor has AVX2 and FMA (detected at run time, once): the quadrature kernels
+/// then run in a copy compiled for them, where the lane operations of [`Lanes`] (written for the
+/// baseline x86-64 target, two SSE2 registers) are inlined and carried out in the wider
+/// registers. Measured with `cargo bench --bench fluid` on a 2-core AMD EPYC: the mobility at
+/// `N = 240` 2x faster, its shape derivative 3x. The sums are the same: no operation is fused
+/// (Rust contracts no `a * b + c` into an FMA by itself), so both copies give the same bits
+/// (`tests::both_kernel_copies_give_the_same_bits`).
+#[cfg(target_arch = "x86_64")]
+fn wide_registers() -> bool {
+    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+}
+
 /// The `LANES` entries of `v` from `at` on.
 #[inline(always)]
 fn load(v: &[f64], at: usize) -> Lanes {
@@ -393,12 +405,31 @@ impl Rpy {
         }
     }
 
+    /// [`Rpy::edge_pairs_kernel`], compiled for AVX2 and FMA where the processor has them
+    /// (see [`wide_registers`]).
+    fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+        #[cfg(target_arch = "x86_64")]
+        if wide_registers() {
+            // SAFETY: the processor has AVX2 and FMA, checked at run time.
+            return unsafe { self.edge_pairs_avx2(d, k) };
+        }
+        self.edge_pairs_kernel(d, k)
+    }
+
+    /// [`Rpy::edge_pairs_kernel`] for processors with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn edge_pairs_avx2(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+        self.edge_pairs_kernel(d, k)
+    }
+
     /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
     /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
     /// [`LANES`] edges `k2` at a time, the sums kept per lane as a scalar times `I` plus a
     /// symmetric matrix (`[alpha sum, xx, xy, xz, yy, yz, zz]`), the form of
     /// `M = alpha I + (beta/r^2) r r^T`.
-    fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+    #[inline(always)]
+    fn edge_pairs_kernel(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
         let q = self.points_per_edge();
         let edges = d.len.len();
         let lanes = &d.lanes;
@@ -507,7 +538,8 @@ impl Rpy {
     /// `P_p,k2+c y_{k2+c}`) in the layout of [`PointLanes`]. [`LANES`] edges `k2` at a time: per
     /// lane, the sums over the points `p2` of edge `k2` of `M G_p2` (split by node) and of
     /// `D(y_p - y_p2, G_p2)`, plain and weighted by `xi_q2`.
-    fn edge_rows(&self, d: &Discretisation, forces: &[Vec<f64>; 6], k: usize) -> EdgeRows {
+    #[inline(always)]
+    fn edge_rows_kernel(&self, d: &Discretisation, forces: &[Vec<f64>; 6], k: usize) -> EdgeRows {
         let q = self.points_per_edge();
         let edges = d.len.len();
         let n = edges + 1;
@@ -618,6 +650,29 @@ impl Rpy {
         out
     }
 
+    /// [`Rpy::edge_rows_kernel`], compiled for AVX2 and FMA where the processor has them (see
+    /// [`wide_registers`]).
+    fn edge_rows(&self, d: &Discretisation, forces: &[Vec<f64>; 6], k: usize) -> EdgeRows {
+        #[cfg(target_arch = "x86_64")]
+        if wide_registers() {
+            // SAFETY: the processor has AVX2 and FMA, checked at run time.
+            return unsafe { self.edge_rows_avx2(d, forces, k) };
+        }
+        self.edge_rows_kernel(d, forces, k)
+    }
+
+    /// [`Rpy::edge_rows_kernel`] for processors with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn edge_rows_avx2(
+        &self,
+        d: &Discretisation,
+        forces: &[Vec<f64>; 6],
+        k: usize,
+    ) -> EdgeRows {
+        self.edge_rows_kernel(d, forces, k)
+    }
+
     /// `B = ∂(A(X) y)/∂X` at fixed `y`: `B[(3i+a, 3j+b)] = ∂(A(X) y)_{3i+a} / ∂x_{j,b}`
     /// (`3N x 3N`, not symmetric). Analytic, `O((N Q)^2)`; equations in the
     /// [module documentation](self).
@@ -711,6 +766,49 @@ impl Rpy {
 #[cfg(test)]
 mod tests {
     use super::GaussRule;
+
+    /// The kernels compiled for AVX2 and FMA give the same bits as the baseline ones, on a
+    /// configuration with near and far pairs (a helix turned in on itself).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn both_kernel_copies_give_the_same_bits() {
+        use nalgebra::Vector3;
+        if !super::wide_registers() {
+            return;
+        }
+        let x: Vec<Vector3<f64>> = (0..23)
+            .map(|i| {
+                let t = 0.4 * i as f64;
+                Vector3::new(
+                    0.1 * t.cos(),
+                    0.1 * t.sin(),
+                    -0.011 * i as f64 + 0.002 * t.sin(),
+                )
+            })
+            .collect();
+        let y: Vec<Vector3<f64>> = (0..x.len())
+            .map(|i| Vector3::new(1.0, (i as f64).sin(), 0.3 - 0.01 * i as f64))
+            .collect();
+        let rpy = super::Rpy::for_polygon(1.0, 0.012, 8.0, &x);
+        let d = rpy.discretise(&x);
+        let q = rpy.points_per_edge();
+        let (_, forces) = super::PointLanes::transpose(x.len() - 1, q, |p| {
+            let (k, pw) = (p / q, d.pw[p]);
+            let (g0, g1) = (y[k] * (pw[0] / d.w[k]), y[k + 1] * (pw[1] / d.w[k + 1]));
+            [g0.x, g0.y, g0.z, g1.x, g1.y, g1.z]
+        });
+        for k in 0..x.len() - 1 {
+            // SAFETY: the processor has AVX2 and FMA (checked above).
+            let wide = unsafe { rpy.edge_pairs_avx2(&d, k) };
+            assert_eq!(wide, rpy.edge_pairs_kernel(&d, k), "edge {k}");
+            let wide = unsafe { rpy.edge_rows_avx2(&d, &forces, k) };
+            let base = rpy.edge_rows_kernel(&d, &forces, k);
+            assert_eq!(
+                (wide.b, wide.partial, wide.coef),
+                (base.b, base.partial, base.coef)
+            );
+        }
+    }
 
     /// The `q`-point rule integrates `xi^d` over `[0, 1]` exactly (`1/(d + 1)`, to 1e-14) for
     /// `d <= 2q - 1`, with increasing nodes inside `(0, 1)` and positive weights.
