@@ -57,7 +57,7 @@ use crate::{Error, Result};
 
 /// The step `h` of the differences, relative to the typical size of a unit vector of the
 /// problem (`sqrt(n)` times its per-unknown scale).
-const STEP: f64 = 1e-2;
+const STEP: f64 = 5e-3;
 
 /// Round-off of the differences, relative to the moduli of the terms of (1) (about
 /// `1e-16 |f| / h^3` with `h ~ 1e-2`, with a margin).

@@ -433,7 +433,7 @@ impl Rpy {
         let q = self.points_per_edge();
         let edges = d.len.len();
         let lanes = &d.lanes;
-        let mut out = vec![[[Matrix3::zeros(); 2]; 2]; edges - k];
+        let mut out = Vec::with_capacity(edges - k);
         for k2 in (k..edges).step_by(LANES) {
             // s[a][b] per lane, in the same seven-number form.
             let mut s = [[[Lanes::ZERO; 7]; 2]; 2];
@@ -474,7 +474,7 @@ impl Rpy {
             }
             let s = s.map(|sa| sa.map(|sab| sab.map(Lanes::to_array)));
             for l in 0..LANES.min(edges - k2) {
-                out[k2 + l - k] = s.map(|sa| {
+                out.push(s.map(|sa| {
                     sa.map(|t| {
                         Matrix3::new(
                             t[0][l] + t[1][l],
@@ -488,7 +488,7 @@ impl Rpy {
                             t[0][l] + t[6][l],
                         )
                     })
-                });
+                }));
             }
         }
         out
