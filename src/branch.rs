@@ -15,7 +15,7 @@ use crate::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Linearization, Problem};
-use crate::dynamics::slave_twist_chord;
+use crate::dynamics::{rechart, slave_twist_chord};
 use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::frame::Chart;
@@ -46,12 +46,6 @@ pub const WEIGHT_SCALE: f64 = 1.0;
 pub fn omega_scale(omegabar_max: f64) -> f64 {
     (0.01 * omegabar_max.abs()).max(OMEGA_SCALE)
 }
-
-/// The chart of the twist angles is moved to the current state once an edge has turned by more
-/// than 60 degrees from its chart tangent: the transport of reference frames from the chart
-/// (docs/model.md section 2) is singular where an edge points against its chart tangent, which
-/// a tight arc curling up under rotation reaches (`R/L = 0.29` near 0.947 rad/s).
-const RECHART_COSINE: f64 = 0.5;
 
 /// The steady rod problem `G(u; p) = 0` with `p` the chosen [`Parameter`], its twist angles
 /// measured in a chart that starts as the natural one and follows the branch
@@ -227,21 +221,40 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     }
 
     /// Moves the chart to `u` (directors transported onto its edges, reference twist unwrapped
-    /// near the old one, so that the energy and the angles at `u` are unchanged) once an edge
-    /// has turned past [`RECHART_COSINE`] from its chart tangent.
-    fn rechart(&self, u: &[f64]) -> bool {
-        let x = self.steady(0.0).config(u).x;
-        let far = {
-            let chart = self.chart.borrow();
-            x.windows(2)
-                .zip(&chart.tangents)
-                .any(|(e, t)| (e[1] - e[0]).normalize().dot(t) < RECHART_COSINE)
+    /// near the old one, so that the energy and the angles at `u` are unchanged), at every call:
+    /// the angles are then coordinates centred on the last point of a branch, where they are
+    /// nearly flat, and the tangent predicts well; in a chart a few steps old the transport
+    /// makes them curved, and the corrector needed 4-5 Newton steps where it now needs 3. The
+    /// chart never comes near its singular set, an edge pointing against its chart tangent
+    /// (which stalled fig2's tight arc at 0.947 rad/s before the chart moved).
+    ///
+    /// The tangent in the new coordinates is the derivative of the change of coordinates along
+    /// it: positions are unchanged, and the angles shift by the partial sums of the difference of
+    /// the two charts' reference twists at the configuration ([`crate::dynamics::rechart`]),
+    /// a smooth function of the positions, differentiated by central differences (step
+    /// `1e-5` of the tangent's largest component; truncation and round-off near `1e-10` of the
+    /// tangent, which only predicts).
+    fn rechart(&self, u: &[f64], tangent: &[f64]) -> Option<Vec<f64>> {
+        let steady = self.steady(0.0);
+        let old = self.chart.borrow().clone();
+        let moved = old.transported(&steady.config(u).x);
+        let converted = if tangent.is_empty() {
+            Vec::new()
+        } else {
+            let largest = tangent.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+            let h = 1e-5 / largest.max(f64::MIN_POSITIVE);
+            let at = |s: f64| {
+                let y: Vec<f64> = u.iter().zip(tangent).map(|(a, t)| a + s * t).collect();
+                steady.free_vector(&rechart(&steady.config(&y), &old, &moved))
+            };
+            let (plus, minus) = (at(h), at(-h));
+            plus.iter()
+                .zip(&minus)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect()
         };
-        if far {
-            let moved = self.chart.borrow().transported(&x);
-            *self.chart.borrow_mut() = moved;
-        }
-        far
+        *self.chart.borrow_mut() = moved;
+        Some(converted)
     }
 }
 

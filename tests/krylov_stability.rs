@@ -199,8 +199,8 @@ impl Problem for Recording<'_> {
     fn scales(&self) -> (f64, f64) {
         self.inner.scales()
     }
-    fn rechart(&self, u: &[f64]) -> bool {
-        self.inner.rechart(u)
+    fn rechart(&self, u: &[f64], tangent: &[f64]) -> Option<Vec<f64>> {
+        self.inner.rechart(u, tangent)
     }
 }
 

@@ -38,8 +38,8 @@
 //! its Newton correction is at round-off size), so an event's precision rests on converged
 //! points. With [`Limits::stop_at_first_instability`] the run ends at the first loss of
 //! stability, or at once when the starting point is already unstable. After every accepted point
-//! the problem may move its chart there ([`Problem::rechart`]); the point's tangent is then
-//! recomputed in the new coordinates.
+//! the problem may move its chart there ([`Problem::rechart`]) and gives the point's tangent in
+//! the new coordinates.
 //!
 //! The run is an iterator ([`Continuation`]): its state (the last point, the step, what the step
 //! control remembers) advances by one step per `next`, which yields a typed [`Outcome`]
@@ -795,17 +795,17 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         if self.stop.is_some() {
             return None;
         }
-        if std::mem::take(&mut self.rechart) && self.problem.rechart(&self.last.u) {
-            // The same point in new coordinates: its tangent, oriented as before.
+        if std::mem::take(&mut self.rechart)
+            && let Some(tu) = self.problem.rechart(&self.last.u, &self.last.tangent_u)
+        {
+            // The same point and tangent in new coordinates, renormalized in the metric.
             let last = &mut self.last;
-            let moved = self
-                .problem
-                .linearize(&last.u, last.p)
-                .and_then(|lin| tangent(&lin, &self.metric, &last.tangent_u, last.tangent_p));
-            match moved {
-                Ok((tu, tp)) => (last.tangent_u, last.tangent_p) = (tu, tp),
-                Err(e) => return Some(Err(e)),
-            }
+            let len = self
+                .metric
+                .dot(&tu, last.tangent_p, &tu, last.tangent_p)
+                .sqrt();
+            last.tangent_u = tu.iter().map(|v| v / len).collect();
+            last.tangent_p /= len;
         }
         // No step moves the parameter by more than a fraction of the range followed, nor goes
         // much past where an eigenvalue is predicted to reach the axis, so that a stable window

@@ -406,13 +406,12 @@ impl<F: Family> Tracer<'_, F> {
         let system = AtParameter::new(&*member, p);
         let context = format!("on the curve at p = {p:e}, q = {q:e}");
         let (u, _) = newton::solve(&system, guess, &self.newton, &context)?;
-        // A chart the state has moved far from is moved to it (the same state, new
-        // coordinates, so linearized afresh); every member is this evaluation's own.
-        let lin = if member.rechart(&u) {
-            member.linearize(&u, p)?
-        } else {
-            system.linearization_at(&u)?
-        };
+        // The chart is moved to the state (the same state, new coordinates; every member is
+        // this evaluation's own). The linearization in the old coordinates still gives the
+        // stability pair: `K`, the Jacobian of the position rows with the angles slaved, does
+        // not depend on how the angles are measured, nor `M` on them at all.
+        let lin = system.linearization_at(&u)?;
+        member.rechart(&u, &[]);
         let spectrum = stability(
             &*member,
             &u,

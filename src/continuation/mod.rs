@@ -66,13 +66,14 @@ pub trait Problem {
         (1.0, 1.0)
     }
     /// For a problem whose unknowns are coordinates in a chart of a manifold (the rod's twist
-    /// angles are measured from reference frames transported from a fixed chart, singular when
-    /// an edge turns to point against its chart tangent): moves the chart to the accepted
-    /// solution `u` when `u` has come near the chart's singular set, keeping `u` the same
-    /// state, and says whether it did. The engine then recomputes the tangent there; every
-    /// later point is measured in the new chart. The default never moves.
-    fn rechart(&self, _u: &[f64]) -> bool {
-        false
+    /// angles are measured from reference frames transported from a chart, singular where an
+    /// edge points against its chart tangent, and curved the more the farther the state is from
+    /// it): moves the chart to the accepted solution `u`, keeping `u` the same state, and
+    /// returns `tangent`, a vector of `u`'s coordinates there (the branch's tangent; empty when
+    /// the caller has none), in the new coordinates; `None` when the chart stays. Every later
+    /// point is measured in the new chart. The default never moves.
+    fn rechart(&self, _u: &[f64], _tangent: &[f64]) -> Option<Vec<f64>> {
+        None
     }
     /// The nonlinear dynamics whose linearization at the solution `(u, p)` is the stability
     /// pair: `dy/dt` at the displacement `y` from the solution, in the coordinates of `K`
