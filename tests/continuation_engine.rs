@@ -281,7 +281,7 @@ fn a_crossing_mode_whose_frequency_races_is_still_pinned_down_by_the_secant() {
     let wide = ContinuationSettings {
         ds: 3.0,
         ds_max: 4.0,
-        max_parameter_step: 1.0,
+        max_parameter_step: Some(1.0),
         event_tol: 1e-10,
         ..settings()
     };

@@ -24,7 +24,9 @@
 //! when the corrector travelled more than half a step from the predicted point, or when the
 //! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
 //! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
-//! the range followed.
+//! the range followed (by default 1/60, or 1/4 where the run stops at the first loss of
+//! stability), nor goes more than a hundredth of that past the range's end, nor more than 1.5
+//! times past where an eigenvalue extrapolated from the last two points reaches the axis.
 //!
 //! At every accepted point the leading eigenvalues of `K v = s M v` are computed
 //! ([`super::stability`]). A change of the unstable count between two points is an event, pinned
@@ -606,6 +608,8 @@ pub struct Continuation<'a, P: Problem> {
     detectors: Vec<Box<dyn Detector<P> + 'a>>,
     /// Largest change of the parameter in one step.
     dp_max: f64,
+    /// The range followed, `(p_min, p_max)`: a step is shortened to end just past it.
+    range: (f64, f64),
     last: Point,
     /// The arclength and leading spectrum of the point before `last`: with `last`, the rates at
     /// which its eigenvalues move ([`crossing_ahead`]).
@@ -664,7 +668,9 @@ impl<'a, P: Problem> Continuation<'a, P> {
             settings,
             metric,
             detectors: vec![Box::new(FoldDetector), Box::new(CrossingDetector)],
-            dp_max: settings.max_parameter_step * (limits.p_max - limits.p_min),
+            dp_max: settings.parameter_step(limits.stop_at_first_instability)
+                * (limits.p_max - limits.p_min),
+            range: (limits.p_min, limits.p_max),
             last: first,
             before: None,
             ds: settings.ds,
@@ -819,6 +825,15 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
             .and_then(|(s, spectrum)| crossing_ahead(*s, spectrum, &self.last))
         {
             self.ds = self.ds.min(LOOKAHEAD * ahead).max(self.settings.ds_min);
+        }
+        // A step that would leave the range ends a hundredth of the largest step past it.
+        let (last_p, t_p) = (self.last.p, self.last.tangent_p);
+        let (p_min, p_max) = self.range;
+        let edge = if t_p > 0.0 { p_max } else { p_min };
+        let to_edge = (edge - last_p) / t_p;
+        if to_edge > 0.0 && self.ds * t_p.abs() > (edge - last_p).abs() {
+            let past = 0.01 * self.dp_max / t_p.abs();
+            self.ds = (to_edge + past).min(self.ds).max(self.settings.ds_min);
         }
         let next = match self.attempt() {
             Ok(next) => next,

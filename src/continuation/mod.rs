@@ -110,8 +110,12 @@ pub struct ContinuationSettings {
     pub event_tol: f64,
     /// Number of leading eigenvalues kept per point.
     pub eigenvalues: usize,
-    /// Largest change of the parameter in one step, as a fraction of the range followed.
-    pub max_parameter_step: f64,
+    /// Largest change of the parameter in one step, as a fraction of the range followed. By
+    /// default ([`None`]) 1/60 where the whole branch is wanted (its figures drawn point to
+    /// point) and 1/4 where the run ends at the first loss of stability (where only the event
+    /// matters, and the look-ahead of the eigenvalues keeps a stable window from being stepped
+    /// over): [`ContinuationSettings::parameter_step`].
+    pub max_parameter_step: Option<f64>,
     /// How the leading eigenvalues are computed at each point (see [`EigenMethod`]).
     pub eigen: EigenMethod,
 }
@@ -141,7 +145,7 @@ impl Default for ContinuationSettings {
             tol: 1e-9,
             event_tol: 1e-8,
             eigenvalues: 6,
-            max_parameter_step: 0.25,
+            max_parameter_step: None,
             eigen: EigenMethod::Auto,
         }
     }
@@ -149,7 +153,8 @@ impl Default for ContinuationSettings {
 
 impl ContinuationSettings {
     /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
-    /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`.
+    /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`
+    /// where it is set.
     pub fn validate(&self) -> Result<()> {
         ensure(
             self.ds_min > 0.0
@@ -187,10 +192,23 @@ impl ContinuationSettings {
             "continuation.eigenvalues",
             format!("must be >= 1, got {}", self.eigenvalues),
         )?;
+        let fraction = self.max_parameter_step.unwrap_or(1.0);
         ensure(
-            self.max_parameter_step > 0.0 && self.max_parameter_step <= 1.0,
+            fraction > 0.0 && fraction <= 1.0,
             "continuation.max_parameter_step",
-            format!("must lie in (0, 1], got {}", self.max_parameter_step),
+            format!("must lie in (0, 1], got {fraction}"),
         )
+    }
+
+    /// The largest change of the parameter in one step as a fraction of the range followed:
+    /// `max_parameter_step`, or by default 1/4 for a run that ends at the first loss of
+    /// stability and 1/60 for one that draws the whole branch.
+    pub fn parameter_step(&self, stop_at_first_instability: bool) -> f64 {
+        self.max_parameter_step
+            .unwrap_or(if stop_at_first_instability {
+                0.25
+            } else {
+                1.0 / 60.0
+            })
     }
 }
