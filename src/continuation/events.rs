@@ -9,8 +9,8 @@
 //!   typed by a guess.
 //!
 //! Between the points `a` and `b` the branch is sampled at arclength `sigma` from `a` (predicted
-//! by interpolating between the two samples that bracket `sigma`, corrected on the hyperplane
-//! normal to `a`'s tangent). The bracket of an event is kept by a robust test, not by the sign
+//! by interpolating between the two states of the step nearest to `sigma`, corrected on the
+//! hyperplane normal to `a`'s tangent). The bracket of an event is kept by a robust test, not by the sign
 //! of an interpolated function: a sample lies beyond the event when its unstable count differs
 //! from the count at the bracket's lower end (a crossing), or when its tangent has turned (a
 //! fold). Brent's method ([`Zeroin`]: inverse quadratic interpolation, secant, bisection) on a
@@ -319,9 +319,9 @@ impl<'a, P: Problem> Sampler<'a, P> {
         let a = self.a;
         let (predicted, p) = {
             let states = self.states.borrow();
-            if states.len() > 2 {
-                let mut near: Vec<&(f64, Vec<f64>, f64)> = states.iter().collect();
-                near.sort_by(|x, y| (x.0 - sigma).abs().total_cmp(&(y.0 - sigma).abs()));
+            let mut near: Vec<&(f64, Vec<f64>, f64)> = states.iter().collect();
+            near.sort_by(|x, y| (x.0 - sigma).abs().total_cmp(&(y.0 - sigma).abs()));
+            if states.len() > 2 && near[0].0 != near[1].0 {
                 let ((s0, u0, p0), (s1, u1, p1)) = (near[0], near[1]);
                 let w = (sigma - s0) / (s1 - s0);
                 (self.problem.interpolate(u0, u1, w), p0 + w * (p1 - p0))
