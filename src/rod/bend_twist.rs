@@ -90,8 +90,8 @@ struct Dots<T> {
     a0b1: T,
 }
 
-/// The frame vectors whose dot products make [`Dots`], in its order: `(k0, i0)` of edge 0's frame
-/// `(t, a, b)` with `(k1, i1)` of edge 1's.
+/// The frame vectors whose dot products make [`Dots`], in its order: `(i0, i1)`, vector `i0` of
+/// edge 0's frame `(t, a, b)` with vector `i1` of edge 1's.
 const DOT_PAIRS: [(usize, usize); 7] = [(0, 0), (1, 0), (2, 0), (0, 1), (0, 2), (1, 1), (1, 2)];
 
 impl<T: RealField + Copy> Dots<T> {
