@@ -22,7 +22,9 @@ use helixbif::study::run::run;
 use helixbif::study::runs::{
     DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
 };
-use helixbif::study::simulate::{SimulateOptions, run_simulate, simulation_provenance};
+use helixbif::study::simulate::{
+    OrbitOrigin, SimulateOptions, run_simulate, simulation_provenance,
+};
 use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge, run_sweep};
 use helixbif::study::{Study, default_output, figures, sweep_figures};
@@ -256,15 +258,26 @@ enum Command {
     Simulate {
         #[command(flatten)]
         study: StudyArgs,
-        /// Rotation rate (rad/s; negative: clockwise seen from above).
-        #[arg(long, allow_negative_numbers = true)]
-        omega: f64,
+        /// Rotation rate (rad/s; negative: clockwise seen from above); with --from-orbit, the
+        /// orbit's by default.
+        #[arg(
+            long,
+            allow_negative_numbers = true,
+            required_unless_present = "from_orbit"
+        )]
+        omega: Option<f64>,
         /// Duration (s).
         #[arg(long)]
         t_end: f64,
         /// Start on the steady state at --omega (default: from rest, the motor spinning up).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "from_orbit")]
         from_steady: bool,
+        /// Start on a periodic orbit: a `states/orbit_<index>.json` written by `helixbif orbits`
+        /// for the same study; the run is compared with the orbit period by period
+        /// (`cycles.csv`: period averages, largest distance of `hbar` from the orbit's, the
+        /// simulated period).
+        #[arg(long, value_name = "FILE")]
+        from_orbit: Option<PathBuf>,
         /// With --from-steady: displace along the least stable mode by this fraction of the
         /// reference length.
         #[arg(long, allow_negative_numbers = true)]
@@ -649,8 +662,21 @@ fn orbits_command(args: &StudyArgs, o: &OrbitsArgs, out: Option<&Path>) -> Outco
     Ok(Box::new(titled(&study, report)))
 }
 
-fn simulate_command(args: &StudyArgs, mut opts: SimulateOptions, out: Option<&Path>) -> Outcome {
+/// `helixbif simulate`; `omega` and `from_orbit` as given on the command line (`opts` holds the
+/// rest).
+fn simulate_command(
+    args: &StudyArgs,
+    omega: Option<f64>,
+    from_orbit: Option<&Path>,
+    mut opts: SimulateOptions,
+    out: Option<&Path>,
+) -> Outcome {
     let (study, model) = load(args)?;
+    if let Some(path) = from_orbit {
+        let origin = OrbitOrigin::read(path)?;
+        opts.omega = omega.unwrap_or(origin.start.omega);
+        opts.from_orbit = Some(origin);
+    }
     opts.newton = study.newton.clone();
     opts.provenance = simulation_provenance(&study);
     let dir = out.map_or_else(
@@ -842,6 +868,7 @@ fn main() -> ExitCode {
             omega,
             t_end,
             from_steady,
+            from_orbit,
             perturb,
             ramp_time,
             transient,
@@ -851,11 +878,14 @@ fn main() -> ExitCode {
         } => (
             simulate_command(
                 study,
+                omega.as_ref().copied(),
+                from_orbit.as_deref(),
                 SimulateOptions {
-                    omega: *omega,
+                    omega: omega.unwrap_or(f64::NAN),
                     t_end: *t_end,
                     from_steady: *from_steady,
                     perturb: *perturb,
+                    from_orbit: None,
                     ramp_time: *ramp_time,
                     transient: *transient,
                     shape_every: *shape_every,

@@ -22,7 +22,7 @@ use crate::continuation::periodic::branch::{
 };
 use crate::continuation::periodic::orbit::Orbit;
 use crate::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
-use crate::dynamics::{ImplicitStep, slave_twist_in};
+use crate::dynamics::{ImplicitStep, natural_chart_unknowns, slave_twist_in};
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{Steady, height, thrust_and_torque};
@@ -110,27 +110,55 @@ pub struct OrbitRow {
     pub iterations: usize,
 }
 
-/// Time averages of `hbar`, `Fpbar` and `Tp` (solver units) over an orbit's states at
+/// `hbar`, `Fpbar` and `Tp` (solver units) at each of an orbit's states, `t = k T / n`, at
 /// `omegabar`, with `h0` the rest height.
-fn averages(dynamics: &RodDynamics, orbit: &Orbit, h0: f64) -> Result<(f64, f64, f64)> {
+fn observed(dynamics: &RodDynamics, orbit: &Orbit, h0: f64) -> Result<Vec<[f64; 3]>> {
     let model = dynamics.model;
-    let n = orbit.states.len() as f64;
-    let (mut h, mut fp, mut tp) = (0.0, 0.0, 0.0);
-    for u in &orbit.states {
-        let forces = moving_forces(model, u, &dynamics.chart, orbit.p)?;
-        let x = Steady::new(model, orbit.p).config(u).x;
-        let (f, t) = thrust_and_torque(&x, &forces);
-        h += height(&x) / h0 / n;
-        fp += f / n;
-        tp += t / n;
-    }
-    Ok((h, fp, tp))
+    orbit
+        .states
+        .iter()
+        .map(|u| {
+            let forces = moving_forces(model, u, &dynamics.chart, orbit.p)?;
+            let x = Steady::new(model, orbit.p).config(u).x;
+            let (f, t) = thrust_and_torque(&x, &forces);
+            Ok([height(&x) / h0, f, t])
+        })
+        .collect()
 }
 
-/// The row of `orbit`.
-pub fn orbit_row(dynamics: &RodDynamics, index: usize, orbit: &Orbit, h0: f64) -> Result<OrbitRow> {
+/// An orbit's start (the state pinned by the phase condition) and its observables over one
+/// period, saved as `states/orbit_<index>.json` so that a simulation can start on it and be
+/// compared with it (`helixbif simulate --from-orbit`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OrbitStart {
+    pub index: usize,
+    /// Rate (rad/s) and period in the co-rotating frame (s).
+    pub omega: f64,
+    pub period: f64,
+    /// The largest nontrivial Floquet multiplier's modulus.
+    pub max_multiplier: f64,
+    /// `hbar` and `Fpbar` at `t = k period / n`, `k = 0 .. n - 1`.
+    pub hbar: Vec<f64>,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: Vec<f64>,
+    /// The free unknowns at `t = 0`, twist measured in the model's natural chart.
+    pub u: Vec<f64>,
+    /// The physical description of the model the orbit belongs to (a simulation started on it
+    /// must use the same).
+    pub physical: serde_json::Value,
+}
+
+/// The row of `orbit` and its start ([`OrbitStart::physical`] left null).
+pub fn orbit_row(
+    dynamics: &RodDynamics,
+    index: usize,
+    orbit: &Orbit,
+    h0: f64,
+) -> Result<(OrbitRow, OrbitStart)> {
     let s = &dynamics.model.scales;
-    let (hbar, fpbar, tp) = averages(dynamics, orbit, h0)?;
+    let observed = observed(dynamics, orbit, h0)?;
+    let mean = |k: usize| observed.iter().map(|o| o[k]).sum::<f64>() / observed.len() as f64;
+    let (hbar, fpbar, tp) = (mean(0), mean(1), mean(2));
     let amplitude = orbit.amplitude(dynamics, None);
     let trivial_error = (orbit.trivial - faer::c64::new(1.0, 0.0)).norm();
     let margin = 10.0 * trivial_error + 1e-9;
@@ -145,7 +173,7 @@ pub fn orbit_row(dynamics: &RodDynamics, index: usize, orbit: &Orbit, h0: f64) -
     } else {
         "unstable"
     };
-    Ok(OrbitRow {
+    let row = OrbitRow {
         index,
         omega: s.omega_from_bar(orbit.p),
         omegabar: orbit.p,
@@ -163,7 +191,23 @@ pub fn orbit_row(dynamics: &RodDynamics, index: usize, orbit: &Orbit, h0: f64) -
         verdict: verdict.into(),
         trivial_error,
         iterations: orbit.iterations,
-    })
+    };
+    let config = Steady {
+        chart: dynamics.chart.clone(),
+        ..Steady::new(dynamics.model, orbit.p)
+    }
+    .config(&orbit.states[0]);
+    let start = OrbitStart {
+        index,
+        omega: row.omega,
+        period: row.period,
+        max_multiplier: row.max_multiplier,
+        hbar: observed.iter().map(|o| o[0]).collect(),
+        fpbar: observed.iter().map(|o| o[1]).collect(),
+        u: natural_chart_unknowns(dynamics.model, &config, &dynamics.chart)?,
+        physical: serde_json::Value::Null,
+    };
+    Ok((row, start))
 }
 
 /// The Hopf start of a located Hopf point: its state, rate, frequency and the critical mode
@@ -189,7 +233,8 @@ pub fn hopf_start<'a>(
 }
 
 /// Follows the orbits from a Hopf point, or from `resume` (a checkpoint of an earlier run of the
-/// same branch), with `rows` called for every accepted orbit's row and the checkpoint after it.
+/// same branch), with `rows` called for every accepted orbit's row, its start and the
+/// checkpoint after it.
 pub fn follow_rod_orbits(
     dynamics: &RodDynamics,
     start: &HopfStart,
@@ -197,15 +242,15 @@ pub fn follow_rod_orbits(
     settings: &OrbitBranchSettings,
     omegabar_range: (f64, f64),
     h0: f64,
-    mut rows: impl FnMut(&OrbitRow, Option<&Checkpoint>) -> Result<()>,
+    mut rows: impl FnMut(&OrbitRow, &OrbitStart, Option<&Checkpoint>) -> Result<()>,
 ) -> Result<(OrbitBranch, Vec<OrbitRow>)> {
     let mut table = Vec::new();
     let mut failure = None;
     let observer = |k: usize, orbit: &Orbit, checkpoint: Option<&Checkpoint>| match orbit_row(
         dynamics, k, orbit, h0,
     )
-    .and_then(|row| {
-        rows(&row, checkpoint)?;
+    .and_then(|(row, start)| {
+        rows(&row, &start, checkpoint)?;
         Ok(row)
     }) {
         Ok(row) => {

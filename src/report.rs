@@ -257,6 +257,25 @@ impl Section for SimulateReport {
                 self.transient
             )?;
         }
+        if let Some(o) = &self.orbit {
+            write!(
+                f,
+                "\n  started on orbit {} (period {:.6} s, largest multiplier {:.4}; period \
+                 averages hbar = {:.6}, Fpbar = {:.6}); per period (cycles.csv):",
+                o.index, o.period, o.max_multiplier, o.hbar_mean, o.fpbar_mean
+            )?;
+            for c in &o.cycles {
+                write!(
+                    f,
+                    "\n    {:>3}: hbar = {:.6}, Fpbar = {:.6}, |hbar - orbit| <= {:.2e}, period {}",
+                    c.cycle,
+                    c.hbar_mean,
+                    c.fpbar_mean,
+                    c.deviation,
+                    c.period.map_or("-".into(), |p| format!("{p:.6} s"))
+                )?;
+            }
+        }
         Ok(())
     }
 }

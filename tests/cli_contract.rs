@@ -701,3 +701,69 @@ fn integrator_and_quadrature_fields_out_of_range_are_named() {
         "{stderr}"
     );
 }
+
+/// `simulate --from-orbit` refuses, with exit code 2 and one line naming `--from-orbit`, a file
+/// that is not there, one that is not an orbit's start, and an orbit of another model; without
+/// `--omega` it runs at the orbit's rate.
+#[test]
+fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
+    let dir = temp_dir("cli-from-orbit");
+    let orbits = dir.join("orbits");
+    let (code, _, stderr) = helixbif(&[
+        "orbits",
+        "--set",
+        "discretization.nodes=20",
+        "--max-orbits",
+        "2",
+        "--out",
+        orbits.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let start = orbits.join("states").join("orbit_0001.json");
+    let row: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&start).unwrap()).unwrap();
+    let missing = dir.join("none.json");
+    let not_an_orbit = orbits.join("meta.json");
+    for (file, nodes, why) in [
+        (&missing, "20", "none.json"),
+        (&not_an_orbit, "20", "is not an orbit's start"),
+        (&start, "22", "belongs to another model"),
+    ] {
+        let (code, _, stderr) = helixbif(&[
+            "simulate",
+            "--set",
+            &format!("discretization.nodes={nodes}"),
+            "--from-orbit",
+            file.to_str().unwrap(),
+            "--t-end",
+            "1",
+            "--out",
+            dir.join("sim").to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("--from-orbit") && stderr.contains(why),
+            "{stderr}"
+        );
+    }
+    let (code, stdout, stderr) = helixbif(&[
+        "simulate",
+        "--set",
+        "discretization.nodes=20",
+        "--from-orbit",
+        start.to_str().unwrap(),
+        "--t-end",
+        "1",
+        "--out",
+        dir.join("sim").to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(v["omega"], row["omega"], "{v}");
+    assert_eq!(v["orbit"]["index"], 1, "{v}");
+    // Shorter than a period: no whole cycle to compare.
+    assert_eq!(v["orbit"]["cycles"].as_array().unwrap().len(), 0, "{v}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,9 +1,12 @@
 //! Periodic orbits of the rod (`helixbif::orbits`) near its Hopf point: the period map's
 //! monodromy against finite differences, the orbits' Floquet multiplier and amplitude against
 //! the first Lyapunov coefficient (two independent routes), and an orbit against the adaptive
-//! time integrator.
+//! time integrator (in the library, and through `simulate --from-orbit`: the orbit's period and
+//! period averages converge at second order in its steps).
 
 use std::ops::ControlFlow;
+
+mod common;
 
 use helixbif::branch::hopf_criticality;
 use helixbif::continuation::periodic::ImplicitDynamics;
@@ -210,4 +213,82 @@ fn a_rod_orbit_closes_under_the_adaptive_integrator() {
         orbit.p, trajectory.steps
     );
     assert!(closure < 2e-2, "{closure:e}");
+}
+
+/// The period and period averages of an orbit (`helixbif orbits`, `steps` BDF2 steps a period)
+/// and of the simulation started on it (`simulate --from-orbit`, adaptive steps at `rtol =
+/// 1e-9`), both at `N = 20`: `(orbit period, simulated period, orbit hbar and Fpbar averages,
+/// simulated ones over the first period)`.
+fn orbit_and_simulation(steps: usize) -> [f64; 6] {
+    let dir = common::temp_dir(&format!("orbit-vs-simulation-{steps}"));
+    let (orbits, sim) = (dir.join("orbits"), dir.join("sim"));
+    let nodes = "discretization.nodes=20";
+    let steps = steps.to_string();
+    let (code, _, stderr) = common::helixbif(&[
+        "orbits",
+        "--set",
+        nodes,
+        "--max-orbits",
+        "3",
+        "--steps",
+        &steps,
+        "--out",
+        orbits.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let start = orbits.join("states").join("orbit_0002.json");
+    let (code, stdout, stderr) = common::helixbif(&[
+        "simulate",
+        "--set",
+        nodes,
+        "--set",
+        "integrator.rtol=1e-9",
+        "--set",
+        "integrator.atol=1e-12",
+        "--from-orbit",
+        start.to_str().unwrap(),
+        "--t-end",
+        "19.5",
+        "--shape-every",
+        "0",
+        "--out",
+        sim.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let o = &v["orbit"];
+    let cycles = o["cycles"].as_array().unwrap();
+    // Three whole periods of about 6.4 s; the first has no earlier crossing to time it from.
+    assert_eq!(cycles.len(), 3, "{v}");
+    let f = |x: &serde_json::Value| x.as_f64().unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    [
+        f(&o["period"]),
+        f(&cycles[2]["period"]),
+        f(&o["hbar_mean"]),
+        f(&cycles[0]["hbar_mean"]),
+        f(&o["Fpbar_mean"]),
+        f(&cycles[0]["Fpbar_mean"]),
+    ]
+}
+
+#[test]
+fn an_orbit_and_the_simulation_started_on_it_agree_to_the_orbits_second_order_error() {
+    // The simulation at rtol 1e-9 is the reference: its period moves by 6e-6 relative from
+    // rtol 1e-9 to 1e-10, against orbit errors of 3e-4 and more.
+    let coarse = orbit_and_simulation(100);
+    let fine = orbit_and_simulation(200);
+    let error = |r: &[f64; 6], k: usize| (r[k] - r[k + 1]) / r[k + 1];
+    // BDF2's period is long by about 1.3e-3 at 100 steps a period, a quarter of that at 200.
+    let (e100, e200) = (error(&coarse, 0), error(&fine, 0));
+    assert!(e100 > 0.0 && e100 < 2e-3, "{coarse:?}");
+    assert!((3.6..4.4).contains(&(e100 / e200)), "{e100} {e200}");
+    // The period averages of hbar (1e-6 relative at 100 steps) and Fpbar (1e-5), the same order.
+    for (k, bound) in [(2, 2e-6), (4, 2e-5)] {
+        let (c, f) = (error(&coarse, k), error(&fine, k));
+        assert!(c.abs() < bound, "{k}: {coarse:?}");
+        assert!((3.5..4.5).contains(&(c / f)), "{k}: {c} {f}");
+    }
 }

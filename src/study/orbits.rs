@@ -1,6 +1,7 @@
 //! `helixbif orbits`: the branch of periodic orbits born at the Hopf point that `locate` finds
 //! ([`crate::orbits`]): `orbits.csv` (one row per orbit, written as each one converges, so an
-//! interrupted run keeps every finished orbit), `events.csv`, `meta.json`, and `amplitude.svg`,
+//! interrupted run keeps every finished orbit), `states/orbit_<index>.json` (each orbit's start
+//! and observables over a period, for `simulate --from-orbit`), `events.csv`, `meta.json`, and `amplitude.svg`,
 //! `hbar.svg`, `Fpbar.svg` (time averages over a period against `omega` over the steady branch
 //! from rest, which is written to `branch/`; stable parts solid, unstable dashed).
 
@@ -16,7 +17,7 @@ use crate::continuation::periodic::branch::{
     Checkpoint, OrbitBranchSettings, OrbitEventKind, OrbitStop,
 };
 use crate::model::Model;
-use crate::orbits::{OrbitRow, follow_rod_orbits, hopf_start};
+use crate::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
 use crate::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::report::Section;
@@ -152,6 +153,11 @@ impl Section for OrbitsReport {
     }
 }
 
+/// The file of orbit `index`'s start in the folder `states/` (see [`OrbitStart`]).
+pub fn start_file_name(index: usize) -> String {
+    format!("orbit_{index:04}.json")
+}
+
 /// Locates the first loss of stability of `study` on `model`, and when it is a Hopf point with
 /// a Lyapunov coefficient, follows the orbits born there, writing into `dir`.
 ///
@@ -209,6 +215,10 @@ pub fn run_orbits(
     let mut events: Vec<OrbitEventRow> =
         crate::output::read_rows(&dir.join("events.csv"), resume.is_some())?;
     events.retain(|e| e.after + 1 < next);
+    let states = dir.join("states");
+    create_dir(&states)?;
+    let physical =
+        serde_json::to_value(study.physical()).map_err(|e| Error::Numerical(e.to_string()))?;
     let mut csv = CsvWriter::create(&dir.join("orbits.csv"))?;
     for r in &rows {
         csv.row(r)?;
@@ -220,12 +230,17 @@ pub fn run_orbits(
         &opts.settings,
         (s.omega_to_bar(lo), s.omega_to_bar(hi)),
         h0,
-        |row, checkpoint| {
+        |row, start, checkpoint| {
             bar.set_message(format!(
                 "orbit {}: omega = {:.6} rad/s, amplitude {:.3e} m, {}",
                 row.index, row.omega, row.amplitude, row.verdict
             ));
             csv.row(row)?;
+            let start = OrbitStart {
+                physical: physical.clone(),
+                ..start.clone()
+            };
+            crate::output::write_json_atomically(&states.join(start_file_name(row.index)), &start)?;
             match checkpoint {
                 Some(c) => crate::output::write_json_atomically(&checkpoint_path, c),
                 None => Ok(()),

@@ -24,12 +24,13 @@ use crate::dynamics::{
     least_stable_mode, natural_chart_unknowns, perturb,
 };
 use crate::model::Model;
-use crate::orbits::OrbitRow;
+use crate::orbits::{OrbitRow, OrbitStart};
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::rod::frame::Chart;
 use crate::solve::solve_at;
 use crate::steady::{Observables, Steady, height, rotation_velocity};
+use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
 use crate::study::runs::BranchRow;
 use crate::{Error, Result};
@@ -228,6 +229,10 @@ pub struct SimulateOptions {
     /// Perturbation along the least stable mode (largest displacement, in units of the
     /// reference length), for runs from the steady state.
     pub perturb: Option<f64>,
+    /// Start on a periodic orbit (`states/orbit_<index>.json` of `helixbif orbits`), at the
+    /// fixed rate `omega`; the run is then compared with the orbit period by period
+    /// (`cycles.csv`, [`super::cycles`]).
+    pub from_orbit: Option<OrbitOrigin>,
     /// Spin-up time (s) of a run from rest.
     pub ramp_time: f64,
     /// Statistics over `t >= transient` (s).
@@ -242,6 +247,38 @@ pub struct SimulateOptions {
     /// What the run is made of beyond these options (the study's physical part and the
     /// integrator table), stored in the checkpoint and compared on `resume`.
     pub provenance: serde_json::Value,
+}
+
+/// A periodic orbit's start and the file it was read from.
+#[derive(Clone, Debug)]
+pub struct OrbitOrigin {
+    pub path: String,
+    pub start: OrbitStart,
+}
+
+impl OrbitOrigin {
+    /// Reads `path` (an [`OrbitStart`] in JSON).
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming `--from-orbit` when the file cannot be read or is not an orbit's
+    /// start.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input("--from-orbit", format!("{}: {e}", path.display())))?;
+        let start: OrbitStart = serde_json::from_str(&text).map_err(|e| {
+            Error::input(
+                "--from-orbit",
+                format!(
+                    "{} is not an orbit's start (states/orbit_<index>.json of `helixbif orbits`): {e}",
+                    path.display()
+                ),
+            )
+        })?;
+        Ok(OrbitOrigin {
+            path: path.display().to_string(),
+            start,
+        })
+    }
 }
 
 /// What a simulation of `study` is made of beyond its options (for [`SimulateOptions::provenance`]):
@@ -270,7 +307,7 @@ struct SimulationCheckpoint {
 /// The fields of a run that a resumed run must share (not `t_end`, `transient`: a finished
 /// run may be extended and its statistics retaken).
 fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_json::Value {
-    serde_json::json!({
+    let mut key = serde_json::json!({
         "omega": opts.omega,
         "from_steady": opts.from_steady,
         "perturb": opts.perturb,
@@ -278,7 +315,11 @@ fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_
         "shape_every": opts.shape_every,
         "settings": settings,
         "provenance": opts.provenance,
-    })
+    });
+    if let Some(o) = &opts.from_orbit {
+        key["from_orbit"] = serde_json::json!({ "path": o.path, "index": o.start.index });
+    }
+    key
 }
 
 /// Keeps the first `keep` lines after `header` lines of the text file at `path` (rows an
@@ -327,6 +368,23 @@ pub struct SimulateReport {
     pub seconds: f64,
     /// The output folder.
     pub out: String,
+    /// For a run started on a periodic orbit: the orbit and the run period by period.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orbit: Option<OrbitComparison>,
+}
+
+/// A run started on a periodic orbit against the orbit (see [`super::cycles`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct OrbitComparison {
+    pub index: usize,
+    pub omega: f64,
+    pub period: f64,
+    pub max_multiplier: f64,
+    /// The orbit's period averages.
+    pub hbar_mean: f64,
+    #[serde(rename = "Fpbar_mean")]
+    pub fpbar_mean: f64,
+    pub cycles: Vec<CycleRow>,
 }
 
 /// Runs one simulation, writing `timeseries.csv`, `shapes.csv` (when asked) and `timeseries.svg`
@@ -360,6 +418,26 @@ pub fn run_simulate(
     if opts.t_end <= 0.0 {
         return Err(Error::input("--t-end", "must be > 0"));
     }
+    if let Some(o) = &opts.from_orbit {
+        if opts.from_steady {
+            return Err(Error::input(
+                "--from-orbit",
+                "starts on an orbit; it cannot be combined with --from-steady",
+            ));
+        }
+        if opts.provenance.get("physical") != Some(&o.start.physical)
+            || o.start.u.len() != model.rod.layout.free_len()
+        {
+            return Err(Error::input(
+                "--from-orbit",
+                format!(
+                    "{} belongs to another model: its rod, fluid, shape or discretization differ \
+                     from the study's",
+                    o.path
+                ),
+            ));
+        }
+    }
     model.check_resolution()?;
     crate::output::create_dir(dir)?;
     let scales = model.scales;
@@ -367,7 +445,7 @@ pub fn run_simulate(
     let rest = rest_state(model, &opts.newton)?;
     let h0 = height(&rest.config.x);
     let steady = Steady::new(model, 0.0);
-    let rate = if !opts.from_steady && opts.ramp_time > 0.0 {
+    let rate = if !opts.from_steady && opts.from_orbit.is_none() && opts.ramp_time > 0.0 {
         Rate::Ramp {
             target: omegabar,
             ramp_time: opts.ramp_time / scales.time,
@@ -421,7 +499,9 @@ pub fn run_simulate(
             )
         }
         None => {
-            let u0 = if opts.from_steady {
+            let u0 = if let Some(o) = &opts.from_orbit {
+                o.start.u.clone()
+            } else if opts.from_steady {
                 let solution = solve_at(model, omegabar, &opts.newton)?;
                 let mut u =
                     natural_chart_unknowns(model, &solution.state.config, &solution.state.chart)?;
@@ -567,6 +647,31 @@ pub fn run_simulate(
         )?;
     }
     let trajectory = trajectory?;
+    let orbit = match &opts.from_orbit {
+        Some(o) => {
+            let rows = cycles(
+                &t,
+                &rows.iter().map(|r| r.hbar).collect::<Vec<_>>(),
+                &rows.iter().map(|r| r.fpbar).collect::<Vec<_>>(),
+                &o.start,
+            );
+            let mut csv = CsvWriter::create(&dir.join("cycles.csv"))?;
+            for r in &rows {
+                csv.row(r)?;
+            }
+            let mean = |y: &[f64]| y.iter().sum::<f64>() / y.len() as f64;
+            Some(OrbitComparison {
+                index: o.start.index,
+                omega: o.start.omega,
+                period: o.start.period,
+                max_multiplier: o.start.max_multiplier,
+                hbar_mean: mean(&o.start.hbar),
+                fpbar_mean: mean(&o.start.fpbar),
+                cycles: rows,
+            })
+        }
+        None => None,
+    };
     Ok(SimulateReport {
         omega: opts.omega,
         t_end: opts.t_end,
@@ -583,6 +688,7 @@ pub fn run_simulate(
         transient: opts.transient,
         seconds: earlier_seconds + start.elapsed().as_secs_f64(),
         out: dir.display().to_string(),
+        orbit,
     })
 }
 
@@ -661,6 +767,7 @@ pub fn run_dynamics(
                 t_end: *t_end,
                 from_steady: false,
                 perturb: None,
+                from_orbit: None,
                 ramp_time: *ramp_time,
                 transient: *transient,
                 shape_every: 0,
