@@ -280,7 +280,7 @@ enum Command {
         from_orbit: Option<PathBuf>,
         /// With --from-steady: displace along the least stable mode by this fraction of the
         /// reference length.
-        #[arg(long, allow_negative_numbers = true)]
+        #[arg(long, allow_negative_numbers = true, requires = "from_steady")]
         perturb: Option<f64>,
         /// Spin-up time (s) of a run from rest.
         #[arg(long, default_value_t = 20.0)]
