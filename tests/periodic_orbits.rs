@@ -184,9 +184,16 @@ fn the_orbit_branch_leaves_the_hopf_point_on_the_side_of_its_criticality() {
 
 /// A subcritical branch that turns: `r' = p r + r^3 - r^5` has orbits `p = r^4 - r^2`, a fold
 /// at `r^2 = 1/2`, `p = -1/4`, unstable below it and stable above.
-#[test]
-fn a_subcritical_branch_turns_at_its_fold_and_becomes_stable() {
-    let problem = helixbif::continuation::reference::Analytic {
+/// `r' = (p + r^2 - r^4) r`, `phi' = 1` in Cartesian form.
+/// The boxed closures of an [`helixbif::continuation::reference::Analytic`] problem.
+type Boxed = helixbif::continuation::reference::Analytic<
+    Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
+    Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>,
+    Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
+>;
+
+fn quintic() -> Boxed {
+    helixbif::continuation::reference::Analytic {
         dim: 2,
         g: Box::new(|u: &[f64], p: f64| {
             let (x, y) = (u[0], u[1]);
@@ -205,19 +212,42 @@ fn a_subcritical_branch_turns_at_its_fold_and_becomes_stable() {
             ]
         }) as Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>,
         g_p: Box::new(|u: &[f64], _| vec![u[0], u[1]]) as Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
-    };
+    }
+}
+
+/// The branch of [`quintic`] from its Hopf point until `r^2 > 1.2`, `observer` also seeing
+/// every orbit and checkpoint (it may break first).
+fn quintic_branch(
+    mut observer: impl FnMut(
+        usize,
+        &helixbif::continuation::periodic::orbit::Orbit,
+        Option<&Checkpoint>,
+    ) -> ControlFlow<()>,
+) -> helixbif::continuation::periodic::branch::OrbitBranch {
+    let problem = quintic();
     let field = VectorField(&problem);
-    let start = origin(1.0);
-    let settings = branch_settings(200, 0.05, 60);
-    let branch = follow_orbits(&field, &start, &settings, (-1.0, 0.5), |_, o, _| {
-        let r2 = o.states[0][0].powi(2) + o.states[0][1].powi(2);
-        if r2 > 1.2 {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    })
-    .unwrap();
+    follow_orbits(
+        &field,
+        &origin(1.0),
+        &branch_settings(200, 0.05, 60),
+        (-1.0, 0.5),
+        |k, o, c| {
+            let r2 = o.states[0][0].powi(2) + o.states[0][1].powi(2);
+            if r2 > 1.2 || observer(k, o, c).is_break() {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_subcritical_branch_turns_at_its_fold_and_becomes_stable() {
+    let problem = quintic();
+    let field = VectorField(&problem);
+    let branch = quintic_branch(|_, _, _| ControlFlow::Continue(()));
     let folds: Vec<_> = branch
         .events
         .iter()
@@ -342,4 +372,48 @@ fn a_resumed_branch_continues_exactly_as_the_uninterrupted_one() {
         );
         assert!((a.period - b.period).abs() <= 1e-12 * b.period);
     }
+}
+
+/// A branch interrupted after its fold and its change of stability, and resumed from the
+/// checkpoint (through its file format), reports the same events as the uninterrupted run.
+#[test]
+fn a_resumed_branch_keeps_the_events_found_before_the_interruption() {
+    let whole = quintic_branch(|_, _, _| ControlFlow::Continue(()));
+    assert_eq!(whole.events.len(), 2, "{:?}", whole.events);
+    let last_event = whole.events.iter().map(|e| e.after + 1).max().unwrap();
+    let mut saved = None;
+    quintic_branch(|k, _, c| {
+        saved = c.cloned();
+        if k == last_event + 1 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    let text = serde_json::to_string(&saved.unwrap()).unwrap();
+    let checkpoint: Checkpoint = serde_json::from_str(&text).unwrap();
+    assert_eq!(checkpoint.events, whole.events);
+    let problem = quintic();
+    let field = VectorField(&problem);
+    let resumed = resume_orbits(
+        &field,
+        &checkpoint,
+        &branch_settings(200, 0.05, 60),
+        (-1.0, 0.5),
+        |_, o, _| {
+            let r2 = o.states[0][0].powi(2) + o.states[0][1].powi(2);
+            if r2 > 1.2 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+    )
+    .unwrap();
+    assert_eq!(resumed.first_index, last_event + 2);
+    assert_eq!(resumed.events, whole.events);
+    assert_eq!(
+        resumed.first_index + resumed.orbits.len(),
+        whole.orbits.len()
+    );
 }

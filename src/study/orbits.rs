@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::branch::{hopf_criticality, rest_state};
 use crate::continuation::criticality::Verdict;
 use crate::continuation::periodic::branch::{
-    Checkpoint, OrbitBranchSettings, OrbitEventKind, OrbitStop,
+    Checkpoint, OrbitBranchSettings, OrbitEvent, OrbitEventKind, OrbitStop,
 };
 use crate::model::Model;
 use crate::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
@@ -153,6 +153,28 @@ impl Section for OrbitsReport {
     }
 }
 
+/// Writes `events.csv` (rates in rad/s), returning its rows.
+fn write_events(
+    events: &[OrbitEvent],
+    s: &crate::params::Scales,
+    path: &Path,
+) -> Result<Vec<OrbitEventRow>> {
+    let rows: Vec<OrbitEventRow> = events
+        .iter()
+        .map(|e| OrbitEventRow {
+            kind: e.kind,
+            after: e.after,
+            omega_from: s.omega_from_bar(e.p.0),
+            omega_to: s.omega_from_bar(e.p.1),
+        })
+        .collect();
+    let mut table = CsvWriter::create(path)?;
+    for e in &rows {
+        table.row(e)?;
+    }
+    Ok(rows)
+}
+
 /// The file of orbit `index`'s start in the folder `states/` (see [`OrbitStart`]).
 pub fn start_file_name(index: usize) -> String {
     format!("orbit_{index:04}.json")
@@ -212,9 +234,6 @@ pub fn run_orbits(
     let mut rows: Vec<OrbitRow> =
         crate::output::read_rows(&dir.join("orbits.csv"), resume.is_some())?;
     rows.retain(|r| r.index < next);
-    let mut events: Vec<OrbitEventRow> =
-        crate::output::read_rows(&dir.join("events.csv"), resume.is_some())?;
-    events.retain(|e| e.after + 1 < next);
     let states = dir.join("states");
     create_dir(&states)?;
     let physical =
@@ -242,7 +261,10 @@ pub fn run_orbits(
             };
             crate::output::write_json_atomically(&states.join(start_file_name(row.index)), &start)?;
             match checkpoint {
-                Some(c) => crate::output::write_json_atomically(&checkpoint_path, c),
+                Some(c) => {
+                    write_events(&c.events, &s, &dir.join("events.csv"))?;
+                    crate::output::write_json_atomically(&checkpoint_path, c)
+                }
                 None => Ok(()),
             }
         },
@@ -250,16 +272,7 @@ pub fn run_orbits(
     bar.finish_and_clear();
     let (branch, new_rows) = followed?;
     rows.extend(new_rows);
-    events.extend(branch.events.iter().map(|e| OrbitEventRow {
-        kind: e.kind,
-        after: e.after,
-        omega_from: s.omega_from_bar(e.p.0),
-        omega_to: s.omega_from_bar(e.p.1),
-    }));
-    let mut table = CsvWriter::create(&dir.join("events.csv"))?;
-    for e in &events {
-        table.row(e)?;
-    }
+    let events = write_events(&branch.events, &s, &dir.join("events.csv"))?;
     let omega_hopf = s.omega_from_bar(critical.event.p);
     // The steady branch underneath, a little past the Hopf point (in `branch/`).
     let (_, steady) = run_branch(study, model, 1.1 * omega_hopf, &dir.join("branch"))?;

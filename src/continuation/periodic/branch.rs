@@ -115,7 +115,7 @@ pub enum OrbitEventKind {
 }
 
 /// An event bracketed by the orbits `after` and `after + 1` of the branch.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OrbitEvent {
     pub kind: OrbitEventKind,
     pub after: usize,
@@ -142,6 +142,7 @@ pub struct OrbitBranch {
     /// Hopf point, more when the run resumed a [`Checkpoint`]).
     pub orbits: Vec<Orbit>,
     pub first_index: usize,
+    /// Every event of the branch, those before a resumed checkpoint included.
     pub events: Vec<OrbitEvent>,
     pub stop: OrbitStop,
 }
@@ -186,9 +187,9 @@ impl OrbitSeed {
 }
 
 /// Where a branch can be taken up again: its last two orbits, the scaling of the unknowns and
-/// the step, and the index the next orbit will have. Saved after every orbit (from the second
-/// on), it lets an interrupted run resume without losing any finished orbit
-/// ([`resume_orbits`]).
+/// the step, the index the next orbit will have, and the events so far. Saved after every orbit
+/// (from the second on), it lets an interrupted run resume without losing any finished orbit
+/// or event ([`resume_orbits`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Checkpoint {
     pub previous: OrbitSeed,
@@ -196,6 +197,10 @@ pub struct Checkpoint {
     pub scale: Vec<f64>,
     pub ds: f64,
     pub next_index: usize,
+    /// Every event between orbits before `next_index` (absent from checkpoints written before
+    /// they were kept: the events of the runs that wrote those are lost).
+    #[serde(default)]
+    pub events: Vec<OrbitEvent>,
 }
 
 /// Follows the orbits from `start` until one lies outside `[p_min, p_max]` (it is kept). `observer` sees every
@@ -264,6 +269,7 @@ pub fn follow_orbits(
             .collect(),
         ds: 1.0,
         next_index: 2,
+        events: Vec::new(),
     };
     if observer(1, &orbits[1], Some(&checkpoint)).is_break() {
         return Ok(OrbitBranch {
@@ -308,7 +314,7 @@ pub fn resume_orbits(
     let scale = checkpoint.scale.clone();
     let scaled = |y: &[f64]| -> Vec<f64> { y.iter().zip(&scale).map(|(a, s)| a / s).collect() };
     let mut orbits = Vec::new();
-    let mut events = Vec::new();
+    let mut events = checkpoint.events.clone();
     let stop = loop {
         let k = state.next_index;
         if k >= settings.max_orbits {
@@ -380,6 +386,7 @@ pub fn resume_orbits(
             scale: scale.clone(),
             ds,
             next_index: k + 1,
+            events: events.clone(),
         };
         orbits.push(orbit);
         if observer(k, &orbits[orbits.len() - 1], Some(&state)).is_break() {
