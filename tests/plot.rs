@@ -663,3 +663,56 @@ fn malformed_input_is_an_input_error_and_bad_paths_an_io_error() {
         other => panic!("expected an I/O error, got {other:?}"),
     }
 }
+
+/// Data in every corner of the plot area and none at the middle of its left side (a branch
+/// across the top and a collapsed branch along the bottom): the legend goes to the middle of
+/// the left side, where it hides nothing.
+#[test]
+fn a_legend_that_would_hide_data_in_every_corner_goes_to_the_middle_of_a_side() {
+    let line = |label: &str, y: f64| Series {
+        label: label.into(),
+        x: (0..=40).map(|i| i as f64 / 40.0).collect(),
+        y: vec![y; 41],
+        style: Style::Line,
+        stable: None,
+        err: None,
+    };
+    write_figure(
+        &Figure {
+            title: "corners taken".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            series: vec![line("top", 1.0), line("bottom", 0.0)],
+            ..Figure::default()
+        },
+        &out("legend-middle"),
+    )
+    .unwrap();
+    let svg = read("legend-middle");
+    let doc = parse(&svg);
+    let position = |label: &str| {
+        let n = elements(&doc, "text")
+            .into_iter()
+            .find(|n| n.text().unwrap_or("").trim() == label)
+            .unwrap_or_else(|| panic!("text {label:?}"));
+        (attr(&n, "x"), attr(&n, "y"))
+    };
+    // The data lines' heights in pixels: their polylines in the first two series colours.
+    let height = |color: &str| {
+        polylines(&doc, color)
+            .into_iter()
+            .max_by_key(|l| l.len())
+            .map(|l| l[0].1)
+            .unwrap()
+    };
+    let (top, bottom) = (height(BLUE), height(VERMILLION));
+    let (x_top, y_top) = position("top");
+    let (_, y_bottom) = position("bottom");
+    let third = (bottom - top) / 3.0;
+    assert!(
+        y_top > top + third && y_bottom < bottom - third,
+        "legend rows at {y_top}, {y_bottom}; data at {top} and {bottom}"
+    );
+    let (x_label, _) = position("x");
+    assert!(x_top < x_label, "legend at x = {x_top}, the middle at {x_label}");
+}

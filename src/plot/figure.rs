@@ -439,10 +439,11 @@ impl<'a, 'b> Plot<'a, 'b> {
         )
     }
 
-    /// Upper-left corner (in plot-area pixels) of the legend box of size `(w, h)`: the corner of
-    /// the plot area where it covers the fewest data pixels; ties go to upper right, upper left,
-    /// lower right, lower left, in that order. The upper left is not used when it holds the
-    /// annotation.
+    /// Upper-left corner (in plot-area pixels) of the legend box of size `(w, h)`: the place
+    /// where it covers the fewest data pixels among the corners of the plot area and, after
+    /// them, the middles of its sides (for data that reach into every corner); ties go to upper
+    /// right, upper left, lower right, lower left, then the middles of the left, right, top and
+    /// bottom sides, in that order. The upper left is not used when it holds the annotation.
     fn legend_corner(&self, (w, h): (i32, i32)) -> Pixel {
         let area = self.chart.plotting_area();
         let (base_x, base_y) = area.get_base_pixel();
@@ -460,11 +461,21 @@ impl<'a, 'b> Plot<'a, 'b> {
                 })
                 .count()
         };
-        [(right, top), upper_left, (right, bottom), (left, bottom)]
-            .into_iter()
-            .filter(|&corner| !(self.annotated && corner == upper_left))
-            .min_by_key(|&corner| covered(corner))
-            .unwrap_or((right, top))
+        let (middle_x, middle_y) = ((left + right) / 2, (top + bottom) / 2);
+        [
+            (right, top),
+            upper_left,
+            (right, bottom),
+            (left, bottom),
+            (left, middle_y),
+            (right, middle_y),
+            (middle_x, top),
+            (middle_x, bottom),
+        ]
+        .into_iter()
+        .filter(|&corner| !(self.annotated && corner == upper_left))
+        .min_by_key(|&corner| covered(corner))
+        .unwrap_or((right, top))
     }
 }
 
