@@ -5,8 +5,10 @@
 //! The dynamics is (1) of [`crate::dynamics`]: `Z_ff(x) dx_f/dt = R_x(x_f, theta)`,
 //! `R_theta = 0`, the free positions differential and the twist algebraic, the rate
 //! `omegabar` the parameter. A step of the shooting is the implicit step of the time
-//! integrator ([`ImplicitStep`]), in the chart of the Hopf point's state (the orbits stay near
-//! that state; the integrator's carried chart is not needed there). The amplitude of an orbit
+//! integrator ([`ImplicitStep`]). Its twist angles are measured in a chart carried from step to
+//! step through the period, as the integrator carries its own ([`RodDynamics::centred_on`]),
+//! each period starting from the Hopf point's chart: the collapsed rod's edges turn by up to 180
+//! degrees within a period, where a fixed chart is singular. The amplitude of an orbit
 //! is the root mean square over the period and over the free nodes of the displacement from
 //! the orbit's mean shape (in `ell`, reported in metres): `size(dx)^2 = |dx|^2 / (N - 2)`.
 
@@ -20,6 +22,7 @@ use crate::continuation::newton::System;
 use crate::continuation::periodic::branch::{
     Checkpoint, HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits, resume_orbits,
 };
+use crate::continuation::periodic::flow::carried;
 use crate::continuation::periodic::orbit::Orbit;
 use crate::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use crate::dynamics::{ImplicitStep, natural_chart_unknowns, slave_twist_in};
@@ -62,6 +65,20 @@ impl ImplicitDynamics for RodDynamics<'_> {
     }
     fn consistent(&self, _p: f64, u: &[f64]) -> Result<Vec<f64>> {
         slave_twist_in(self.model, &self.chart, u)
+    }
+    /// The chart transported to `u`'s edges (as the time integrator carries its chart): the
+    /// twist angles of `u` are the same in it.
+    fn centred_on(&self, u: &[f64]) -> Option<Self> {
+        let x = Steady {
+            chart: self.chart.clone(),
+            ..Steady::new(self.model, 0.0)
+        }
+        .config(u)
+        .x;
+        Some(RodDynamics {
+            model: self.model,
+            chart: self.chart.transported(&x),
+        })
     }
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         Steady {
@@ -111,14 +128,18 @@ pub struct OrbitRow {
 }
 
 /// `hbar`, `Fpbar` and `Tp` (solver units) at each of an orbit's states, `t = k T / n`, at
-/// `omegabar`, with `h0` the rest height.
+/// `omegabar`, with `h0` the rest height; each state's twist measured in the chart carried to
+/// it through the period ([`carried`]).
 fn observed(dynamics: &RodDynamics, orbit: &Orbit, h0: f64) -> Result<Vec<[f64; 3]>> {
     let model = dynamics.model;
+    let frames = carried(dynamics, &orbit.states);
     orbit
         .states
         .iter()
-        .map(|u| {
-            let forces = moving_forces(model, u, &dynamics.chart, orbit.p)?;
+        .zip(&frames)
+        .map(|(u, frame)| {
+            let chart = &frame.as_ref().unwrap_or(dynamics).chart;
+            let forces = moving_forces(model, u, chart, orbit.p)?;
             let x = Steady::new(model, orbit.p).config(u).x;
             let (f, t) = thrust_and_torque(&x, &forces);
             Ok([height(&x) / h0, f, t])

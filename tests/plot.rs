@@ -714,5 +714,8 @@ fn a_legend_that_would_hide_data_in_every_corner_goes_to_the_middle_of_a_side() 
         "legend rows at {y_top}, {y_bottom}; data at {top} and {bottom}"
     );
     let (x_label, _) = position("x");
-    assert!(x_top < x_label, "legend at x = {x_top}, the middle at {x_label}");
+    assert!(
+        x_top < x_label,
+        "legend at x = {x_top}, the middle at {x_label}"
+    );
 }

@@ -1,5 +1,6 @@
 //! Periodic orbits of the rod (`helixbif::orbits`) near its Hopf point: the period map's
-//! monodromy against finite differences, the orbits' Floquet multiplier and amplitude against
+//! monodromy against finite differences, the map and the forces the same whether the twist
+//! chart is carried through the period or held fixed, the orbits' Floquet multiplier and amplitude against
 //! the first Lyapunov coefficient (two independent routes), and an orbit against the adaptive
 //! time integrator (in the library, and through `simulate --from-orbit`: the orbit's period and
 //! period averages converge at second order in its steps).
@@ -9,11 +10,11 @@ use std::ops::ControlFlow;
 mod common;
 
 use helixbif::branch::hopf_criticality;
-use helixbif::continuation::periodic::ImplicitDynamics;
 use helixbif::continuation::periodic::branch::{
     HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
 };
-use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
+use helixbif::continuation::periodic::flow::{FlowSettings, carried, period_map};
+use helixbif::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use helixbif::dynamics::{DynamicsSettings, Rate, integrate, natural_chart_unknowns};
 use helixbif::model::Model;
 use helixbif::orbits::{RodDynamics, amplitude_factor, hopf_start};
@@ -60,6 +61,113 @@ fn orbits_from(
         |_, _, _| ControlFlow::Continue(()),
     )
     .unwrap()
+}
+
+/// The rod's dynamics with the twist chart held fixed through the period (no
+/// [`ImplicitDynamics::centred_on`]).
+struct FixedChart<'a>(RodDynamics<'a>);
+
+impl ImplicitDynamics for FixedChart<'_> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn differential(&self) -> usize {
+        self.0.differential()
+    }
+    fn step_residual(&self, p: f64, v: StepVelocity, u: &[f64]) -> helixbif::Result<Vec<f64>> {
+        self.0.step_residual(p, v, u)
+    }
+    fn step_linearize(
+        &self,
+        p: f64,
+        v: StepVelocity,
+        u: &[f64],
+    ) -> helixbif::Result<StepLinearization> {
+        self.0.step_linearize(p, v, u)
+    }
+    fn consistent(&self, p: f64, u: &[f64]) -> helixbif::Result<Vec<f64>> {
+        self.0.consistent(p, u)
+    }
+    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+        self.0.retract(u, du)
+    }
+}
+
+/// A large motion (the Hopf state displaced by 0.05 reference lengths along the mode, one Hopf
+/// period of 24 steps; larger ones bring Lighthill's operator to its limit at `N = 12`): the
+/// chart carried from step to step turns away from the fixed one, and the twist coordinates
+/// differ, yet the positions, their sensitivities and the forces on the fluid agree.
+#[test]
+fn the_period_map_does_not_depend_on_the_chart_the_twist_is_measured_in() {
+    let (model, critical, lyapunov) = located(12);
+    let (dynamics, start) = hopf_start(&model, &critical, lyapunov.q.clone());
+    let fixed = FixedChart(RodDynamics {
+        model: &model,
+        chart: critical.chart.clone(),
+    });
+    let nx = dynamics.differential();
+    let settings = FlowSettings {
+        steps: 24,
+        ..FlowSettings::default()
+    };
+    let mut u = start.u.clone();
+    for (x, q) in u.iter_mut().zip(&start.mode.0) {
+        *x += 0.05 * q;
+    }
+    let period = 2.0 * std::f64::consts::PI / start.frequency;
+    let a = period_map(&dynamics, start.p, &u, period, &settings, true).unwrap();
+    let b = period_map(&fixed, start.p, &u, period, &settings, true).unwrap();
+    // How far the carried chart turned: the largest angle between its tangents at the end and
+    // the fixed chart's.
+    let frames = carried(&dynamics, &a.states);
+    let end_chart = &frames.last().unwrap().as_ref().unwrap().chart;
+    let turned = end_chart
+        .tangents
+        .iter()
+        .zip(&critical.chart.tangents)
+        .map(|(s, t)| s.dot(t).clamp(-1.0, 1.0).acos().to_degrees())
+        .fold(0.0, f64::max);
+    assert!(turned > 5.0, "the chart turned by {turned} degrees only");
+    let twist = a.states.last().unwrap()[nx..]
+        .iter()
+        .zip(&b.states.last().unwrap()[nx..])
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        twist > 1e-4,
+        "the twist coordinates differ by {twist:e} only"
+    );
+    let scale = a.end(nx).iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let positions = a
+        .end(nx)
+        .iter()
+        .zip(b.end(nx))
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    let (sa, sb) = (a.sensitivity.unwrap(), b.sensitivity.unwrap());
+    let sensitivity = (&sa.x0 - &sb.x0).norm_max() / sb.x0.norm_max();
+    let forces = |u: &[f64], chart| {
+        helixbif::study::simulate::moving_forces(&model, u, chart, start.p).unwrap()
+    };
+    let (fa, fb) = (
+        forces(a.states.last().unwrap(), end_chart),
+        forces(b.states.last().unwrap(), &critical.chart),
+    );
+    let force_scale = fb.iter().map(|f| f.norm()).fold(0.0, f64::max);
+    let force = fa
+        .iter()
+        .zip(&fb)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max)
+        / force_scale;
+    eprintln!(
+        "chart turned {turned:.1} degrees, twist coordinates by {twist:.2e}; positions {:.2e}, \
+         monodromy {sensitivity:.2e}, forces {force:.2e}",
+        positions / scale
+    );
+    assert!(positions <= 1e-9 * scale, "{positions:e}");
+    assert!(sensitivity <= 1e-7, "{sensitivity:e}");
+    assert!(force <= 1e-7, "{force:e}");
 }
 
 #[test]

@@ -66,7 +66,9 @@ pub struct Sensitivity {
 
 /// One evaluation of the period map.
 pub struct PeriodMap {
-    /// The states `u_0 .. u_n` at `t = k T / n` (all unknowns).
+    /// The states `u_0 .. u_n` at `t = k T / n` (all unknowns); where the dynamics carries its
+    /// coordinates ([`ImplicitDynamics::centred_on`]), `u_k` (`k >= 1`) is measured in the
+    /// coordinates of step `k`, those of step `k - 1` centred on `u_{k - 1}` ([`carried`]).
     pub states: Vec<Vec<f64>>,
     /// `v_n`, the BDF2 velocity at the end (an approximation of `dx/dt` there, `O(h^2)`).
     pub end_velocity: Vec<f64>,
@@ -125,8 +127,8 @@ pub const STEP_PRECISION: f64 = 1e-11;
 /// # Errors
 /// [`Error::Numerical`] naming the step when a step's Newton iteration fails; errors of the
 /// problem's evaluation as they are.
-pub fn period_map(
-    dynamics: &impl ImplicitDynamics,
+pub fn period_map<D: ImplicitDynamics>(
+    dynamics: &D,
     p: f64,
     u0: &[f64],
     period: f64,
@@ -163,7 +165,14 @@ pub fn period_map(
     }
     let mut chord = Chord::default();
     let mut end_velocity = vec![0.0; nx];
+    // The coordinates of the step, when the dynamics carries them (else `dynamics`'s own).
+    let mut carried_coordinates: Option<D> = None;
     for k in 1..=n {
+        carried_coordinates = carried_coordinates
+            .as_ref()
+            .unwrap_or(dynamics)
+            .centred_on(&states[k - 1]);
+        let dynamics = carried_coordinates.as_ref().unwrap_or(dynamics);
         let first = k == 1;
         // The trapezoidal rule first, v_1 = 2 (x_1 - x_0)/h - f_0; BDF2 after it.
         let c0 = if first { 2.0 / h } else { 1.5 / h };
@@ -181,7 +190,12 @@ pub fn period_map(
             // c0 changed from the trapezoidal rule to BDF2.
             chord.clear();
         }
-        let guess = extrapolate(&states);
+        let mut guess = extrapolate(&states);
+        if carried_coordinates.is_some() {
+            // The earlier states' algebraic parts are measured in other coordinates: the last
+            // one's, which keeps its values in these, starts the iteration.
+            guess[nx..].copy_from_slice(&states[k - 1][nx..]);
+        }
         let step = Step {
             dynamics,
             p,
@@ -326,6 +340,18 @@ fn initial_velocity(
         ));
     }
     Ok((f0, Some(Mat::from_fn(nx, nx + 2, |r, c| solved[(r, c)]))))
+}
+
+/// The coordinates of each of `states` (a period map's, [`PeriodMap::states`]): `None` for
+/// `dynamics`'s own, else those carried to it.
+pub fn carried<D: ImplicitDynamics>(dynamics: &D, states: &[Vec<f64>]) -> Vec<Option<D>> {
+    let mut frames: Vec<Option<D>> = vec![None];
+    for u in &states[..states.len().saturating_sub(1)] {
+        let last = frames.last().and_then(Option::as_ref).unwrap_or(dynamics);
+        let next = last.centred_on(u);
+        frames.push(next);
+    }
+    frames
 }
 
 /// The next state extrapolated from the last three (quadratic), two (linear) or one.

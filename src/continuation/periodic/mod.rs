@@ -120,6 +120,18 @@ pub trait ImplicitDynamics {
     fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         u.iter().zip(du).map(|(a, b)| a + b).collect()
     }
+    /// Coordinates for the next step centred on the accepted state `u`, in which `u` keeps its
+    /// values: for algebraic unknowns measured from a chart that has to follow the motion (the
+    /// rod's twist angles, whose chart is singular where an edge turns opposite its tangent),
+    /// carried from step to step through a period; `None` (the default) where the coordinates
+    /// are global. The differential part of a step's solution does not depend on the chart its
+    /// algebraic part is measured in, so neither do the period map and its sensitivities.
+    fn centred_on(&self, _u: &[f64]) -> Option<Self>
+    where
+        Self: Sized,
+    {
+        None
+    }
     /// The size of a differential displacement `dx` (the amplitude of an orbit is measured in
     /// it): the Euclidean norm by default. A Lyapunov coefficient predicts the mean square
     /// amplitude `2 r^2 (size(Re q)^2 + size(Im q)^2)` in it, `r` the normal-form radius.
