@@ -63,6 +63,24 @@ fn orbits_from(
     .unwrap()
 }
 
+/// Period maps of 24 steps.
+fn flow_of_24_steps() -> FlowSettings {
+    FlowSettings {
+        steps: 24,
+        ..FlowSettings::default()
+    }
+}
+
+/// The Hopf state displaced by `size` (reference lengths) along the real part of the critical
+/// mode, and the Hopf period.
+fn displaced(start: &HopfStart, size: f64) -> (Vec<f64>, f64) {
+    let mut u = start.u.clone();
+    for (x, q) in u.iter_mut().zip(&start.mode.0) {
+        *x += size * q;
+    }
+    (u, 2.0 * std::f64::consts::PI / start.frequency)
+}
+
 /// The rod's dynamics with the twist chart held fixed through the period (no
 /// [`ImplicitDynamics::centred_on`]).
 struct FixedChart<'a>(RodDynamics<'a>);
@@ -106,15 +124,8 @@ fn the_period_map_does_not_depend_on_the_chart_the_twist_is_measured_in() {
         chart: critical.chart.clone(),
     });
     let nx = dynamics.differential();
-    let settings = FlowSettings {
-        steps: 24,
-        ..FlowSettings::default()
-    };
-    let mut u = start.u.clone();
-    for (x, q) in u.iter_mut().zip(&start.mode.0) {
-        *x += 0.05 * q;
-    }
-    let period = 2.0 * std::f64::consts::PI / start.frequency;
+    let settings = flow_of_24_steps();
+    let (u, period) = displaced(&start, 0.05);
     let a = period_map(&dynamics, start.p, &u, period, &settings, true).unwrap();
     let b = period_map(&fixed, start.p, &u, period, &settings, true).unwrap();
     // How far the carried chart turned: the largest angle between its tangents at the end and
@@ -175,16 +186,9 @@ fn the_rod_monodromy_matches_finite_differences_of_the_period_map() {
     let (model, critical, lyapunov) = located(12);
     let (dynamics, start) = hopf_start(&model, &critical, lyapunov.q.clone());
     let nx = dynamics.differential();
-    let settings = FlowSettings {
-        steps: 24,
-        ..FlowSettings::default()
-    };
-    // A state off the orbit: the Hopf state displaced along the mode.
-    let mut u = start.u.clone();
-    for (x, q) in u.iter_mut().zip(&start.mode.0) {
-        *x += 2e-3 * q;
-    }
-    let period = 2.0 * std::f64::consts::PI / start.frequency;
+    let settings = flow_of_24_steps();
+    // A state off the orbit.
+    let (u, period) = displaced(&start, 2e-3);
     let map = period_map(&dynamics, start.p, &u, period, &settings, true).unwrap();
     let sens = map.sensitivity.unwrap();
     let end = |u: &[f64], t: f64, p: f64| {
