@@ -69,12 +69,7 @@ impl ImplicitDynamics for RodDynamics<'_> {
     /// The chart transported to `u`'s edges (as the time integrator carries its chart): the
     /// twist angles of `u` are the same in it.
     fn centred_on(&self, u: &[f64]) -> Option<Self> {
-        let x = Steady {
-            chart: self.chart.clone(),
-            ..Steady::new(self.model, 0.0)
-        }
-        .config(u)
-        .x;
+        let x = Steady::new(self.model, 0.0).config(u).x;
         Some(RodDynamics {
             model: self.model,
             chart: self.chart.transported(&x),
@@ -167,6 +162,17 @@ pub struct OrbitStart {
     /// The physical description of the model the orbit belongs to (a simulation started on it
     /// must use the same).
     pub physical: serde_json::Value,
+}
+
+impl OrbitStart {
+    /// The average of `hbar` over the period (of its equally spaced samples).
+    pub fn hbar_mean(&self) -> f64 {
+        self.hbar.iter().sum::<f64>() / self.hbar.len() as f64
+    }
+    /// The average of `Fpbar` over the period.
+    pub fn fpbar_mean(&self) -> f64 {
+        self.fpbar.iter().sum::<f64>() / self.fpbar.len() as f64
+    }
 }
 
 /// The row of `orbit` and its start ([`OrbitStart::physical`] left null).

@@ -19,6 +19,7 @@
 use serde::Serialize;
 
 use crate::orbits::OrbitStart;
+use crate::study::simulate::trapezoid_mean;
 
 /// One row of `cycles.csv` (times in s).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -68,11 +69,7 @@ fn window_mean(ts: &[f64], y: &[f64], a: f64, b: f64) -> f64 {
             .map(|(t, v)| (*t, *v)),
     );
     points.push((b, interpolate(ts, y, b)));
-    points
-        .windows(2)
-        .map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0))
-        .sum::<f64>()
-        / (b - a)
+    trapezoid_mean(&points, |v| v)
 }
 
 /// Times where `y` crosses `level` upward (linear interpolation between samples).
@@ -91,7 +88,7 @@ pub fn cycles(t: &[f64], hbar: &[f64], fpbar: &[f64], orbit: &OrbitStart) -> Vec
     let Some(&t_last) = t.last() else {
         return Vec::new();
     };
-    let level = orbit.hbar.iter().sum::<f64>() / orbit.hbar.len() as f64;
+    let level = orbit.hbar_mean();
     // Upward crossings of the orbit's own samples, closed periodically.
     let mut closed = orbit.hbar.clone();
     closed.push(orbit.hbar[0]);

@@ -111,16 +111,20 @@ pub fn late_statistics(t: &[f64], y: &[f64], from: f64) -> Option<(f64, f64)> {
     if span <= 0.0 {
         return None;
     }
-    let integral = |f: &dyn Fn(f64) -> f64| -> f64 {
-        pairs
-            .windows(2)
-            .map(|w| 0.5 * (f(w[0].1) + f(w[1].1)) * (w[1].0 - w[0].0))
-            .sum::<f64>()
-            / span
-    };
-    let mean = integral(&|v| v);
-    let var = integral(&|v| (v - mean) * (v - mean)).max(0.0);
+    let mean = trapezoid_mean(&pairs, |v| v);
+    let var = trapezoid_mean(&pairs, |v| (v - mean) * (v - mean)).max(0.0);
     Some((mean, var.sqrt()))
+}
+
+/// The time average of `f(y)` over the samples `(t, y)` (sorted in `t`, spanning a positive
+/// time) by the trapezoidal rule.
+pub fn trapezoid_mean(points: &[(f64, f64)], f: impl Fn(f64) -> f64) -> f64 {
+    let span = points[points.len() - 1].0 - points[0].0;
+    points
+        .windows(2)
+        .map(|w| 0.5 * (f(w[0].1) + f(w[1].1)) * (w[1].0 - w[0].0))
+        .sum::<f64>()
+        / span
 }
 
 /// The study's `[integrator]` table: the time stepper of `helixbif simulate` and the `dynamics`
@@ -609,31 +613,24 @@ pub fn run_simulate(
         return Err(e);
     }
     let t: Vec<f64> = rows.iter().map(|r| r.t).collect();
-    let stat = |y: Vec<f64>| late_statistics(&t, &y, opts.transient);
-    let hbar = stat(rows.iter().map(|r| r.hbar).collect());
-    let fpbar = stat(rows.iter().map(|r| r.fpbar).collect());
+    let hbar_series: Vec<f64> = rows.iter().map(|r| r.hbar).collect();
+    let fpbar_series: Vec<f64> = rows.iter().map(|r| r.fpbar).collect();
+    let hbar = late_statistics(&t, &hbar_series, opts.transient);
+    let fpbar = late_statistics(&t, &fpbar_series, opts.transient);
     let (t_eta, y_eta): (Vec<f64>, Vec<f64>) =
         rows.iter().filter_map(|r| r.eta.map(|e| (r.t, e))).unzip();
     let eta = late_statistics(&t_eta, &y_eta, opts.transient);
-    let line = |label: &str, y: Vec<f64>| Series {
+    let line = |label: &str, y: &[f64]| Series {
         label: label.into(),
         x: t.clone(),
-        y,
+        y: y.to_vec(),
         style: Style::Line,
         stable: None,
         err: None,
     };
     for (name, label, y) in [
-        (
-            "hbar.svg",
-            "hbar = h/h0 (-)",
-            rows.iter().map(|r| r.hbar).collect::<Vec<_>>(),
-        ),
-        (
-            "Fpbar.svg",
-            "Fpbar = Fp ell^2/EI (-)",
-            rows.iter().map(|r| r.fpbar).collect(),
-        ),
+        ("hbar.svg", "hbar = h/h0 (-)", &hbar_series),
+        ("Fpbar.svg", "Fpbar = Fp ell^2/EI (-)", &fpbar_series),
     ] {
         write_figure(
             &Figure {
@@ -649,24 +646,18 @@ pub fn run_simulate(
     let trajectory = trajectory?;
     let orbit = match &opts.from_orbit {
         Some(o) => {
-            let rows = cycles(
-                &t,
-                &rows.iter().map(|r| r.hbar).collect::<Vec<_>>(),
-                &rows.iter().map(|r| r.fpbar).collect::<Vec<_>>(),
-                &o.start,
-            );
+            let rows = cycles(&t, &hbar_series, &fpbar_series, &o.start);
             let mut csv = CsvWriter::create(&dir.join("cycles.csv"))?;
             for r in &rows {
                 csv.row(r)?;
             }
-            let mean = |y: &[f64]| y.iter().sum::<f64>() / y.len() as f64;
             Some(OrbitComparison {
                 index: o.start.index,
                 omega: o.start.omega,
                 period: o.start.period,
                 max_multiplier: o.start.max_multiplier,
-                hbar_mean: mean(&o.start.hbar),
-                fpbar_mean: mean(&o.start.fpbar),
+                hbar_mean: o.start.hbar_mean(),
+                fpbar_mean: o.start.fpbar_mean(),
                 cycles: rows,
             })
         }
