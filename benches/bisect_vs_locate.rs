@@ -19,6 +19,7 @@ use helixbif::model::Model;
 use helixbif::params::Physical;
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     let args: Vec<usize> = std::env::args()
         .skip(1)

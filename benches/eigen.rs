@@ -50,6 +50,7 @@ fn pair(nodes: usize, omega: f64) -> (Mat<f64>, Mat<f64>) {
 }
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("stability spectrum, {}", common::machine());
     println!(

@@ -51,6 +51,7 @@ fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 3] {
 }
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     println!(
         "hydrodynamics on the representative helix, {}",
         common::machine()

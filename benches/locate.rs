@@ -147,6 +147,7 @@ fn run(label: &str, physical: &Physical) {
 }
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     // `cargo bench --bench locate -- rpy` runs only the rows whose label contains "rpy".
     let filter = std::env::args()

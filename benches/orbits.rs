@@ -19,6 +19,7 @@ use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("periodic orbits, {}", common::machine());
     println!(

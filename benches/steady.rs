@@ -22,6 +22,7 @@ fn model(r0: f64, nodes: usize) -> Model {
 }
 
 fn main() {
+    helixbif::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("steady solver, {}", common::machine());
     println!(

@@ -7,6 +7,7 @@
 //! co-rotating steady problem), [`continuation`] (generic Newton and continuation), [`solve`]
 //! (one steady state with its observables), [`study`] (study files).
 
+pub mod allocator;
 pub mod boundary;
 pub mod branch;
 pub mod continuation;

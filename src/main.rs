@@ -764,6 +764,7 @@ fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
 }
 
 fn main() -> ExitCode {
+    helixbif::allocator::keep_freed_pages();
     let cli = Cli::parse();
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
     // costs more than it gains; parallelism is over independent solves instead.

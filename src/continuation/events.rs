@@ -493,7 +493,11 @@ impl<'a, P: Problem> Sampler<'a, P> {
         Ok((event, h))
     }
 
-    /// The event at the final secant estimate of the root inside `[lo, hi]`.
+    /// The event at the final secant estimate of the root inside `[lo, hi]`: a new sample
+    /// there, or the end of the bracket nearest to it when that lies within a hundredth of the
+    /// tolerance of it in `p` (Brent's last sample usually does: the secant converges
+    /// superlinearly, and a sample closer to the root would change the event by less than its
+    /// stated precision, for the cost of a corrector and a spectrum).
     fn event(
         &self,
         lo: &Sample,
@@ -504,7 +508,14 @@ impl<'a, P: Problem> Sampler<'a, P> {
         multiplicity: usize,
     ) -> Result<Event> {
         let sigma = secant(lo, hi, f(lo, lo, hi), f(hi, lo, hi), 0.0);
-        let best = self.at(sigma)?;
+        let w = (sigma - lo.sigma) / (hi.sigma - lo.sigma);
+        let p_root = lo.p + w * (hi.p - lo.p);
+        let nearest = if w <= 0.5 { lo } else { hi };
+        let best = if (nearest.p - p_root).abs() <= 1e-2 * self.p_tol(p_root) {
+            nearest.clone()
+        } else {
+            self.at(sigma)?
+        };
         let critical = best.spectrum.nearest(near);
         Ok(Event {
             kind,
