@@ -3,7 +3,7 @@
 
 use std::borrow::Borrow;
 use std::cell::RefCell;
-use std::rc::Rc;
+use std::sync::Arc;
 
 use faer::Mat;
 use faer::linalg::solvers::PartialPivLu;
@@ -14,7 +14,7 @@ use crate::continuation::arclength::{Branch, Limits, Observer, Stop, follow};
 use crate::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
-use crate::continuation::{ContinuationSettings, Linearization, Problem};
+use crate::continuation::{ContinuationSettings, Field, Linearization, Problem};
 use crate::dynamics::{rechart, slave_twist_chord};
 use crate::fluid::Resistance;
 use crate::model::Model;
@@ -62,9 +62,9 @@ pub struct RodProblem<M: Borrow<Model>> {
     /// The factorized resistance of the latest linearization and the unknowns it was made at:
     /// the stability pair at the point just corrected reuses it.
     resistance: RefCell<Option<(Vec<f64>, Resistance)>>,
-    /// The twist blocks of the Jacobian at the state `(u, p)` the dynamics ([`Problem::velocity`])
+    /// The twist blocks of the Jacobian at the state `(u, p)` the dynamics ([`Problem::dynamics`])
     /// was last asked about.
-    twist: RefCell<Option<Rc<TwistMap>>>,
+    twist: RefCell<Option<Arc<TwistMap>>>,
 }
 
 /// The twist rows of the steady Jacobian at a state: `J_tt = dR_theta/dtheta` (factorized) and
@@ -92,7 +92,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
     }
 
     /// The twist blocks of the Jacobian at `(u, p)`, made once per state.
-    fn twist_map(&self, u: &[f64], p: f64) -> Result<Rc<TwistMap>> {
+    fn twist_map(&self, u: &[f64], p: f64) -> Result<Arc<TwistMap>> {
         if let Some(map) = self.twist.borrow().as_ref()
             && map.u == u
             && map.p == p
@@ -102,7 +102,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
         let j = self.steady(p).linearize(u)?.jacobian;
         let nx = self.model.borrow().rod.layout.free_positions();
         let nt = j.nrows() - nx;
-        let map = Rc::new(TwistMap {
+        let map = Arc::new(TwistMap {
             u: u.to_vec(),
             p,
             j_tt: Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]).partial_piv_lu(),
@@ -185,28 +185,32 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     /// the twist slaved (docs/model.md section 5; [`crate::dynamics`] eq. (1)), started from the
     /// twist of `u` and converged to round-off: the differences of the Lyapunov coefficient
     /// divide this by `h^3`. The velocity is taken in mobility form
-    /// ([`Steady::free_velocity`]), without `Z`.
-    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
-        let velocity = || -> Result<Vec<f64>> {
-            let steady = self.steady(p);
-            let twist = self.twist_map(u, p)?;
+    /// ([`Steady::free_velocity`]), without `Z`. The field holds the twist blocks of the
+    /// Jacobian at `u` and the chart of now.
+    fn dynamics(&self, u: &[f64], p: f64) -> Option<Result<Field<'_>>> {
+        let twist = match self.twist_map(u, p) {
+            Ok(twist) => twist,
+            Err(e) => return Some(Err(e)),
+        };
+        let steady = self.steady(p);
+        let u = u.to_vec();
+        Some(Ok(Box::new(move |y: &[f64]| {
             let nx = y.len();
             // The twist predicted to first order, theta* - J_tt^{-1} J_tx y, then slaved by the
             // chord method on J_tt (gradients only).
             let j_tx_y = &twist.j_tx * Mat::from_fn(nx, 1, |i, _| y[i]);
             let dtheta = twist.j_tt.solve(&j_tx_y);
-            let mut moved = u.to_vec();
+            let mut moved = u.clone();
             for (x, d) in moved.iter_mut().zip(y) {
                 *x += d;
             }
             for (k, t) in moved[nx..].iter_mut().enumerate() {
                 *t -= dtheta[(k, 0)];
             }
-            let model = self.model.borrow();
-            let slaved = slave_twist_chord(model, &steady.chart, &moved, 1e-15, &twist.j_tt)?;
+            let slaved =
+                slave_twist_chord(steady.model, &steady.chart, &moved, 1e-15, &twist.j_tt)?;
             steady.free_velocity(&slaved)
-        };
-        Some(velocity())
+        })))
     }
 
     /// The largest node displacement of the mode, `max_i |q_i|` over the free nodes: a size

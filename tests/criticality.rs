@@ -7,7 +7,7 @@ use faer::{Mat, c64};
 use helixbif::Result;
 use helixbif::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
 use helixbif::continuation::reference::{brusselator, hopf_cubic};
-use helixbif::continuation::{Linearization, Problem};
+use helixbif::continuation::{Field, Linearization, Problem};
 
 fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
     let lin = problem.linearize(u, p).unwrap();
@@ -120,9 +120,12 @@ impl Problem for Curved {
     ) -> Result<(Mat<f64>, Mat<f64>)> {
         Ok((lin.g_u.clone(), Mat::identity(2, 2)))
     }
-    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
-        let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
-        Some(Ok(self.field(&at, p)))
+    fn dynamics(&self, u: &[f64], p: f64) -> Option<Result<Field<'_>>> {
+        let u = u.to_vec();
+        Some(Ok(Box::new(move |y: &[f64]| {
+            let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
+            Ok(self.field(&at, p))
+        })))
     }
 }
 

@@ -14,7 +14,7 @@ use helixbif::continuation::periodic::branch::{
 };
 use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
 use helixbif::continuation::periodic::orbit::{Condition, ShootingSettings, shoot};
-use helixbif::continuation::reference::{brusselator, hopf_cubic};
+use helixbif::continuation::reference::{Jacobian, Reference, Residual, brusselator, hopf_cubic};
 
 /// A Hopf point at the origin, `p = 0`, of frequency `w`, with the mode `(1, -i)/sqrt 2` of
 /// the planar normal forms.
@@ -185,14 +185,7 @@ fn the_orbit_branch_leaves_the_hopf_point_on_the_side_of_its_criticality() {
 /// A subcritical branch that turns: `r' = p r + r^3 - r^5` has orbits `p = r^4 - r^2`, a fold
 /// at `r^2 = 1/2`, `p = -1/4`, unstable below it and stable above.
 /// `r' = (p + r^2 - r^4) r`, `phi' = 1` in Cartesian form.
-/// The boxed closures of an [`helixbif::continuation::reference::Analytic`] problem.
-type Boxed = helixbif::continuation::reference::Analytic<
-    Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
-    Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>,
-    Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
->;
-
-fn quintic() -> Boxed {
+fn quintic() -> Reference {
     helixbif::continuation::reference::Analytic {
         dim: 2,
         g: Box::new(|u: &[f64], p: f64| {
@@ -200,7 +193,7 @@ fn quintic() -> Boxed {
             let r2 = x * x + y * y;
             let g = p + r2 - r2 * r2;
             vec![g * x - y, x + g * y]
-        }) as Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
+        }) as Residual,
         g_u: Box::new(|u: &[f64], p: f64| {
             let (x, y) = (u[0], u[1]);
             let r2 = x * x + y * y;
@@ -210,8 +203,8 @@ fn quintic() -> Boxed {
                 vec![g + dg * x * x, -1.0 + dg * x * y],
                 vec![1.0 + dg * x * y, g + dg * y * y],
             ]
-        }) as Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>,
-        g_p: Box::new(|u: &[f64], _| vec![u[0], u[1]]) as Box<dyn Fn(&[f64], f64) -> Vec<f64>>,
+        }) as Jacobian,
+        g_p: Box::new(|u: &[f64], _| vec![u[0], u[1]]) as Residual,
     }
 }
 

@@ -3,7 +3,7 @@
 //! (subcritical, `l1 > 0`).
 //!
 //! The dynamics is `M(y) dy/dt = F(y)`, i.e. `dy/dt = f(y)` with `f = M^{-1} F`, given by the
-//! problem's [`Problem::velocity`] in the coordinates of its stability pair, `y = 0` the steady
+//! problem's [`Problem::dynamics`] in the coordinates of its stability pair, `y = 0` the steady
 //! state; `Df(0) = A = M^{-1} K`. With `A q = i w q`, `A^T p = -i w p`, `<q, q> = 1` and
 //! `<p, q> = 1` (`<a, b> = a^H b`), Kuznetsov's invariant formula (Elements of Applied
 //! Bifurcation Theory, 3rd ed., eq. 3.20 and section 8.7.1) reads
@@ -38,18 +38,27 @@
 //! all with errors `O(h^2)`; complex arguments by multilinearity (`q = qr + i qi`:
 //! `B(q, qb) = B(qr, qr) + B(qi, qi)`, `B(q, q) = B(qr, qr) - B(qi, qi) + 2 i B(qr, qi)`,
 //! `C(q, q, qb) = C(qr, qr, qr) + C(qr, qi, qi) + i [C(qr, qr, qi) + C(qi, qi, qi)]`). The value is
-//! computed at the steps `h` and `2 h`; the reported `l1` is their Richardson extrapolation
-//! `(4 l1(h) - l1(2 h))/3` and its precision `|l1(h) - l1(2 h)|` (which bounds the error of
-//! `l1(h)` by three times the leading term) plus a round-off allowance of `1e-8` times the sum
-//! of the moduli of the three terms of (1) (they cancel to a large extent on a stiff problem). The verdict is `supercritical` or `subcritical`
-//! only when `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate
-//! (generalized) Hopf point, or one the differences cannot resolve.
+//! computed at the steps `h0, h0/2, h0/4, ...` and extrapolated to `h = 0` by Ridders' tableau
+//! ([`extrapolated`]); the reported precision is the tableau's error estimate plus a round-off
+//! allowance of `1e-8` times the sum of the moduli of the three terms of (1) (they cancel to a
+//! large extent on a stiff problem). The verdict is `supercritical` or `subcritical` only when
+//! `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate (generalized)
+//! Hopf point, or one the differences cannot resolve.
+//!
+//! **Cost.** One step needs `f` at 36 to 44 points (the stencils share `f(0)`, `f(+-h a)` and,
+//! from the second step on, `f(+-2 h a)`), in two batches whose points are known in advance:
+//! those of the forms of `q` alone, then those of the two forms with the solutions of the
+//! linear systems. Each batch is evaluated on every core ([`Problem::dynamics`] is shared
+//! between threads). `K` and `2 i w M - K` are factorized once for every step, and the left
+//! vector is found over the adjoint of the right vector's factorization.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
+use faer::linalg::solvers::PartialPivLu;
 use faer::prelude::Solve;
 use faer::{Mat, c64};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Linearization, Problem};
@@ -104,7 +113,7 @@ pub struct Lyapunov {
 
 /// The first Lyapunov coefficient at the Hopf point `(u, p)` of `problem` (linearization `lin`,
 /// critical eigenvalue `s`, `Im s > 0`), or `None` when the problem does not define its
-/// dynamics ([`Problem::velocity`]).
+/// dynamics ([`Problem::dynamics`]).
 pub fn first_lyapunov(
     problem: &impl Problem,
     u: &[f64],
@@ -121,28 +130,27 @@ pub fn first_lyapunov(
     let s = c64::new(s.re, w);
     let (k, m) = problem.stability_pair(u, p, lin)?;
     let n = k.nrows();
-    let zero = vec![0.0; n];
-    let Some(f0) = problem.velocity(u, p, &zero) else {
+    let Some(field) = problem.dynamics(u, p) else {
         return Ok(None);
     };
-    let f0 = f0?;
-    let field = |y: &[f64]| -> Result<Vec<f64>> {
-        problem
-            .velocity(u, p, y)
-            .expect("the problem defines its dynamics")
-    };
-    let q = right_vector(&k, &m, s)?;
-    let r = left_vector(&k, &m, s, &q)?;
-    let forms = Forms {
-        field: &field,
-        f0: &f0,
-        evaluated: RefCell::new(HashMap::new()),
+    let field = field?;
+    let forms = Forms::new(&*field, n)?;
+    let (q, pencil) = right_vector(&k, &m, s)?;
+    let r = left_vector(&pencil, &m, &q)?;
+    // K and 2 i w M - K, factorized once for every step h.
+    let shifted = Mat::from_fn(n, n, |i, j| c64::new(-k[(i, j)], 2.0 * w * m[(i, j)]));
+    let critical = Critical {
+        m: &m,
+        k: k.partial_piv_lu(),
+        resonant: shifted.partial_piv_lu(),
+        q,
+        r,
+        w,
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
-    let value = |h| coefficient(&forms, &k, &m, &q, &r, w, h);
-    let (l1, precision) = extrapolated(value, h0)?;
+    let (l1, precision) = extrapolated(|h| critical.coefficient(&forms, h), h0)?;
     // Scaled to the problem's mode size: q -> q / size divides l1 by size^2.
-    let (re, im) = parts(&q);
+    let (re, im) = parts(&critical.q);
     let size = problem.mode_size(&re, &im);
     let square = size * size;
     let (l1, precision) = (l1 / square, precision / square);
@@ -220,8 +228,9 @@ fn column(v: &[c64]) -> Mat<c64> {
 const SHIFT: f64 = 1e-9;
 
 /// The null vector of `K - s M`: two steps of inverse iteration from a fixed start (shifted by
-/// [`SHIFT`]), scaled to `<q, q> = 1` with `Re q` orthogonal to `Im q` and `|Re q| >= |Im q|`.
-fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<Vec<c64>> {
+/// [`SHIFT`]), scaled to `<q, q> = 1` with `Re q` orthogonal to `Im q` and `|Re q| >= |Im q|`;
+/// with the factorization of the shifted pencil, whose adjoint gives the left vector.
+fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<(Vec<c64>, PartialPivLu<c64>)> {
     let n = k.nrows();
     let s = s + SHIFT * s.norm();
     let pencil = Mat::from_fn(n, n, |i, j| c64::new(k[(i, j)], 0.0) - s * m[(i, j)]);
@@ -250,21 +259,17 @@ fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<Vec<c64>> {
         phi += std::f64::consts::FRAC_PI_2;
         q = rotate(phi);
     }
-    Ok(q)
+    Ok((q, lu))
 }
 
-/// `r` with `(K^T - conj(s) M) r = 0` (inverse iteration as in [`right_vector`]), scaled so that `<p, q> = r^H M q = 1` (`p = M r`, the
-/// left eigenvector of `A = M^{-1} K`).
-fn left_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64, q: &[c64]) -> Result<Vec<c64>> {
-    let n = k.nrows();
-    let shifted = s + SHIFT * s.norm();
-    let pencil = Mat::from_fn(n, n, |i, j| {
-        c64::new(k[(j, i)], 0.0) - shifted.conj() * m[(j, i)]
-    });
-    let lu = pencil.partial_piv_lu();
+/// `r` with `(K^T - conj(s) M) r = 0`, by inverse iteration as in [`right_vector`] over the
+/// adjoint of its factorized pencil `K - s M` (`M` symmetric), scaled so that
+/// `<p, q> = r^H M q = 1` (`p = M r`, the left eigenvector of `A = M^{-1} K`).
+fn left_vector(pencil: &PartialPivLu<c64>, m: &Mat<f64>, q: &[c64]) -> Result<Vec<c64>> {
+    let n = m.nrows();
     let mut r = start(n);
     for _ in 0..2 {
-        let x = lu.solve(column(&r));
+        let x = pencil.solve_adjoint(column(&r));
         r = (0..n).map(|i| x[(i, 0)]).collect();
         r = normalized(&r)?;
     }
@@ -307,165 +312,252 @@ fn real_times(m: &Mat<f64>, v: &[c64]) -> Vec<c64> {
         .collect()
 }
 
+/// A difference formula for a multilinear form of the field: `scale sum_k c_k f(y_k)`.
+struct Stencil {
+    terms: Vec<(f64, Vec<f64>)>,
+    scale: f64,
+}
+
+impl Stencil {
+    /// `B(a, b)` at step `h`, the arguments scaled to unit length first; `None` (the form is
+    /// zero) when either is zero.
+    fn b(a: &[f64], b: &[f64], h: f64) -> Option<Stencil> {
+        let (la, lb) = (length(a), length(b));
+        if la == 0.0 || lb == 0.0 {
+            return None;
+        }
+        let (a, b) = (scaled(a, 1.0 / la), scaled(b, 1.0 / lb));
+        Some(if a == b {
+            Stencil {
+                terms: vec![
+                    (1.0, point(&[(h, &a)])),
+                    (-2.0, vec![0.0; a.len()]),
+                    (1.0, point(&[(-h, &a)])),
+                ],
+                scale: la * lb / (h * h),
+            }
+        } else {
+            Stencil {
+                terms: vec![
+                    (1.0, point(&[(h, &a), (h, &b)])),
+                    (-1.0, point(&[(h, &a), (-h, &b)])),
+                    (-1.0, point(&[(-h, &a), (h, &b)])),
+                    (1.0, point(&[(-h, &a), (-h, &b)])),
+                ],
+                scale: la * lb / (4.0 * h * h),
+            }
+        })
+    }
+
+    /// `C(a, a, a)` at step `h`, the argument scaled to unit length first (as in
+    /// [`Stencil::b`], so that the two share `f(+-h a)`); `None` when `a` is zero.
+    fn d3(a: &[f64], h: f64) -> Option<Stencil> {
+        let la = length(a);
+        if la == 0.0 {
+            return None;
+        }
+        let a = scaled(a, 1.0 / la);
+        Some(Stencil {
+            terms: vec![
+                (1.0, point(&[(2.0 * h, &a)])),
+                (-2.0, point(&[(h, &a)])),
+                (2.0, point(&[(-h, &a)])),
+                (-1.0, point(&[(-2.0 * h, &a)])),
+            ],
+            scale: la * la * la / (2.0 * h * h * h),
+        })
+    }
+
+    /// The four real forms of `B(x, y)` for complex `x`, `y`: `B(xr, yr)`, `B(xi, yi)`,
+    /// `B(xr, yi)`, `B(xi, yr)`.
+    fn b_complex(x: &[c64], y: &[c64], h: f64) -> [Option<Stencil>; 4] {
+        let (xr, xi) = parts(x);
+        let (yr, yi) = parts(y);
+        [
+            Stencil::b(&xr, &yr, h),
+            Stencil::b(&xi, &yi, h),
+            Stencil::b(&xr, &yi, h),
+            Stencil::b(&xi, &yr, h),
+        ]
+    }
+}
+
+/// `sum_k c_k v_k`, the point at which a stencil evaluates the field.
+fn point(terms: &[(f64, &[f64])]) -> Vec<f64> {
+    (0..terms[0].1.len())
+        .map(|i| terms.iter().map(|(c, v)| c * v[i]).sum())
+        .collect()
+}
+
 /// The multilinear forms of the field by differences.
-struct Forms<'a, F: Fn(&[f64]) -> Result<Vec<f64>>> {
-    field: &'a F,
-    /// `f(0)`: zero at an exact steady state; kept in the second differences.
-    f0: &'a [f64],
-    /// Every `f(y)` evaluated, by the bits of `y`: the stencils share points (`f(+-h a)` serves
-    /// `B(a, a)` and `C(a, a, a)`; `f(+-2 h a)` at step `h` is `f(+-h' a)` at the step before,
-    /// `h' = 2 h` exactly), and only an identical `y` is looked up.
+struct Forms<'a> {
+    field: &'a (dyn Fn(&[f64]) -> Result<Vec<f64>> + Sync),
+    n: usize,
+    /// Every `f(y)` evaluated, by the bits of `y`, `f(0)` among them: the stencils share points
+    /// (`f(+-h a)` serves `B(a, a)` and `C(a, a, a)`; `f(+-2 h a)` at step `h` is `f(+-h' a)`
+    /// at the step before, `h' = 2 h` exactly), and only an identical `y` is looked up.
     evaluated: RefCell<HashMap<Vec<u64>, Vec<f64>>>,
 }
 
-impl<F: Fn(&[f64]) -> Result<Vec<f64>>> Forms<'_, F> {
-    /// `f(sum_k c_k v_k)`.
-    fn at(&self, terms: &[(f64, &[f64])]) -> Result<Vec<f64>> {
-        let n = self.f0.len();
-        let y: Vec<f64> = (0..n)
-            .map(|i| terms.iter().map(|(c, v)| c * v[i]).sum())
-            .collect();
-        let key: Vec<u64> = y.iter().map(|v| v.to_bits()).collect();
-        if let Some(f) = self.evaluated.borrow().get(&key) {
-            return Ok(f.clone());
-        }
-        let f = (self.field)(&y)?;
-        self.evaluated.borrow_mut().insert(key, f.clone());
-        Ok(f)
+fn key(y: &[f64]) -> Vec<u64> {
+    y.iter().map(|v| v.to_bits()).collect()
+}
+
+impl<'a> Forms<'a> {
+    /// The forms of `field` in `n` unknowns, with `f(0)` evaluated (zero at an exact steady
+    /// state; kept in the second differences).
+    fn new(field: &'a (dyn Fn(&[f64]) -> Result<Vec<f64>> + Sync), n: usize) -> Result<Self> {
+        let zero = vec![0.0; n];
+        let f0 = field(&zero)?;
+        Ok(Forms {
+            field,
+            n,
+            evaluated: RefCell::new(HashMap::from([(key(&zero), f0)])),
+        })
     }
 
-    /// `B(a, b)` at step `h`, the arguments scaled to unit length first.
-    fn b(&self, a: &[f64], b: &[f64], h: f64) -> Result<Vec<f64>> {
-        let (la, lb) = (length(a), length(b));
-        if la == 0.0 || lb == 0.0 {
-            return Ok(vec![0.0; a.len()]);
+    /// Evaluates the field at every point of `stencils` not evaluated yet, on every core (the
+    /// evaluations are independent, and each is stored by itself: the values do not depend on
+    /// the number of threads).
+    fn evaluate<'s>(&self, stencils: impl IntoIterator<Item = &'s Stencil>) -> Result<()> {
+        let mut missing: Vec<&[f64]> = Vec::new();
+        {
+            let evaluated = self.evaluated.borrow();
+            let mut seen = HashSet::new();
+            for stencil in stencils {
+                for (_, y) in &stencil.terms {
+                    if !evaluated.contains_key(&key(y)) && seen.insert(key(y)) {
+                        missing.push(y);
+                    }
+                }
+            }
         }
-        let (a, b) = (scaled(a, 1.0 / la), scaled(b, 1.0 / lb));
-        let same = a.iter().zip(&b).all(|(x, y)| x == y);
-        let value = if same {
-            let plus = self.at(&[(h, &a)])?;
-            let minus = self.at(&[(-h, &a)])?;
-            combine(
-                &[(1.0, &plus), (-2.0, self.f0), (1.0, &minus)],
-                1.0 / (h * h),
-            )
-        } else {
-            let pp = self.at(&[(h, &a), (h, &b)])?;
-            let pm = self.at(&[(h, &a), (-h, &b)])?;
-            let mp = self.at(&[(-h, &a), (h, &b)])?;
-            let mm = self.at(&[(-h, &a), (-h, &b)])?;
-            combine(
-                &[(1.0, &pp), (-1.0, &pm), (-1.0, &mp), (1.0, &mm)],
-                1.0 / (4.0 * h * h),
-            )
+        let values: Vec<Result<Vec<f64>>> = missing.par_iter().map(|y| (self.field)(y)).collect();
+        let mut evaluated = self.evaluated.borrow_mut();
+        for (y, f) in missing.into_iter().zip(values) {
+            evaluated.insert(key(y), f?);
+        }
+        Ok(())
+    }
+
+    /// The value of a stencil (zero for `None`), its points evaluated first where they are not.
+    fn value(&self, stencil: &Option<Stencil>) -> Result<Vec<f64>> {
+        let Some(stencil) = stencil else {
+            return Ok(vec![0.0; self.n]);
         };
-        Ok(scaled(&value, la * lb))
+        self.evaluate([stencil])?;
+        let evaluated = self.evaluated.borrow();
+        let values: Vec<&Vec<f64>> = stencil
+            .terms
+            .iter()
+            .map(|(_, y)| &evaluated[&key(y)])
+            .collect();
+        Ok((0..self.n)
+            .map(|i| {
+                stencil.scale
+                    * stencil
+                        .terms
+                        .iter()
+                        .zip(&values)
+                        .map(|((c, _), f)| c * f[i])
+                        .sum::<f64>()
+            })
+            .collect())
     }
 
-    /// `C(a, a, a)` at step `h`, the argument scaled to unit length first (as in [`Forms::b`], so
-    /// that the two share `f(+-h a)`).
-    fn d3(&self, a: &[f64], h: f64) -> Result<Vec<f64>> {
-        let la = length(a);
-        if la == 0.0 {
-            return Ok(vec![0.0; a.len()]);
-        }
-        let a = scaled(a, 1.0 / la);
-        let p2 = self.at(&[(2.0 * h, &a)])?;
-        let p1 = self.at(&[(h, &a)])?;
-        let m1 = self.at(&[(-h, &a)])?;
-        let m2 = self.at(&[(-2.0 * h, &a)])?;
-        Ok(combine(
-            &[(1.0, &p2), (-2.0, &p1), (2.0, &m1), (-1.0, &m2)],
-            la * la * la / (2.0 * h * h * h),
-        ))
-    }
-
-    /// `B(x, y)` for complex `x`, `y` (split into real parts).
-    fn b_complex(&self, x: &[c64], y: &[c64], h: f64) -> Result<Vec<c64>> {
-        let (xr, xi) = parts(x);
-        let (yr, yi) = parts(y);
-        let rr = self.b(&xr, &yr, h)?;
-        let ii = self.b(&xi, &yi, h)?;
-        let ri = self.b(&xr, &yi, h)?;
-        let ir = self.b(&xi, &yr, h)?;
-        Ok((0..x.len())
+    /// `B(x, y)` for complex `x`, `y` from its four real forms ([`Stencil::b_complex`]).
+    fn b_complex(&self, forms: &[Option<Stencil>; 4]) -> Result<Vec<c64>> {
+        let [rr, ii, ri, ir] = forms.each_ref().map(|s| self.value(s));
+        let (rr, ii, ri, ir) = (rr?, ii?, ri?, ir?);
+        Ok((0..self.n)
             .map(|k| c64::new(rr[k] - ii[k], ri[k] + ir[k]))
             .collect())
     }
 }
 
-/// Eq. (1) at the difference step `h`, and the sum of the moduli of its three terms (over
-/// `2 w`): the size below which cancellation leaves `l1` unresolved.
-fn coefficient<F: Fn(&[f64]) -> Result<Vec<f64>>>(
-    forms: &Forms<F>,
-    k: &Mat<f64>,
-    m: &Mat<f64>,
-    q: &[c64],
-    r: &[c64],
+/// What eq. (1) needs at a Hopf point besides the differences: `M`, `K` and `2 i w M - K`
+/// factorized, the right and left critical vectors and the frequency.
+struct Critical<'a> {
+    m: &'a Mat<f64>,
+    k: PartialPivLu<f64>,
+    resonant: PartialPivLu<c64>,
+    q: Vec<c64>,
+    r: Vec<c64>,
     w: f64,
-    h: f64,
-) -> Result<(f64, f64)> {
-    let n = q.len();
-    let (qr, qi) = parts(q);
-    let qb: Vec<c64> = q.iter().map(|z| z.conj()).collect();
-    // <p, b> = r^H M b.
-    let project = |b: &[c64]| -> c64 {
-        let mb = real_times(m, b);
-        r.iter().zip(&mb).map(|(a, b)| a.conj() * b).sum()
-    };
-    // C(q, q, qb) by polarization of the cubes.
-    let sum: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a + b).collect();
-    let diff: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a - b).collect();
-    let (c_r, c_i, c_s, c_d) = (
-        forms.d3(&qr, h)?,
-        forms.d3(&qi, h)?,
-        forms.d3(&sum, h)?,
-        forms.d3(&diff, h)?,
-    );
-    let c_rii: Vec<f64> = (0..n)
-        .map(|k| (c_s[k] + c_d[k] - 2.0 * c_r[k]) / 6.0)
-        .collect();
-    let c_rri: Vec<f64> = (0..n)
-        .map(|k| (c_s[k] - c_d[k] - 2.0 * c_i[k]) / 6.0)
-        .collect();
-    let c_qqqb: Vec<c64> = (0..n)
-        .map(|k| c64::new(c_r[k] + c_rii[k], c_rri[k] + c_i[k]))
-        .collect();
-    // B(q, qb) (real) and B(q, q).
-    let b_rr = forms.b(&qr, &qr, h)?;
-    let b_ii = forms.b(&qi, &qi, h)?;
-    let b_ri = forms.b(&qr, &qi, h)?;
-    let b_qqb: Vec<f64> = (0..n).map(|k| b_rr[k] + b_ii[k]).collect();
-    let b_qq: Vec<c64> = (0..n)
-        .map(|k| c64::new(b_rr[k] - b_ii[k], 2.0 * b_ri[k]))
-        .collect();
-    // A^{-1} B(q, qb) = K^{-1} M B(q, qb) (real).
-    let mb = m * Mat::from_fn(n, 1, |i, _| b_qqb[i]);
-    let a_inv = k.partial_piv_lu().solve(&mb);
-    let a_inv: Vec<c64> = (0..n).map(|i| c64::new(a_inv[(i, 0)], 0.0)).collect();
-    // (2 i w - A)^{-1} B(q, q) = (2 i w M - K)^{-1} M B(q, q).
-    let shifted = Mat::from_fn(n, n, |i, j| c64::new(-k[(i, j)], 2.0 * w * m[(i, j)]));
-    let second = shifted
-        .partial_piv_lu()
-        .solve(column(&real_times(m, &b_qq)));
-    let second: Vec<c64> = (0..n).map(|i| second[(i, 0)]).collect();
-    if !second
-        .iter()
-        .chain(&a_inv)
-        .all(|z| z.re.is_finite() && z.im.is_finite())
-    {
-        return Err(Error::Numerical(
-            "the Lyapunov coefficient needs K and 2 i w M - K regular (a zero or a 2:1 resonant \
-             eigenvalue at the Hopf point)"
-                .into(),
-        ));
+}
+
+impl Critical<'_> {
+    /// Eq. (1) at the difference step `h`, and the sum of the moduli of its three terms (over
+    /// `2 w`): the size below which cancellation leaves `l1` unresolved. The field is
+    /// evaluated in two batches: the points of the forms of `q` alone, then those of the forms
+    /// with the solutions of the two linear systems.
+    fn coefficient(&self, forms: &Forms, h: f64) -> Result<(f64, f64)> {
+        let (m, q, r, w) = (self.m, &self.q, &self.r, self.w);
+        let n = q.len();
+        let (qr, qi) = parts(q);
+        let qb: Vec<c64> = q.iter().map(|z| z.conj()).collect();
+        // <p, b> = r^H M b.
+        let project = |b: &[c64]| -> c64 {
+            let mb = real_times(m, b);
+            r.iter().zip(&mb).map(|(a, b)| a.conj() * b).sum()
+        };
+        // C(q, q, qb) by polarization of the cubes; B(q, qb) (real) and B(q, q).
+        let sum: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a + b).collect();
+        let diff: Vec<f64> = qr.iter().zip(&qi).map(|(a, b)| a - b).collect();
+        let of_q = [
+            Stencil::d3(&qr, h),
+            Stencil::d3(&qi, h),
+            Stencil::d3(&sum, h),
+            Stencil::d3(&diff, h),
+            Stencil::b(&qr, &qr, h),
+            Stencil::b(&qi, &qi, h),
+            Stencil::b(&qr, &qi, h),
+        ];
+        forms.evaluate(of_q.iter().flatten())?;
+        let [c_r, c_i, c_s, c_d, b_rr, b_ii, b_ri] = of_q.each_ref().map(|s| forms.value(s));
+        let (c_r, c_i, c_s, c_d) = (c_r?, c_i?, c_s?, c_d?);
+        let (b_rr, b_ii, b_ri) = (b_rr?, b_ii?, b_ri?);
+        let c_rii: Vec<f64> = (0..n)
+            .map(|k| (c_s[k] + c_d[k] - 2.0 * c_r[k]) / 6.0)
+            .collect();
+        let c_rri: Vec<f64> = (0..n)
+            .map(|k| (c_s[k] - c_d[k] - 2.0 * c_i[k]) / 6.0)
+            .collect();
+        let c_qqqb: Vec<c64> = (0..n)
+            .map(|k| c64::new(c_r[k] + c_rii[k], c_rri[k] + c_i[k]))
+            .collect();
+        let b_qqb: Vec<f64> = (0..n).map(|k| b_rr[k] + b_ii[k]).collect();
+        let b_qq: Vec<c64> = (0..n)
+            .map(|k| c64::new(b_rr[k] - b_ii[k], 2.0 * b_ri[k]))
+            .collect();
+        // A^{-1} B(q, qb) = K^{-1} M B(q, qb) (real).
+        let mb = m * Mat::from_fn(n, 1, |i, _| b_qqb[i]);
+        let a_inv = self.k.solve(&mb);
+        let a_inv: Vec<c64> = (0..n).map(|i| c64::new(a_inv[(i, 0)], 0.0)).collect();
+        // (2 i w - A)^{-1} B(q, q) = (2 i w M - K)^{-1} M B(q, q).
+        let second = self.resonant.solve(column(&real_times(m, &b_qq)));
+        let second: Vec<c64> = (0..n).map(|i| second[(i, 0)]).collect();
+        if !second
+            .iter()
+            .chain(&a_inv)
+            .all(|z| z.re.is_finite() && z.im.is_finite())
+        {
+            return Err(Error::Numerical(
+                "the Lyapunov coefficient needs K and 2 i w M - K regular (a zero or a 2:1 \
+                 resonant eigenvalue at the Hopf point)"
+                    .into(),
+            ));
+        }
+        let first = Stencil::b_complex(q, &a_inv, h);
+        let other = Stencil::b_complex(&qb, &second, h);
+        forms.evaluate(first.iter().chain(&other).flatten())?;
+        let b1 = forms.b_complex(&first)?;
+        let b2 = forms.b_complex(&other)?;
+        let terms = [project(&c_qqqb), -2.0 * project(&b1), project(&b2)];
+        let value: c64 = terms.iter().sum();
+        let scale: f64 = terms.iter().map(|t| t.norm()).sum();
+        Ok((value.re / (2.0 * w), scale / (2.0 * w)))
     }
-    let b1 = forms.b_complex(q, &a_inv, h)?;
-    let b2 = forms.b_complex(&qb, &second, h)?;
-    let terms = [project(&c_qqqb), -2.0 * project(&b1), project(&b2)];
-    let value: c64 = terms.iter().sum();
-    let scale: f64 = terms.iter().map(|t| t.norm()).sum();
-    Ok((value.re / (2.0 * w), scale / (2.0 * w)))
 }
 
 fn parts(v: &[c64]) -> (Vec<f64>, Vec<f64>) {
@@ -481,12 +573,4 @@ fn length(v: &[f64]) -> f64 {
 
 fn scaled(v: &[f64], c: f64) -> Vec<f64> {
     v.iter().map(|x| c * x).collect()
-}
-
-/// `scale sum_k c_k v_k`.
-fn combine(terms: &[(f64, &[f64])], scale: f64) -> Vec<f64> {
-    let n = terms[0].1.len();
-    (0..n)
-        .map(|i| scale * terms.iter().map(|(c, v)| c * v[i]).sum::<f64>())
-        .collect()
 }

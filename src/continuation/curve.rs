@@ -102,7 +102,7 @@ pub struct CurveSettings {
     /// Steady solves allowed to one corrector before the step is halved.
     pub max_evaluations: usize,
     /// Whether every point carries its first Lyapunov coefficient (and generalized Hopf points
-    /// are located): for problems that define their dynamics ([`Problem::velocity`]).
+    /// are located): for problems that define their dynamics ([`Problem::dynamics`]).
     pub criticality: bool,
 }
 

@@ -32,6 +32,10 @@ pub struct Linearization {
     pub g_p: Vec<f64>,
 }
 
+/// The velocity field of a dynamics near one of its steady states, `y -> dy/dt`: shared by the
+/// threads that evaluate it ([`Problem::dynamics`]).
+pub type Field<'a> = Box<dyn Fn(&[f64]) -> Result<Vec<f64>> + Sync + 'a>;
+
 /// A one-parameter family of square nonlinear systems `G(u, p) = 0`.
 pub trait Problem {
     /// Number of unknowns `n`.
@@ -76,11 +80,12 @@ pub trait Problem {
         None
     }
     /// The nonlinear dynamics whose linearization at the solution `(u, p)` is the stability
-    /// pair: `dy/dt` at the displacement `y` from the solution, in the coordinates of `K`
-    /// (`y = 0` is the solution, and the derivative there is `M^{-1} K`). It serves the
-    /// criticality of Hopf points ([`criticality`]). The default is `None`: a problem that does
-    /// not define its dynamics gets no Lyapunov coefficient.
-    fn velocity(&self, _u: &[f64], _p: f64, _y: &[f64]) -> Option<Result<Vec<f64>>> {
+    /// pair, as a [`Field`]: `dy/dt` at the displacement `y` from the solution, in the
+    /// coordinates of `K` (`y = 0` is the solution, and the derivative there is `M^{-1} K`).
+    /// It serves the criticality of Hopf points ([`criticality`]), which evaluates it at many
+    /// displacements at once (on every core). The default is `None`: a problem that does not
+    /// define its dynamics gets no Lyapunov coefficient.
+    fn dynamics(&self, _u: &[f64], _p: f64) -> Option<Result<Field<'_>>> {
         None
     }
     /// The size of a complex mode `re + i im` (in the coordinates of `K`) that the Lyapunov

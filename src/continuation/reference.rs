@@ -2,7 +2,7 @@
 
 use faer::Mat;
 
-use super::{Linearization, Problem};
+use super::{Field, Linearization, Problem};
 use crate::Result;
 
 /// A small dense problem given by closures: `G(u, p)`, `G_u`, `G_p`; stability pair `(G_u, I)`.
@@ -20,7 +20,7 @@ where
 
 impl<G, J, P> Problem for Analytic<G, J, P>
 where
-    G: Fn(&[f64], f64) -> Vec<f64>,
+    G: Fn(&[f64], f64) -> Vec<f64> + Sync,
     J: Fn(&[f64], f64) -> Vec<Vec<f64>>,
     P: Fn(&[f64], f64) -> Vec<f64>,
 {
@@ -47,15 +47,18 @@ where
         Ok((lin.g_u.clone(), Mat::identity(self.dim, self.dim)))
     }
     /// `du/dt = G(u + y, p)`.
-    fn velocity(&self, u: &[f64], p: f64, y: &[f64]) -> Option<Result<Vec<f64>>> {
-        let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
-        Some(Ok((self.g)(&at, p)))
+    fn dynamics(&self, u: &[f64], p: f64) -> Option<Result<Field<'_>>> {
+        let (u, g) = (u.to_vec(), &self.g);
+        Some(Ok(Box::new(move |y: &[f64]| {
+            let at: Vec<f64> = u.iter().zip(y).map(|(a, b)| a + b).collect();
+            Ok(g(&at, p))
+        })))
     }
 }
 
 /// Boxed closure types of the reference problems.
-pub type Residual = Box<dyn Fn(&[f64], f64) -> Vec<f64>>;
-pub type Jacobian = Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>>>;
+pub type Residual = Box<dyn Fn(&[f64], f64) -> Vec<f64> + Sync>;
+pub type Jacobian = Box<dyn Fn(&[f64], f64) -> Vec<Vec<f64>> + Sync>;
 /// A reference problem.
 pub type Reference = Analytic<Residual, Jacobian, Residual>;
 
