@@ -401,11 +401,11 @@ impl Steady<'_> {
                 &assembled
             }
         };
-        let n3 = 3 * x.len();
         let first = self.layout().x(Layout::CLAMPED_NODES, 0);
-        let columns = Mat::from_fn(n3, nx, |r, c| if r == first + c { 1.0 } else { 0.0 });
-        let z = resistance.solve(columns.as_ref());
-        let m = Mat::from_fn(nx, nx, |r, c| z[(first + r, c)]);
+        let m = resistance
+            .inverse()
+            .submatrix(first, first, nx, nx)
+            .to_owned();
         Ok((k, m))
     }
 }

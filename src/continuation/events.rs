@@ -23,7 +23,12 @@
 //! The search stops when the bracket in the parameter is narrower than
 //! `event_tol * max(|p|, 1e-6 P)` (relative, `P` the parameter scale only guarding `p = 0`) and
 //! the bracket in arclength narrower than `sqrt(event_tol)` times the step (near a fold `p` is
-//! quadratic in the arclength, so a narrow bracket in `p` alone says nothing).
+//! quadratic in the arclength, so a narrow bracket in `p` alone says nothing). It also stops,
+//! short of the tolerance in `p`, when the bracket in arclength is narrower than twice the
+//! closest a sample may come to its ends: no sample can narrow it further, which on a smooth
+//! branch cannot happen before the tolerance is met, but does where `p` jumps between two
+//! samples a hair apart (next to a branch point the corrector may land on the other branch).
+//! The event's precision is then the width reached, larger than `event_tol`, and says so.
 //!
 //! A crossing event is typed by the eigenvalue that crossed inside its final bracket (the one
 //! unstable on one side whose nearest eigenvalue on the other side is stable), never by
@@ -449,11 +454,21 @@ impl<'a, P: Problem> Sampler<'a, P> {
                     self.settings.event_tol, lo.p, hi.p
                 )));
             }
+            // Ends closer in arclength than a sample may come to either: no sample can narrow
+            // the bracket. On a smooth branch that width is below the tolerance in `p` (the
+            // margin is a third of it through the tangent), so this happens only where `p` jumps
+            // between the ends, the corrector landing on another branch next to a branch point
+            // (seen on Greenhill's column, whose two bending planes buckle together). The event
+            // then carries the width it has as its precision.
+            let margin = self.margin(&lo);
+            if (hi.sigma - lo.sigma).abs() <= 2.0 * margin {
+                break;
+            }
             let (near, far) = ends(&lo, &hi);
             if !zeroin.holds(near, far) {
                 zeroin = Zeroin::new(near, far);
             }
-            let sigma = zeroin.propose(self.margin(&lo));
+            let sigma = zeroin.propose(margin);
             let s = self.at(sigma)?;
             let past = beyond(&s);
             zeroin.record(sigma, f(&s, &lo, &hi), past);

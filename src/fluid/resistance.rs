@@ -4,7 +4,7 @@
 
 use super::{stack_vectors, unstack_vectors};
 use crate::{Error, Result};
-use faer::linalg::solvers::{Llt, PartialPivLu, Solve};
+use faer::linalg::solvers::{DenseSolveCore, Llt, PartialPivLu, Solve};
 use faer::{Mat, MatRef, Side};
 use nalgebra::Vector3;
 
@@ -98,6 +98,16 @@ impl Resistance {
         match &self.factor {
             Factor::Cholesky(llt) => llt.solve(rhs),
             Factor::Lu(lu) => lu.solve(rhs),
+        }
+    }
+
+    /// `Z` itself (`3N x 3N`): from the Cholesky factor, `Z = L^{-T} L^{-1}` with `L^{-1}`
+    /// triangular, about `2n^3/3` operations against `2n^3` for [`Resistance::solve`] with the
+    /// identity (the stability pair needs nearly all of `Z`).
+    pub fn inverse(&self) -> Mat<f64> {
+        match &self.factor {
+            Factor::Cholesky(llt) => llt.inverse(),
+            Factor::Lu(lu) => lu.inverse(),
         }
     }
 
