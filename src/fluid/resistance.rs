@@ -101,9 +101,10 @@ impl Resistance {
         }
     }
 
-    /// `Z` itself (`3N x 3N`): from the Cholesky factor, `Z = L^{-T} L^{-1}` with `L^{-1}`
-    /// triangular, about `2n^3/3` operations against `2n^3` for [`Resistance::solve`] with the
-    /// identity (the stability pair needs nearly all of `Z`).
+    /// `Z` itself (`3N x 3N`), for the stability pair, which needs nearly all of it. From the
+    /// Cholesky factor `Z = L^{-T} L^{-1}` (`L^{-1}` triangular): about `2n^3/3` operations
+    /// against `2n^3` for [`Resistance::solve`] with the identity, and exactly symmetric. From
+    /// an LU factorization (the original quadrature), faer's inverse of it.
     pub fn inverse(&self) -> Mat<f64> {
         match &self.factor {
             Factor::Cholesky(llt) => llt.inverse(),
