@@ -420,22 +420,25 @@ impl<'a> Forms<'a> {
     /// evaluations are independent, and each is stored by itself: the values do not depend on
     /// the number of threads).
     fn evaluate<'s>(&self, stencils: impl IntoIterator<Item = &'s Stencil>) -> Result<()> {
-        let mut missing: Vec<&[f64]> = Vec::new();
+        // The points not evaluated yet, each once, with its key.
+        let mut missing: Vec<(Vec<u64>, &[f64])> = Vec::new();
         {
             let evaluated = self.evaluated.borrow();
             let mut seen = HashSet::new();
             for stencil in stencils {
                 for (_, y) in &stencil.terms {
-                    if !evaluated.contains_key(&key(y)) && seen.insert(key(y)) {
-                        missing.push(y);
+                    let k = key(y);
+                    if !evaluated.contains_key(&k) && seen.insert(k.clone()) {
+                        missing.push((k, y));
                     }
                 }
             }
         }
-        let values: Vec<Result<Vec<f64>>> = missing.par_iter().map(|y| (self.field)(y)).collect();
+        let values: Vec<Result<Vec<f64>>> =
+            missing.par_iter().map(|(_, y)| (self.field)(y)).collect();
         let mut evaluated = self.evaluated.borrow_mut();
-        for (y, f) in missing.into_iter().zip(values) {
-            evaluated.insert(key(y), f?);
+        for ((k, _), f) in missing.into_iter().zip(values) {
+            evaluated.insert(k, f?);
         }
         Ok(())
     }
