@@ -16,7 +16,6 @@ use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Field, Linearization, Problem};
 use crate::dynamics::{rechart, slave_twist_chord};
-use crate::fluid::Resistance;
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{Observables, Steady, SteadyState, height};
@@ -59,9 +58,9 @@ pub struct RodProblem<M: Borrow<Model>> {
     /// [`WEIGHT_SCALE`].
     pub parameter_scale: f64,
     chart: RefCell<Chart>,
-    /// The factorized resistance of the latest linearization and the unknowns it was made at:
-    /// the stability pair at the point just corrected reuses it.
-    resistance: RefCell<Option<(Vec<f64>, Resistance)>>,
+    /// `S = Z_ff^{-1}` of the latest linearization and the unknowns it was made at: the
+    /// stability pair at the point just corrected reuses it.
+    schur: RefCell<Option<(Vec<f64>, Mat<f64>)>>,
     /// The twist blocks of the Jacobian at the state `(u, p)` the dynamics ([`Problem::dynamics`])
     /// was last asked about.
     twist: RefCell<Option<Arc<TwistMap>>>,
@@ -86,7 +85,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
             parameter,
             parameter_scale,
             chart,
-            resistance: RefCell::new(None),
+            schur: RefCell::new(None),
             twist: RefCell::new(None),
         }
     }
@@ -99,7 +98,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
         {
             return Ok(map.clone());
         }
-        let j = self.steady(p).linearize(u)?.jacobian;
+        let j = self.steady(p).linearize_velocity(u)?.jacobian;
         let nx = self.model.borrow().rod.layout.free_positions();
         let nt = j.nrows() - nx;
         let map = Arc::new(TwistMap {
@@ -139,18 +138,20 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         self.model.borrow().rod.layout.free_len()
     }
 
+    /// The velocity form `V` ([`Steady::velocity_residual`]): the same solutions as the force
+    /// balance, with a Jacobian that needs no factorization of the mobility.
     fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
-        self.steady(p).residual(u)
+        self.steady(p).velocity_residual(u)
     }
 
     fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
         let steady = self.steady(p);
-        let lin = steady.linearize(u)?;
+        let lin = steady.linearize_velocity(u)?;
         let g_p = match self.parameter {
-            Parameter::Omega => steady.rate_derivative(&lin)?,
-            Parameter::Weight => steady.weight_derivative(),
+            Parameter::Omega => steady.velocity_rate_derivative(&lin, u),
+            Parameter::Weight => steady.velocity_weight_derivative(&lin),
         };
-        *self.resistance.borrow_mut() = lin.drag.map(|d| (u.to_vec(), d.resistance));
+        *self.schur.borrow_mut() = Some((u.to_vec(), lin.schur));
         Ok(Linearization {
             g: lin.residual,
             g_u: lin.jacobian,
@@ -172,9 +173,9 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         p: f64,
         lin: &Linearization,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
-        let cached = self.resistance.borrow();
-        let resistance = cached.as_ref().filter(|(at, _)| at == u).map(|(_, r)| r);
-        self.steady(p).stability_pair_from(u, &lin.g_u, resistance)
+        let cached = self.schur.borrow();
+        let schur = cached.as_ref().filter(|(at, _)| at == u).map(|(_, s)| s);
+        self.steady(p).stability_pair_from(u, &lin.g_u, schur)
     }
 
     fn scales(&self) -> (f64, f64) {

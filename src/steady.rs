@@ -15,9 +15,14 @@
 //! ```text
 //! d[Z Omega X]/dX = Z (Omega - B),    B = d(A(X) y)/dX at fixed y = Z Omega X.   (3)
 //! ```
+//!
+//! The continuation solves the velocity form (eq. 4-5 below): the position rows premultiplied by
+//! `S = Z_ff^{-1}`, whose Newton matrix needs no solve with `Z`.
 
-use faer::Mat;
+use faer::linalg::matmul::matmul;
 use faer::prelude::Solve;
+use faer::reborrow::ReborrowMut;
+use faer::{Accum, Mat, MatMut, MatRef, Par};
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -126,37 +131,122 @@ impl<'a> Steady<'a> {
     /// factorization for `Z_ff^{-1} R_x` from `Z`. Where `A` is not positive by construction
     /// (Lighthill), it is checked by a Cholesky factorization, as the resistance would be.
     pub fn free_velocity(&self, u: &[f64]) -> Result<Vec<f64>> {
+        let mut v = self.velocity_residual(u)?;
+        v.truncate(self.layout().free_positions());
+        Ok(v)
+    }
+
+    /// The steady problem in velocity form, `V(u) = (dx_f/dt, R_t) = 0` (eq. 4 and eq. 2): the
+    /// same solutions as eq. (1)-(2), whose position rows it premultiplies by `S = Z_ff^{-1}`
+    /// (`dx_f/dt = S R_x`).
+    pub fn velocity_residual(&self, u: &[f64]) -> Result<Vec<f64>> {
         let config = self.config(u);
-        let x = &config.x;
         let gradient = self.model.rod.gradient(&config, &self.chart);
         let force = self.full_residual(&gradient, None);
-        let a = self.model.fluid.mobility(x);
-        let context = format!("velocity at omegabar = {:.6e}, N = {}", self.omega, x.len());
-        if !self.model.fluid.definite_by_construction() {
-            Resistance::new(&a, &context)?;
-        }
+        let mobility = self.clamped_mobility(&config.x, "velocity")?;
+        let (_, velocity) = mobility.velocity(&force, &rotation_velocity(self.omega, &config.x));
+        Ok(self.with_twist_rows(velocity, &force))
+    }
+
+    /// `V(u)` and the Jacobian of Newton's method on it (docs/model.md section 4, velocity
+    /// form): `S R'(u)`, the Jacobian of the force balance (1)-(2) premultiplied by
+    /// `S = Z_ff^{-1}` on the position rows, which is `V'(u)` wherever `R = 0` (`V = S R`, so
+    /// `V' = S R' + (dS) R`). A step solves `S R' du = -S R`: exactly the step of Newton's
+    /// method on `R`, whose iterates it keeps (the exact `V'` adds the curvature of `S(X)` times
+    /// the force residual: with it the corrector took 42 steps instead of 37 to the default Hopf
+    /// point, 40 instead of 37 to the RPY `N = 400` one). With
+    /// `y = Z Omega X` the drag, `B = d(A(X) y)/dX` at fixed `y`, `C = A_fc A_cc^{-1}` and `H`
+    /// the elastic Hessian, eq. (3) premultiplied by `S` (by the block inverse `S Z_ff = I` and
+    /// `S Z_fc = -C`) gives, `Omega` being block diagonal,
+    ///
+    /// ```text
+    /// S R_x' = [ (B - Omega)_ff - C B_cf - S H_xx ,  -S H_xt ],   R_t' as in (1)-(2).       (5)
+    /// ```
+    ///
+    /// `S H` is formed band by band (`H` couples nodes at most two apart), so the cost is one
+    /// assembly of `A`, its Cholesky factorization (for `y`, and the check that `A` is positive
+    /// definite), one shape derivative `B` and `O(N^2)`: none of the solve with `3N`
+    /// right-hand sides of eq. (3), the largest cost of [`Steady::linearize`] at large `N`.
+    pub fn linearize_velocity(&self, u: &[f64]) -> Result<VelocityLinearized> {
+        let config = self.config(u);
+        let x = &config.x;
         let layout = self.layout();
-        let (n3, c) = (3 * x.len(), 3 * Layout::CLAMPED_NODES);
-        let rigid = stack_vectors(&rotation_velocity(self.omega, x));
-        // Node-major force on the fluid, the clamp reactions still zero.
-        let mut f = Mat::from_fn(n3, 1, |r, _| {
-            if r < c {
-                0.0
-            } else {
-                force[layout.x(r / 3, r % 3)]
+        let (gradient, hessian) = self.model.rod.hessian(&config, &self.chart);
+        let a = self.model.fluid.mobility(x);
+        let context = format!("omegabar = {:.6e}, N = {}", self.omega, x.len());
+        let drag = if self.omega != 0.0 {
+            let resistance = self.model.fluid.factorize(&a, x, &context)?;
+            let forces = resistance.solve_vectors(&rotation_velocity(self.omega, x));
+            Some(Drag { resistance, forces })
+        } else {
+            if !self.model.fluid.definite_by_construction() {
+                self.model.fluid.factorize(&a, x, &context)?;
             }
-        });
-        let a_cc = a.submatrix(0, 0, c, c).to_owned();
-        let rhs = rigid.submatrix(0, 0, c, 1) - a.submatrix(0, 0, c, n3) * &f;
-        let reactions = a_cc.partial_piv_lu().solve(&rhs);
-        f.submatrix_mut(0, 0, c, 1).copy_from(&reactions);
-        let v = a.submatrix(c, 0, n3 - c, n3) * &f - rigid.submatrix(c, 0, n3 - c, 1);
-        if !v.is_all_finite() {
-            return Err(crate::Error::Numerical(format!(
-                "singular clamp block of the mobility ({context})"
-            )));
+            None
+        };
+        let force = self.restrict(&self.full_residual(&gradient, drag.as_ref()));
+        let mobility = ClampedMobility::split(a, &context)?;
+        let schur = mobility.schur();
+        let (n, nx) = (layout.free_len(), layout.free_positions());
+        // The free unknowns are two contiguous runs of the full layout: positions, then angles.
+        let (first_x, first_t) = (layout.x(Layout::CLAMPED_NODES, 0), layout.theta(1));
+        let mut jacobian = Mat::zeros(n, n);
+        for (column, first, width) in [(0, first_x, nx), (nx, first_t, n - nx)] {
+            banded_product(
+                schur.as_ref(),
+                hessian.submatrix(first_x, first, nx, width),
+                jacobian.submatrix_mut(0, column, nx, width),
+            );
+            for c in 0..width {
+                for r in nx..n {
+                    jacobian[(r, column + c)] = -hessian[(first_t + r - nx, first + c)];
+                }
+            }
         }
-        Ok((0..n3 - c).map(|r| v[(r, 0)]).collect())
+        if let Some(d) = &drag {
+            let b = self.model.fluid.mobility_derivative(x, &d.forces);
+            let c = 3 * Layout::CLAMPED_NODES;
+            let clamp_rows = &mobility.coupling * b.submatrix(0, c, c, nx);
+            for col in 0..nx {
+                for r in 0..nx {
+                    jacobian[(r, col)] += b[(c + r, c + col)] - clamp_rows[(r, col)];
+                }
+            }
+            // -Omega: d(Omega X)_i/dx_i on the free nodes.
+            for i in 0..nx / 3 {
+                jacobian[(3 * i + 1, 3 * i)] -= self.omega;
+                jacobian[(3 * i, 3 * i + 1)] += self.omega;
+            }
+        }
+        let sr = &schur * Mat::from_fn(nx, 1, |r, _| force[r]);
+        let residual = (0..nx)
+            .map(|r| sr[(r, 0)])
+            .chain(force[nx..].iter().copied())
+            .collect();
+        Ok(VelocityLinearized {
+            residual,
+            jacobian,
+            schur,
+            coupling: mobility.coupling,
+        })
+    }
+
+    /// The mobility at `x` split at the clamp; where it is not positive definite by
+    /// construction (Lighthill) it is checked by a factorization. Errors name `what`.
+    fn clamped_mobility(&self, x: &[Vector3<f64>], what: &str) -> Result<ClampedMobility> {
+        let context = format!("{what} at omegabar = {:.6e}, N = {}", self.omega, x.len());
+        let a = self.model.fluid.mobility(x);
+        if !self.model.fluid.definite_by_construction() {
+            self.model.fluid.factorize(&a, x, &context)?;
+        }
+        ClampedMobility::split(a, &context)
+    }
+
+    /// `velocity` (the free positions' rows) followed by the twist rows of `full`.
+    fn with_twist_rows(&self, mut velocity: Vec<f64>, full: &[f64]) -> Vec<f64> {
+        let fp = self.layout().free_positions();
+        velocity.extend_from_slice(&self.restrict(full)[fp..]);
+        velocity
     }
 
     /// Full-length force balance `-dE/dq + F_gravity - F_fluid` (positions) and `-dE/dtheta`.
@@ -347,6 +437,31 @@ impl Steady<'_> {
         self.free_forces(&unit, 1.0)
     }
 
+    /// `dV/d omegabar = C (Omega_1 X)_c - (Omega_1 X)_f` (eq. 4 at unit rate; the clamp
+    /// reactions carry the clamp's motion), zero on the angles.
+    pub fn velocity_rate_derivative(&self, lin: &VelocityLinearized, u: &[f64]) -> Vec<f64> {
+        let x = self.config(u).x;
+        let rigid = stack_vectors(&rotation_velocity(1.0, &x));
+        let c = 3 * Layout::CLAMPED_NODES;
+        let carried = &lin.coupling * rigid.submatrix(0, 0, c, 1);
+        let nx = self.layout().free_positions();
+        (0..nx)
+            .map(|r| carried[(r, 0)] - rigid[(c + r, 0)])
+            .chain(std::iter::repeat_n(0.0, self.layout().nodes() - 2))
+            .collect()
+    }
+
+    /// `dV/dq = S w_f`, `w` the weight at unit `q` on the free nodes, zero on the angles.
+    pub fn velocity_weight_derivative(&self, lin: &VelocityLinearized) -> Vec<f64> {
+        let w = self.weight_derivative();
+        let nx = self.layout().free_positions();
+        let sw = &lin.schur * Mat::from_fn(nx, 1, |r, _| w[r]);
+        (0..nx)
+            .map(|r| sw[(r, 0)])
+            .chain(w[nx..].iter().copied())
+            .collect()
+    }
+
     /// `sign * f_i` on the free position unknowns, zero on the angles.
     fn free_forces(&self, forces: &[Vector3<f64>], sign: f64) -> Vec<f64> {
         let layout = self.layout();
@@ -359,21 +474,24 @@ impl Steady<'_> {
 
     /// The stability pair of docs/model.md section 5 at the free unknowns `u`: `K`, the Jacobian of
     /// the position residual with the quasi-static twist eliminated,
-    /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`.
+    /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`;
+    /// from the velocity form ([`Steady::stability_pair_from`]).
     pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
-        let lin = self.linearize(u)?;
-        let resistance = lin.drag.as_ref().map(|d| &d.resistance);
-        self.stability_pair_from(u, &lin.jacobian, resistance)
+        let lin = self.linearize_velocity(u)?;
+        self.stability_pair_from(u, &lin.jacobian, Some(&lin.schur))
     }
 
-    /// [`Steady::stability_pair`] from the Jacobian `j` of the steady residual at `u`, already
-    /// at hand (the continuation corrector ends with it), and the factorized resistance at `u`
-    /// when that is at hand too (else `A` is assembled and factorized here).
+    /// [`Steady::stability_pair`] from the Jacobian `j` of the velocity form `V` at `u`, already
+    /// at hand (the continuation corrector ends with it), and `S = Z_ff^{-1}` at `u` when that is
+    /// at hand too (else `A` is assembled here). Eliminating the twist from `j` gives `S K`
+    /// (the twist rows are those of eq. 2, the position rows `S` times those of eq. 1); then
+    /// `M = Z_ff = S^{-1}` (Cholesky, which also checks that `S` is positive definite) and
+    /// `K = M (S K)`, one product.
     pub fn stability_pair_from(
         &self,
         u: &[f64],
         j: &Mat<f64>,
-        resistance: Option<&Resistance>,
+        schur: Option<&Mat<f64>>,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
         let nx = self.layout().free_positions();
         let nt = j.nrows() - nx;
@@ -381,32 +499,125 @@ impl Steady<'_> {
         let j_tx = Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]);
         let eliminated = j_tt.partial_piv_lu().solve(&j_tx);
         let j_xt = Mat::from_fn(nx, nt, |r, c| j[(r, nx + c)]);
-        let k = Mat::from_fn(nx, nx, |r, c| j[(r, c)]) - &j_xt * &eliminated;
-        if !k.is_all_finite() {
+        let sk = Mat::from_fn(nx, nx, |r, c| j[(r, c)]) - &j_xt * &eliminated;
+        if !sk.is_all_finite() {
             return Err(crate::Error::Numerical(
                 "singular twist block in the stability operator".into(),
             ));
         }
         let x = self.config(u).x;
+        let assembled;
+        let schur = match schur {
+            Some(s) => s,
+            None => {
+                assembled = self.clamped_mobility(&x, "stability")?.schur();
+                &assembled
+            }
+        };
         let context = format!(
             "stability at omegabar = {:.6e}, N = {}",
             self.omega,
             x.len()
         );
-        let assembled;
-        let resistance = match resistance {
-            Some(r) => r,
-            None => {
-                assembled = self.model.fluid.resistance(&x, &context)?;
-                &assembled
-            }
-        };
-        let first = self.layout().x(Layout::CLAMPED_NODES, 0);
-        let m = resistance
-            .inverse()
-            .submatrix(first, first, nx, nx)
-            .to_owned();
-        Ok((k, m))
+        let m = Resistance::new(schur, &context)?.inverse();
+        Ok((&m * &sk, m))
+    }
+}
+
+/// The velocity form `V = (dx_f/dt, R_t)` and its Jacobian at one point
+/// ([`Steady::linearize_velocity`]), with the pieces of the mobility that the parameter
+/// derivatives and the stability pair reuse.
+pub struct VelocityLinearized {
+    pub residual: Vec<f64>,
+    pub jacobian: Mat<f64>,
+    /// `S = A_ff - A_fc A_cc^{-1} A_cf = Z_ff^{-1}` (free positions).
+    pub schur: Mat<f64>,
+    /// `C = A_fc A_cc^{-1}` (free positions by the six clamp coordinates).
+    coupling: Mat<f64>,
+}
+
+/// The mobility `A(X)` split at the clamp (eq. 4): the clamp block inverted and the coupling
+/// `C = A_fc A_cc^{-1}` of the free nodes to it.
+struct ClampedMobility {
+    a: Mat<f64>,
+    /// `A_cc^{-1}` (`6 x 6`).
+    cc_inverse: Mat<f64>,
+    coupling: Mat<f64>,
+}
+
+impl ClampedMobility {
+    /// Splits `a`; a singular clamp block is an error naming `context`.
+    fn split(a: Mat<f64>, context: &str) -> Result<Self> {
+        let c = 3 * Layout::CLAMPED_NODES;
+        let nx = a.nrows() - c;
+        let cc_inverse = a
+            .submatrix(0, 0, c, c)
+            .partial_piv_lu()
+            .solve(Mat::<f64>::identity(c, c));
+        if !cc_inverse.is_all_finite() {
+            return Err(crate::Error::Numerical(format!(
+                "singular clamp block of the mobility ({context})"
+            )));
+        }
+        let coupling = a.submatrix(c, 0, nx, c) * &cc_inverse;
+        Ok(ClampedMobility {
+            a,
+            cc_inverse,
+            coupling,
+        })
+    }
+
+    /// The forces on the fluid `F` (clamp reactions first, then `force` of the free nodes, all
+    /// nodes) and the velocity of the free nodes less `rigid` (eq. 4), for `force` in the full
+    /// layout of the unknowns (only its free positions are read) and the rigid velocities.
+    fn velocity(&self, force: &[f64], rigid: &[Vector3<f64>]) -> (Vec<Vector3<f64>>, Vec<f64>) {
+        let n3 = self.a.nrows();
+        let c = 3 * Layout::CLAMPED_NODES;
+        let rigid = stack_vectors(rigid);
+        let mut f = Mat::from_fn(n3, 1, |r, _| if r < c { 0.0 } else { force[r] });
+        let rhs = rigid.submatrix(0, 0, c, 1) - self.a.submatrix(0, 0, c, n3) * &f;
+        let reactions = &self.cc_inverse * rhs;
+        f.submatrix_mut(0, 0, c, 1).copy_from(&reactions);
+        let v = self.a.submatrix(c, 0, n3 - c, n3) * &f - rigid.submatrix(c, 0, n3 - c, 1);
+        let forces = (0..n3 / 3)
+            .map(|i| Vector3::new(f[(3 * i, 0)], f[(3 * i + 1, 0)], f[(3 * i + 2, 0)]))
+            .collect();
+        (forces, (0..n3 - c).map(|r| v[(r, 0)]).collect())
+    }
+
+    /// `S = A_ff - C A_cf`, the Schur complement of the clamp block: `Z_ff^{-1}`.
+    fn schur(&self) -> Mat<f64> {
+        let c = 3 * Layout::CLAMPED_NODES;
+        let nx = self.a.nrows() - c;
+        self.a.submatrix(c, c, nx, nx) - &self.coupling * self.a.submatrix(0, c, c, nx)
+    }
+}
+
+/// `out = -s h` for a dense `s` and a banded `h`: in blocks of columns, each multiplied by the
+/// rows of `s` that the block's nonzero rows select (a contiguous band), so that the cost is
+/// `O(n^2 w)` for a band of width `w` instead of `O(n^3)`.
+fn banded_product(s: MatRef<'_, f64>, h: MatRef<'_, f64>, mut out: MatMut<'_, f64>) {
+    const BLOCK: usize = 48;
+    let rows_out = out.nrows();
+    for start in (0..h.ncols()).step_by(BLOCK) {
+        let width = BLOCK.min(h.ncols() - start);
+        let block = h.submatrix(0, start, h.nrows(), width);
+        let rows = (0..h.nrows()).filter(|&r| (0..width).any(|c| block[(r, c)] != 0.0));
+        let (first, last) = rows.fold((usize::MAX, 0), |(a, b), r| (a.min(r), b.max(r)));
+        let mut target = out.rb_mut().submatrix_mut(0, start, rows_out, width);
+        if first > last {
+            target.fill(0.0);
+            continue;
+        }
+        let band = last + 1 - first;
+        matmul(
+            target,
+            Accum::Replace,
+            s.submatrix(0, first, s.nrows(), band),
+            block.submatrix(first, 0, band, width),
+            -1.0,
+            Par::Seq,
+        );
     }
 }
 

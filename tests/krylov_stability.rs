@@ -347,8 +347,9 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
             (krylov / dense - 1.0).abs()
         );
         assert_eq!(dense_counts.krylov, 0);
-        // Only the first point (no spectrum before it to seed the shift) is dense.
+        // Every spectrum is Krylov's, the first point's too (shift 0, no spectrum before it).
         assert_eq!(krylov_counts.fallbacks, 0, "{krylov_counts:?}");
+        assert_eq!(krylov_counts.dense, 0, "{krylov_counts:?}");
         assert!(krylov_counts.krylov > 10);
         assert!((krylov / dense - 1.0).abs() < 1e-9);
     }

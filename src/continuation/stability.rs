@@ -30,7 +30,7 @@ pub const AUTO_KRYLOV_SIZE: usize = 150;
 pub struct EigenCounts {
     /// Certified Krylov results.
     pub krylov: usize,
-    /// Dense solves (asked for, without a previous spectrum to seed the shift, or fallbacks).
+    /// Dense solves (asked for, or fallbacks).
     pub dense: usize,
     /// Krylov attempts refused (each followed by a dense solve), and the last reason.
     pub fallbacks: usize,
@@ -52,11 +52,14 @@ pub fn reset_eigen_counts() {
 }
 
 /// The `keep` eigenvalues of largest real part (at least the unstable count + 2) and the
-/// unstable count, by `method`. The Krylov path needs the leading spectrum of a nearby state,
-/// `prior`, for its shift ([`shift_after`]); without one, or where it refuses, the dense solver
-/// answers. Krylov-Schur is first asked for twice as many eigenvalues as `prior` kept, plus 8,
-/// at least 24 (its subspace has at least 64 vectors in any case); the certificate asks for
-/// more where it needs them.
+/// unstable count, by `method`. The Krylov path takes its shift from the leading spectrum of a
+/// nearby state, `prior` ([`shift_after`]); without one (the first point of a branch) the shift
+/// is 0, whose disk holds the eigenvalues nearest the origin: the rightmost ones of a stable
+/// state at rest, whose spectrum is real and negative (the certificate decides; a singular `K`
+/// is refused). Where it refuses, the dense solver answers. Krylov-Schur is first asked for
+/// twice as many eigenvalues as `prior` kept (`keep` without one), plus 8, at least 24 (its
+/// subspace has at least 64 vectors in any case); the certificate asks for more where it needs
+/// them.
 pub fn leading(
     k: &Mat<f64>,
     m: &Mat<f64>,
@@ -69,9 +72,12 @@ pub fn leading(
         EigenMethod::Krylov => true,
         EigenMethod::Auto => k.nrows() >= AUTO_KRYLOV_SIZE,
     };
-    if let (true, Some(prior)) = (krylov, prior) {
-        let nev = (2 * prior.leading.len() + 8).max(24);
-        match rightmost(k, m, keep, shift_after(prior), nev) {
+    if krylov {
+        let (sigma, nev) = match prior {
+            Some(prior) => (shift_after(prior), (2 * prior.leading.len() + 8).max(24)),
+            None => (0.0, (2 * keep + 8).max(24)),
+        };
+        match rightmost(k, m, keep, sigma, nev) {
             Ok(s) => {
                 COUNTS.with_borrow_mut(|c| c.krylov += 1);
                 return Ok(s);

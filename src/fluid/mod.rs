@@ -156,9 +156,15 @@ impl Fluid {
 
     /// The resistance `Z = A(x)^{-1}`; errors name `context`.
     pub fn resistance(&self, x: &[Vector3<f64>], context: &str) -> Result<Resistance> {
+        self.factorize(&self.mobility(x), x, context)
+    }
+
+    /// The resistance of the mobility `a`, already assembled at `x`; errors name `context`
+    /// and, where `a` is not positive definite, say why the configuration may defeat it.
+    pub fn factorize(&self, a: &Mat<f64>, x: &[Vector3<f64>], context: &str) -> Result<Resistance> {
         match self {
-            Fluid::Lighthill(f) => f.resistance(x, context),
-            Fluid::Rpy(f) => f.resistance(x, context),
+            Fluid::Lighthill(f) => f.factorize(a, x, context),
+            Fluid::Rpy(_) => Rpy::factorize(a, context),
         }
     }
 
@@ -228,9 +234,18 @@ impl Lighthill {
     /// reference quadrature (failing with [`crate::Error::NotPositiveDefinite`], naming
     /// `context`, when `A` is not positive definite), an LU factorization for the original one.
     pub fn resistance(&self, x: &[Vector3<f64>], context: &str) -> crate::Result<Resistance> {
-        let a = self.mobility(x);
+        self.factorize(&self.mobility(x), x, context)
+    }
+
+    /// [`Lighthill::resistance`] of the mobility `a`, already assembled at `x`.
+    pub fn factorize(
+        &self,
+        a: &Mat<f64>,
+        x: &[Vector3<f64>],
+        context: &str,
+    ) -> crate::Result<Resistance> {
         match self.quadrature {
-            Quadrature::Reference => Resistance::new(&a, context).map_err(|e| match e {
+            Quadrature::Reference => Resistance::new(a, context).map_err(|e| match e {
                 crate::Error::NotPositiveDefinite { context, .. } => {
                     crate::Error::NotPositiveDefinite {
                         context,
@@ -239,7 +254,7 @@ impl Lighthill {
                 }
                 e => e,
             }),
-            Quadrature::Original => Resistance::general(&a, context),
+            Quadrature::Original => Resistance::general(a, context),
         }
     }
 

@@ -753,7 +753,12 @@ impl Rpy {
     /// [`Error::NotPositiveDefinite`] if it is not positive definite (only possible for a
     /// self-intersecting centreline, see the [module documentation](self)).
     pub fn resistance(&self, x: &[Vector3<f64>], context: &str) -> Result<Resistance> {
-        Resistance::new(&self.mobility(x), context).map_err(|e| match e {
+        Self::factorize(&self.mobility(x), context)
+    }
+
+    /// [`Rpy::resistance`] of the mobility `a`, already assembled.
+    pub fn factorize(a: &Mat<f64>, context: &str) -> Result<Resistance> {
+        Resistance::new(a, context).map_err(|e| match e {
             Error::NotPositiveDefinite { context, .. } => Error::NotPositiveDefinite {
                 context,
                 geometry: "quadrature points coincide: the centreline intersects itself".into(),
