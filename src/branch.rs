@@ -2,7 +2,7 @@
 //! drivers of `helixbif branch` and `helixbif locate`.
 
 use std::borrow::Borrow;
-use std::cell::RefCell;
+use std::cell::{OnceCell, RefCell};
 use std::sync::Arc;
 
 use faer::Mat;
@@ -18,7 +18,7 @@ use crate::continuation::{ContinuationSettings, Field, Linearization, Problem};
 use crate::dynamics::{rechart, slave_twist_chord};
 use crate::model::Model;
 use crate::rod::frame::Chart;
-use crate::steady::{Observables, Steady, SteadyState, height};
+use crate::steady::{MobilityBlocks, Observables, Steady, SteadyState, height};
 use faer::prelude::Solve;
 
 /// The continuation parameter of the rod.
@@ -58,9 +58,12 @@ pub struct RodProblem<M: Borrow<Model>> {
     /// [`WEIGHT_SCALE`].
     pub parameter_scale: f64,
     chart: RefCell<Chart>,
-    /// `S = Z_ff^{-1}` of the latest linearization and the unknowns it was made at: the
-    /// stability pair at the point just corrected reuses it.
-    schur: RefCell<Option<(Vec<f64>, Mat<f64>)>>,
+    /// The mobility blocks of the latest linearization and the unknowns it was made at: the
+    /// stability pair at the point just corrected reuses them.
+    blocks: RefCell<Option<(Vec<f64>, MobilityBlocks)>>,
+    /// The unit of the velocity rows, [`Steady::typical_mobility`] of the natural shape, made
+    /// at the first evaluation.
+    velocity_unit: OnceCell<f64>,
     /// The twist blocks of the Jacobian at the state `(u, p)` the dynamics ([`Problem::dynamics`])
     /// was last asked about.
     twist: RefCell<Option<Arc<TwistMap>>>,
@@ -85,7 +88,8 @@ impl<M: Borrow<Model>> RodProblem<M> {
             parameter,
             parameter_scale,
             chart,
-            schur: RefCell::new(None),
+            blocks: RefCell::new(None),
+            velocity_unit: OnceCell::new(),
             twist: RefCell::new(None),
         }
     }
@@ -131,6 +135,27 @@ impl<M: Borrow<Model>> RodProblem<M> {
     pub fn set_chart(&self, chart: Chart) {
         *self.chart.borrow_mut() = chart;
     }
+
+    /// The unit of the velocity rows ([`Steady::typical_mobility`] of the natural shape).
+    fn velocity_unit(&self) -> Result<f64> {
+        if let Some(unit) = self.velocity_unit.get() {
+            return Ok(*unit);
+        }
+        let model = self.model.borrow();
+        let unit = self.steady(0.0).typical_mobility(&model.natural)?;
+        Ok(*self.velocity_unit.get_or_init(|| unit))
+    }
+
+    /// Divides the velocity rows (the free positions') of `g` by [`Self::velocity_unit`], which
+    /// it returns.
+    fn in_force_units(&self, g: &mut [f64]) -> Result<f64> {
+        let unit = self.velocity_unit()?;
+        let nx = self.model.borrow().rod.layout.free_positions();
+        for v in &mut g[..nx] {
+            *v /= unit;
+        }
+        Ok(unit)
+    }
 }
 
 impl<M: Borrow<Model>> Problem for RodProblem<M> {
@@ -138,20 +163,33 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         self.model.borrow().rod.layout.free_len()
     }
 
-    /// The velocity form `V` ([`Steady::velocity_residual`]): the same solutions as the force
-    /// balance, with a Jacobian that needs no factorization of the mobility.
+    /// The velocity form `V` ([`Steady::velocity_residual`]), its position rows divided by the
+    /// typical mobility of the natural shape (the corrector's `tol` then measures a force, as in
+    /// the force balance, whose round-off `S` would otherwise enlarge some twentyfold on a fine
+    /// rod): the same solutions as the force balance, and Newton's matrix needs no solve with
+    /// the resistance.
     fn residual(&self, u: &[f64], p: f64) -> Result<Vec<f64>> {
-        self.steady(p).velocity_residual(u)
+        let mut g = self.steady(p).velocity_residual(u)?;
+        self.in_force_units(&mut g)?;
+        Ok(g)
     }
 
     fn linearize(&self, u: &[f64], p: f64) -> Result<Linearization> {
         let steady = self.steady(p);
-        let lin = steady.linearize_velocity(u)?;
-        let g_p = match self.parameter {
+        let mut lin = steady.linearize_velocity(u)?;
+        let mut g_p = match self.parameter {
             Parameter::Omega => steady.velocity_rate_derivative(&lin, u),
             Parameter::Weight => steady.velocity_weight_derivative(&lin),
         };
-        *self.schur.borrow_mut() = Some((u.to_vec(), lin.schur));
+        let unit = self.in_force_units(&mut lin.residual)?;
+        self.in_force_units(&mut g_p)?;
+        let nx = lin.blocks.schur.nrows();
+        for c in 0..lin.jacobian.ncols() {
+            for r in 0..nx {
+                lin.jacobian[(r, c)] /= unit;
+            }
+        }
+        *self.blocks.borrow_mut() = Some((u.to_vec(), lin.blocks));
         Ok(Linearization {
             g: lin.residual,
             g_u: lin.jacobian,
@@ -171,11 +209,11 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         &self,
         u: &[f64],
         p: f64,
-        lin: &Linearization,
+        _lin: &Linearization,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
-        let cached = self.schur.borrow();
-        let schur = cached.as_ref().filter(|(at, _)| at == u).map(|(_, s)| s);
-        self.steady(p).stability_pair_from(u, &lin.g_u, schur)
+        let cached = self.blocks.borrow();
+        let blocks = cached.as_ref().filter(|(at, _)| at == u).map(|(_, b)| b);
+        self.steady(p).stability_pair_from(u, blocks)
     }
 
     fn scales(&self) -> (f64, f64) {

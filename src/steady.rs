@@ -203,20 +203,20 @@ impl<'a> Steady<'a> {
                 }
             }
         }
-        if let Some(d) = &drag {
+        let viscous = drag.as_ref().map(|d| {
             let b = self.model.fluid.mobility_derivative(x, &d.forces);
             let c = 3 * Layout::CLAMPED_NODES;
-            let clamp_rows = &mobility.coupling * b.submatrix(0, c, c, nx);
-            for col in 0..nx {
-                for r in 0..nx {
-                    jacobian[(r, col)] += b[(c + r, c + col)] - clamp_rows[(r, col)];
-                }
-            }
+            let mut w = b.submatrix(c, c, nx, nx) - &mobility.coupling * b.submatrix(0, c, c, nx);
             // -Omega: d(Omega X)_i/dx_i on the free nodes.
             for i in 0..nx / 3 {
-                jacobian[(3 * i + 1, 3 * i)] -= self.omega;
-                jacobian[(3 * i, 3 * i + 1)] += self.omega;
+                w[(3 * i + 1, 3 * i)] -= self.omega;
+                w[(3 * i, 3 * i + 1)] += self.omega;
             }
+            w
+        });
+        if let Some(w) = &viscous {
+            let mut block = jacobian.submatrix_mut(0, 0, nx, nx);
+            block += w;
         }
         let sr = &schur * Mat::from_fn(nx, 1, |r, _| force[r]);
         let residual = (0..nx)
@@ -226,9 +226,18 @@ impl<'a> Steady<'a> {
         Ok(VelocityLinearized {
             residual,
             jacobian,
-            schur,
+            blocks: MobilityBlocks { schur, viscous },
             coupling: mobility.coupling,
         })
+    }
+
+    /// The root-mean-square eigenvalue of `S = Z_ff^{-1}` at the positions `x`,
+    /// `|S|_F / sqrt(n_x)`: the factor by which `S` enlarges a force of no particular shape, such
+    /// as the round-off of the force balance. The continuation divides the velocity rows by it
+    /// ([`crate::branch::RodProblem`]), so that its tolerance measures a force, as in (1).
+    pub fn typical_mobility(&self, x: &[Vector3<f64>]) -> Result<f64> {
+        let s = self.clamped_mobility(x, "mobility scale")?.schur();
+        Ok(s.norm_l2() / (s.nrows() as f64).sqrt())
     }
 
     /// The mobility at `x` split at the clamp; where it is not positive definite by
@@ -455,7 +464,7 @@ impl Steady<'_> {
     pub fn velocity_weight_derivative(&self, lin: &VelocityLinearized) -> Vec<f64> {
         let w = self.weight_derivative();
         let nx = self.layout().free_positions();
-        let sw = &lin.schur * Mat::from_fn(nx, 1, |r, _| w[r]);
+        let sw = &lin.blocks.schur * Mat::from_fn(nx, 1, |r, _| w[r]);
         (0..nx)
             .map(|r| sw[(r, 0)])
             .chain(w[nx..].iter().copied())
@@ -475,53 +484,73 @@ impl Steady<'_> {
     /// The stability pair of docs/model.md section 5 at the free unknowns `u`: `K`, the Jacobian of
     /// the position residual with the quasi-static twist eliminated,
     /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`;
-    /// from the velocity form ([`Steady::stability_pair_from`]).
+    /// from the blocks of the velocity form ([`Steady::stability_pair_from`]).
     pub fn stability_pair(&self, u: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
-        let lin = self.linearize_velocity(u)?;
-        self.stability_pair_from(u, &lin.jacobian, Some(&lin.schur))
+        self.stability_pair_from(u, None)
     }
 
-    /// [`Steady::stability_pair`] from the Jacobian `j` of the velocity form `V` at `u`, already
-    /// at hand (the continuation corrector ends with it), and `S = Z_ff^{-1}` at `u` when that is
-    /// at hand too (else `A` is assembled here). Eliminating the twist from `j` gives `S K`
-    /// (the twist rows are those of eq. 2, the position rows `S` times those of eq. 1); then
-    /// `M = Z_ff = S^{-1}` (Cholesky, which also checks that `S` is positive definite) and
-    /// `K = M (S K)`, one product.
+    /// [`Steady::stability_pair`] from the blocks of the velocity form at `u`, when they are at
+    /// hand (the continuation corrector ends with them; else they are made here). By eq. (5)
+    /// premultiplied by `Z_ff = S^{-1}`, the force balance's Jacobian is `-H` plus `Z_ff W` in
+    /// its position-position block, `W = (B - Omega)_ff - C B_cf`, so
+    ///
+    /// ```text
+    /// K = -H_xx + H_xt H_tt^{-1} H_tx + Z_ff W,        M = Z_ff,
+    /// ```
+    ///
+    /// the elastic part from the Hessian, `Z_ff W` by a solve over the Cholesky factor of `S`
+    /// (which also checks that `S` is positive definite), `M` its inverse. `Z_ff` times `S K`
+    /// would give the same `K` in one product, but with the stiff elastic part enlarged by the
+    /// condition number of `S` in round-off: enough, next to the double branch point of
+    /// Greenhill's column at `N = 80`, to change the sign of the eigenvalues that cross there.
     pub fn stability_pair_from(
         &self,
         u: &[f64],
-        j: &Mat<f64>,
-        schur: Option<&Mat<f64>>,
+        blocks: Option<&MobilityBlocks>,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
-        let nx = self.layout().free_positions();
-        let nt = j.nrows() - nx;
-        let j_tt = Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]);
-        let j_tx = Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]);
-        let eliminated = j_tt.partial_piv_lu().solve(&j_tx);
-        let j_xt = Mat::from_fn(nx, nt, |r, c| j[(r, nx + c)]);
-        let sk = Mat::from_fn(nx, nx, |r, c| j[(r, c)]) - &j_xt * &eliminated;
-        if !sk.is_all_finite() {
+        let config = self.config(u);
+        let layout = self.layout();
+        let (nx, nt) = (layout.free_positions(), layout.nodes() - 2);
+        let (first_x, first_t) = (layout.x(Layout::CLAMPED_NODES, 0), layout.theta(1));
+        let (_, hessian) = self.model.rod.hessian(&config, &self.chart);
+        let h_tt = hessian.submatrix(first_t, first_t, nt, nt);
+        let eliminated = h_tt
+            .partial_piv_lu()
+            .solve(hessian.submatrix(first_t, first_x, nt, nx));
+        let mut k = hessian.submatrix(first_x, first_t, nx, nt) * &eliminated
+            - hessian.submatrix(first_x, first_x, nx, nx);
+        if !k.is_all_finite() {
             return Err(crate::Error::Numerical(
                 "singular twist block in the stability operator".into(),
             ));
         }
-        let x = self.config(u).x;
-        let assembled;
-        let schur = match schur {
-            Some(s) => s,
+        let made;
+        let blocks = match blocks {
+            Some(b) => b,
             None => {
-                assembled = self.clamped_mobility(&x, "stability")?.schur();
-                &assembled
+                made = self.linearize_velocity(u)?.blocks;
+                &made
             }
         };
         let context = format!(
             "stability at omegabar = {:.6e}, N = {}",
             self.omega,
-            x.len()
+            config.x.len()
         );
-        let m = Resistance::new(schur, &context)?.inverse();
-        Ok((&m * &sk, m))
+        let resistance = Resistance::new(&blocks.schur, &context)?;
+        if let Some(w) = &blocks.viscous {
+            k += resistance.solve(w.as_ref());
+        }
+        Ok((k, resistance.inverse()))
     }
+}
+
+/// The blocks of the velocity form that the stability pair needs: `S = A_ff - A_fc A_cc^{-1}
+/// A_cf = Z_ff^{-1}` and the viscous block `W = (B - Omega)_ff - C B_cf` of eq. (5) (none at
+/// rest), both over the free positions.
+pub struct MobilityBlocks {
+    pub schur: Mat<f64>,
+    pub viscous: Option<Mat<f64>>,
 }
 
 /// The velocity form `V = (dx_f/dt, R_t)` and its Jacobian at one point
@@ -530,8 +559,7 @@ impl Steady<'_> {
 pub struct VelocityLinearized {
     pub residual: Vec<f64>,
     pub jacobian: Mat<f64>,
-    /// `S = A_ff - A_fc A_cc^{-1} A_cf = Z_ff^{-1}` (free positions).
-    pub schur: Mat<f64>,
+    pub blocks: MobilityBlocks,
     /// `C = A_fc A_cc^{-1}` (free positions by the six clamp coordinates).
     coupling: Mat<f64>,
 }
