@@ -95,24 +95,25 @@ impl<M: Borrow<Model>> RodProblem<M> {
     }
 
     /// The twist blocks of the Jacobian at `(u, p)`, made once per state.
-    fn twist_map(&self, u: &[f64], p: f64) -> Result<Arc<TwistMap>> {
+    fn twist_map(&self, u: &[f64], p: f64) -> Arc<TwistMap> {
         if let Some(map) = self.twist.borrow().as_ref()
             && map.u == u
             && map.p == p
         {
-            return Ok(map.clone());
+            return map.clone();
         }
-        let j = self.steady(p).linearize_velocity(u)?.jacobian;
+        // The twist rows of the Jacobian are those of -dE/dtheta: -H.
+        let h = self.steady(p).free_hessian(u);
         let nx = self.model.borrow().rod.layout.free_positions();
-        let nt = j.nrows() - nx;
+        let nt = h.nrows() - nx;
         let map = Arc::new(TwistMap {
             u: u.to_vec(),
             p,
-            j_tt: Mat::from_fn(nt, nt, |r, c| j[(nx + r, nx + c)]).partial_piv_lu(),
-            j_tx: Mat::from_fn(nt, nx, |r, c| j[(nx + r, c)]),
+            j_tt: Mat::from_fn(nt, nt, |r, c| -h[(nx + r, nx + c)]).partial_piv_lu(),
+            j_tx: Mat::from_fn(nt, nx, |r, c| -h[(nx + r, c)]),
         });
         *self.twist.borrow_mut() = Some(map.clone());
-        Ok(map)
+        map
     }
 
     /// The steady problem at parameter value `p`, twist measured in the current chart.
@@ -227,10 +228,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     /// ([`Steady::free_velocity`]), without `Z`. The field holds the twist blocks of the
     /// Jacobian at `u` and the chart of now.
     fn dynamics(&self, u: &[f64], p: f64) -> Option<Result<Field<'_>>> {
-        let twist = match self.twist_map(u, p) {
-            Ok(twist) => twist,
-            Err(e) => return Some(Err(e)),
-        };
+        let twist = self.twist_map(u, p);
         let steady = self.steady(p);
         let u = u.to_vec();
         Some(Ok(Box::new(move |y: &[f64]| {

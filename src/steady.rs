@@ -481,6 +481,14 @@ impl Steady<'_> {
             .collect()
     }
 
+    /// The Hessian `H` of the elastic energy over the free unknowns at `u` (the Jacobian of the
+    /// force balance at rest is `-H`).
+    pub fn free_hessian(&self, u: &[f64]) -> Mat<f64> {
+        let (_, hessian) = self.model.rod.hessian(&self.config(u), &self.chart);
+        let free = self.layout().free_indices();
+        Mat::from_fn(free.len(), free.len(), |r, c| hessian[(free[r], free[c])])
+    }
+
     /// The stability pair of docs/model.md section 5 at the free unknowns `u`: `K`, the Jacobian of
     /// the position residual with the quasi-static twist eliminated,
     /// `K = J_xx - J_xt J_tt^{-1} J_tx`, and `M = Z_ff`, the free-free block of `Z = A^{-1}`;
@@ -508,17 +516,14 @@ impl Steady<'_> {
         u: &[f64],
         blocks: Option<&MobilityBlocks>,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
-        let config = self.config(u);
-        let layout = self.layout();
-        let (nx, nt) = (layout.free_positions(), layout.nodes() - 2);
-        let (first_x, first_t) = (layout.x(Layout::CLAMPED_NODES, 0), layout.theta(1));
-        let (_, hessian) = self.model.rod.hessian(&config, &self.chart);
-        let h_tt = hessian.submatrix(first_t, first_t, nt, nt);
-        let eliminated = h_tt
+        let h = self.free_hessian(u);
+        let nx = self.layout().free_positions();
+        let nt = h.nrows() - nx;
+        let eliminated = h
+            .submatrix(nx, nx, nt, nt)
             .partial_piv_lu()
-            .solve(hessian.submatrix(first_t, first_x, nt, nx));
-        let mut k = hessian.submatrix(first_x, first_t, nx, nt) * &eliminated
-            - hessian.submatrix(first_x, first_x, nx, nx);
+            .solve(h.submatrix(nx, 0, nt, nx));
+        let mut k = h.submatrix(0, nx, nx, nt) * &eliminated - h.submatrix(0, 0, nx, nx);
         if !k.is_all_finite() {
             return Err(crate::Error::Numerical(
                 "singular twist block in the stability operator".into(),
@@ -535,7 +540,7 @@ impl Steady<'_> {
         let context = format!(
             "stability at omegabar = {:.6e}, N = {}",
             self.omega,
-            config.x.len()
+            self.layout().nodes()
         );
         let resistance = Resistance::new(&blocks.schur, &context)?;
         if let Some(w) = &blocks.viscous {
