@@ -523,7 +523,15 @@ impl Steady<'_> {
             .submatrix(nx, nx, nt, nt)
             .partial_piv_lu()
             .solve(h.submatrix(nx, 0, nt, nx));
-        let mut k = h.submatrix(0, nx, nx, nt) * &eliminated - h.submatrix(0, 0, nx, nx);
+        // H_xt F = (F^T H_tx)^T with H_tx banded (a twist angle couples the nodes of its edge's
+        // neighbourhood): O(n^2) instead of a dense product.
+        let mut minus_ft_htx = Mat::zeros(nx, nx);
+        banded_product(
+            eliminated.transpose(),
+            h.submatrix(nx, 0, nt, nx),
+            minus_ft_htx.as_mut(),
+        );
+        let mut k = Mat::from_fn(nx, nx, |r, c| -minus_ft_htx[(c, r)] - h[(r, c)]);
         if !k.is_all_finite() {
             return Err(crate::Error::Numerical(
                 "singular twist block in the stability operator".into(),
