@@ -187,10 +187,10 @@ fn at_a_steady_state_the_velocity_jacobian_is_the_derivative_of_the_velocity() {
     }
 }
 
-/// The stability pair from the velocity form (`M = S^{-1}`, `K = M (S K)`) against the one of
-/// the force balance: `K` with the twist eliminated from `R'` ([`Steady::linearize`], eq. 3),
-/// `M = Z_ff` from the factorized `Z`, at random states (the identity holds everywhere, not
-/// only at equilibria).
+/// The stability pair from the velocity form's blocks (`M = S^{-1}`,
+/// `K = -H_xx + H_xt H_tt^{-1} H_tx + M W`) against the one of the force balance: `K` with the
+/// twist eliminated from `R'` ([`Steady::linearize`], eq. 3), `M = Z_ff` from the factorized `Z`,
+/// at random states (the identity holds everywhere, not only at equilibria).
 #[test]
 fn the_stability_pair_from_the_velocity_form_is_that_of_the_force_balance() {
     for (fluid, nodes, omegabar, amp, seed) in [
