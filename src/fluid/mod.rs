@@ -76,6 +76,7 @@
 
 mod derivative;
 mod geometry;
+mod lanes;
 mod mobility;
 mod resistance;
 pub mod rpy;

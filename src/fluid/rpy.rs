@@ -99,6 +99,7 @@
 //! distinct points, where `M` has a cone singularity, are given `D = 0`. The cost is `O((N Q)^2)`.
 
 use super::Resistance;
+use super::lanes::{LANES, Lanes};
 use super::mobility::add_block;
 use crate::{Error, Result};
 use faer::Mat;
@@ -164,34 +165,14 @@ impl GaussRule {
     }
 }
 
-/// Edges handled side by side by the quadrature kernels: the four `f64` of a [`Lanes`] vector
-/// (`wide::f64x4`: two SSE2 registers on the default x86-64 target, one AVX register in a build
-/// with AVX enabled, e.g. `RUSTFLAGS="-C target-cpu=native"`). The same sums either way.
-const LANES: usize = 4;
-
-/// One `f64` per lane.
-type Lanes = wide::f64x4;
-
 /// Whether the processor has AVX2 and FMA (detected at run time, once): the quadrature kernels
-/// then run in a copy compiled for them, where the lane operations of [`Lanes`] (written for the
-/// baseline x86-64 target, two SSE2 registers) are inlined and carried out in the wider
-/// registers. Measured with `cargo bench --bench fluid` on a 2-core AMD EPYC: the mobility at
-/// `N = 240` 2x faster, its shape derivative 3x. The sums are the same: no operation is fused
-/// (Rust contracts no `a * b + c` into an FMA by itself), so both copies give the same bits
-/// (`tests::both_kernel_copies_give_the_same_bits`).
+/// then run in a copy compiled for them, where the lane operations of [`Lanes`] are inlined and
+/// carried out in one AVX register each (the baseline copy uses two SSE2 registers). The sums are
+/// the same: no operation is fused (Rust contracts no `a * b + c` into an FMA by itself), so
+/// both copies give the same bits (`tests::both_kernel_copies_give_the_same_bits`).
 #[cfg(target_arch = "x86_64")]
 fn wide_registers() -> bool {
     std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-}
-
-/// The `LANES` entries of `v` from `at` on.
-#[inline(always)]
-fn load(v: &[f64], at: usize) -> Lanes {
-    Lanes::new(
-        v[at..at + LANES]
-            .try_into()
-            .expect("a row of PointLanes holds LANES entries from any edge on"),
-    )
 }
 
 /// `[f(0), f(1), f(2)]`, written out: in the kernels' inner loops `array::map` was left as a
@@ -352,16 +333,16 @@ impl Rpy {
         let slope = 3.0 * m0 / (32.0 * a);
         let (k2_3, k2_1, k6_1) = (2.0 * a * a * k / 3.0, 2.0 * a * a * k, 6.0 * a * a * k);
         let zero = Lanes::ZERO;
-        let inv = r.simd_gt(zero).bitselect(Lanes::ONE / r, zero);
+        let inv = r.gt(zero).select(1.0 / r, zero);
         let inv2 = inv * inv;
-        let far = r.simd_ge(Lanes::splat(2.0 * a));
+        let far = r.ge(Lanes::splat(2.0 * a));
         let beta_over_r = inv2 * (k - k2_1 * inv2);
         Radial {
-            alpha: far.bitselect(inv * (k + k2_3 * inv2), m0 - 3.0 * slope * r),
-            beta: far.bitselect(beta_over_r * r, slope * r),
-            dalpha: far.bitselect(-inv2 * (k + k2_1 * inv2), Lanes::splat(-3.0 * slope)),
-            dbeta: far.bitselect(-inv2 * (k - k6_1 * inv2), Lanes::splat(slope)),
-            beta_over_r: far.bitselect(beta_over_r, Lanes::splat(slope)),
+            alpha: far.select(inv * (k + k2_3 * inv2), m0 - 3.0 * slope * r),
+            beta: far.select(beta_over_r * r, slope * r),
+            dalpha: far.select(-inv2 * (k + k2_1 * inv2), Lanes::splat(-3.0 * slope)),
+            dbeta: far.select(-inv2 * (k - k6_1 * inv2), Lanes::splat(slope)),
+            beta_over_r: far.select(beta_over_r, Lanes::splat(slope)),
             inv,
         }
     }
@@ -443,7 +424,7 @@ impl Rpy {
                 let mut sums = [[Lanes::ZERO; 7]; 2];
                 for i in 0..q {
                     let at = i * lanes.stride + k2;
-                    let r = components(|c| y[c] - load(&lanes.pos[c], at));
+                    let r = components(|c| y[c] - Lanes::load(&lanes.pos[c], at));
                     let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
                     let c = radial.beta_over_r * radial.inv;
                     let rr = [
@@ -455,7 +436,7 @@ impl Rpy {
                         r[2] * r[2],
                     ];
                     for (sum, pw) in sums.iter_mut().zip(&lanes.pw) {
-                        let w = load(pw, at);
+                        let w = Lanes::load(pw, at);
                         sum[0] += w * radial.alpha;
                         let cw = c * w;
                         for (t, v) in sum[1..].iter_mut().zip(&rr) {
@@ -472,7 +453,7 @@ impl Rpy {
                     }
                 }
             }
-            let s = s.map(|sa| sa.map(|sab| sab.map(Lanes::to_array)));
+            let s = s.map(|sa| sa.map(|sab| sab.map(|t| t.0)));
             for l in 0..LANES.min(edges - k2) {
                 out.push(s.map(|sa| {
                     sa.map(|t| {
@@ -569,11 +550,11 @@ impl Rpy {
                 let mut acc = [Lanes::ZERO; 24];
                 for (i, &xi2) in self.rule.xi.iter().enumerate() {
                     let at = i * lanes.stride + k2;
-                    let r = components(|j| y[j] - load(&lanes.pos[j], at));
+                    let r = components(|j| y[j] - Lanes::load(&lanes.pos[j], at));
                     let c = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
                     let rhat = components(|j| r[j] * c.inv);
-                    let g0 = components(|j| load(&forces[j], at));
-                    let g1 = components(|j| load(&forces[3 + j], at));
+                    let g0 = components(|j| Lanes::load(&forces[j], at));
+                    let g1 = components(|j| Lanes::load(&forces[3 + j], at));
                     let rg0 = rhat[0] * g0[0] + rhat[1] * g0[1] + rhat[2] * g0[2];
                     let rg1 = rhat[0] * g1[0] + rhat[1] * g1[1] + rhat[2] * g1[2];
                     let (bg0, bg1) = (c.beta * rg0, c.beta * rg1);
@@ -619,7 +600,7 @@ impl Rpy {
                     }
                 }
             }
-            let rows = rows.map(|row| row.map(Lanes::to_array));
+            let rows = rows.map(|row| row.map(|t| t.0));
             for l in 0..LANES.min(edges - k2) {
                 let at = k2 + l;
                 for (ia, row) in rows.iter().enumerate() {
@@ -637,8 +618,8 @@ impl Rpy {
             .zip(&self.rule.xi)
             .zip(velocity.iter().zip(&own))
         {
-            let velocity = Vector3::from_fn(|j, _| velocity[j].reduce_add());
-            let own = Matrix3::from_fn(|a, b| own[3 * a + b].reduce_add());
+            let velocity = Vector3::from_fn(|j, _| velocity[j].sum());
+            let own = Matrix3::from_fn(|a, b| own[3 * a + b].sum());
             let phi = [1.0 - xi, xi];
             for (ia, &pi) in p_node.iter().enumerate() {
                 for (jb, phib) in phi.iter().enumerate() {
