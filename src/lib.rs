@@ -19,6 +19,7 @@ pub mod fluid;
 pub mod model;
 pub mod orbits;
 pub mod output;
+pub mod parallel;
 pub mod params;
 pub mod plot;
 pub mod report;

@@ -31,6 +31,7 @@ use crate::continuation::newton::{self, NewtonReport, NewtonSettings, System};
 use crate::dofs::Layout;
 use crate::fluid::{Resistance, stack_vectors};
 use crate::model::Model;
+use crate::parallel::{self, join_if};
 use crate::rod::Config;
 use crate::rod::frame::Chart;
 
@@ -171,42 +172,60 @@ impl<'a> Steady<'a> {
         let config = self.config(u);
         let x = &config.x;
         let layout = self.layout();
-        let (gradient, hessian) = self.model.rod.hessian(&config, &self.chart);
-        let a = self.model.fluid.mobility(x);
-        let context = format!("omegabar = {:.6e}, N = {}", self.omega, x.len());
-        let drag = if self.omega != 0.0 {
-            let resistance = self.model.fluid.factorize(&a, x, &context)?;
-            let forces = resistance.solve_vectors(&rotation_velocity(self.omega, x));
-            Some(Drag { resistance, forces })
-        } else {
-            if !self.model.fluid.definite_by_construction() {
-                self.model.fluid.factorize(&a, x, &context)?;
-            }
-            None
-        };
-        let force = self.restrict(&self.full_residual(&gradient, drag.as_ref()));
-        let mobility = ClampedMobility::split(a, &context)?;
-        let schur = mobility.schur();
         let (n, nx) = (layout.free_len(), layout.free_positions());
         // The free unknowns are two contiguous runs of the full layout: positions, then angles.
         let (first_x, first_t) = (layout.x(Layout::CLAMPED_NODES, 0), layout.theta(1));
-        let mut jacobian = Mat::zeros(n, n);
-        for (column, first, width) in [(0, first_x, nx), (nx, first_t, n - nx)] {
-            banded_product(
-                schur.as_ref(),
-                hessian.submatrix(first_x, first, nx, width),
-                jacobian.submatrix_mut(0, column, nx, width),
-            );
-            for c in 0..width {
-                for r in nx..n {
-                    jacobian[(r, column + c)] = -hessian[(first_t + r - nx, first + c)];
+        // The pieces run two at a time where they are independent: the elastic Hessian beside
+        // the mobility; then the drag (a factorization of A, the drag forces and the shape
+        // derivative B at them) beside the clamp's Schur complement S with the elastic rows S H
+        // (at RPY N = 400 the factorization and the second chain took about 20 ms each, B 55 ms;
+        // the RPY kernels share the threads with whatever runs beside them).
+        let parallel = n >= parallel::FROM;
+        let ((gradient, hessian), a) = join_if(
+            parallel,
+            || self.model.rod.hessian(&config, &self.chart),
+            || self.model.fluid.mobility(x),
+        );
+        let context = format!("omegabar = {:.6e}, N = {}", self.omega, x.len());
+        let (dragged, clamped) = join_if(
+            parallel,
+            || -> Result<Option<(Drag, Mat<f64>)>> {
+                if self.omega == 0.0 {
+                    if !self.model.fluid.definite_by_construction() {
+                        self.model.fluid.factorize(&a, x, &context)?;
+                    }
+                    return Ok(None);
                 }
-            }
-        }
-        let viscous = drag.as_ref().map(|d| {
-            let b = self.model.fluid.mobility_derivative(x, &d.forces);
+                let resistance = self.model.fluid.factorize(&a, x, &context)?;
+                let forces = resistance.solve_vectors(&rotation_velocity(self.omega, x));
+                let b = self.model.fluid.mobility_derivative(x, &forces);
+                Ok(Some((Drag { resistance, forces }, b)))
+            },
+            || -> Result<(Mat<f64>, Mat<f64>, Mat<f64>)> {
+                let (_, coupling) = clamp_coupling(&a, &context)?;
+                let schur = schur_complement(&a, &coupling);
+                let mut jacobian = Mat::zeros(n, n);
+                for (column, first, width) in [(0, first_x, nx), (nx, first_t, n - nx)] {
+                    banded_product(
+                        schur.as_ref(),
+                        hessian.submatrix(first_x, first, nx, width),
+                        jacobian.submatrix_mut(0, column, nx, width),
+                    );
+                    for c in 0..width {
+                        for r in nx..n {
+                            jacobian[(r, column + c)] = -hessian[(first_t + r - nx, first + c)];
+                        }
+                    }
+                }
+                Ok((coupling, schur, jacobian))
+            },
+        );
+        let (dragged, (coupling, schur, mut jacobian)) = (dragged?, clamped?);
+        let (drag, b) = dragged.unzip();
+        let force = self.restrict(&self.full_residual(&gradient, drag.as_ref()));
+        let viscous = b.map(|b| {
             let c = 3 * Layout::CLAMPED_NODES;
-            let mut w = b.submatrix(c, c, nx, nx) - &mobility.coupling * b.submatrix(0, c, c, nx);
+            let mut w = b.submatrix(c, c, nx, nx) - &coupling * b.submatrix(0, c, c, nx);
             // -Omega: d(Omega X)_i/dx_i on the free nodes.
             for i in 0..nx / 3 {
                 w[(3 * i + 1, 3 * i)] -= self.omega;
@@ -227,7 +246,7 @@ impl<'a> Steady<'a> {
             residual,
             jacobian,
             blocks: MobilityBlocks { schur, viscous },
-            coupling: mobility.coupling,
+            coupling,
         })
     }
 
@@ -511,11 +530,54 @@ impl Steady<'_> {
     /// would give the same `K` in one product, but with the stiff elastic part enlarged by the
     /// condition number of `S` in round-off: enough, next to the double branch point of
     /// Greenhill's column at `N = 80`, to change the sign of the eigenvalues that cross there.
+    ///
+    /// The elastic part and the factorization of `S` are independent, and so are `Z_ff W` and
+    /// the inverse: each pair runs on two threads (at RPY `N = 400` the four took about 28, 18,
+    /// 78 and 33 ms one after the other). The arithmetic is the same either way.
     pub fn stability_pair_from(
         &self,
         u: &[f64],
         blocks: Option<&MobilityBlocks>,
     ) -> Result<(Mat<f64>, Mat<f64>)> {
+        let made;
+        let blocks = match blocks {
+            Some(b) => b,
+            None => {
+                made = self.linearize_velocity(u)?.blocks;
+                &made
+            }
+        };
+        let context = format!(
+            "stability at omegabar = {:.6e}, N = {}",
+            self.omega,
+            self.layout().nodes()
+        );
+        let parallel = blocks.schur.nrows() >= parallel::FROM;
+        let (elastic, resistance) = join_if(
+            parallel,
+            || self.elastic_stiffness(u),
+            || Resistance::new(&blocks.schur, &context),
+        );
+        let (mut k, resistance) = (elastic?, resistance?);
+        let (viscous, inverse) = join_if(
+            parallel,
+            || {
+                blocks
+                    .viscous
+                    .as_ref()
+                    .map(|w| resistance.solve(w.as_ref()))
+            },
+            || resistance.inverse(),
+        );
+        if let Some(zw) = viscous {
+            k += zw;
+        }
+        Ok((k, inverse))
+    }
+
+    /// The elastic part of the stability operator, `-H_xx + H_xt H_tt^{-1} H_tx`: the stiffness
+    /// of the free positions with the twist relaxed.
+    fn elastic_stiffness(&self, u: &[f64]) -> Result<Mat<f64>> {
         let h = self.free_hessian(u);
         let nx = self.layout().free_positions();
         let nt = h.nrows() - nx;
@@ -531,30 +593,13 @@ impl Steady<'_> {
             h.submatrix(nx, 0, nt, nx),
             minus_ft_htx.as_mut(),
         );
-        let mut k = Mat::from_fn(nx, nx, |r, c| -minus_ft_htx[(c, r)] - h[(r, c)]);
+        let k = Mat::from_fn(nx, nx, |r, c| -minus_ft_htx[(c, r)] - h[(r, c)]);
         if !k.is_all_finite() {
             return Err(crate::Error::Numerical(
                 "singular twist block in the stability operator".into(),
             ));
         }
-        let made;
-        let blocks = match blocks {
-            Some(b) => b,
-            None => {
-                made = self.linearize_velocity(u)?.blocks;
-                &made
-            }
-        };
-        let context = format!(
-            "stability at omegabar = {:.6e}, N = {}",
-            self.omega,
-            self.layout().nodes()
-        );
-        let resistance = Resistance::new(&blocks.schur, &context)?;
-        if let Some(w) = &blocks.viscous {
-            k += resistance.solve(w.as_ref());
-        }
-        Ok((k, resistance.inverse()))
+        Ok(k)
     }
 }
 
@@ -589,18 +634,7 @@ struct ClampedMobility {
 impl ClampedMobility {
     /// Splits `a`; a singular clamp block is an error naming `context`.
     fn split(a: Mat<f64>, context: &str) -> Result<Self> {
-        let c = 3 * Layout::CLAMPED_NODES;
-        let nx = a.nrows() - c;
-        let cc_inverse = a
-            .submatrix(0, 0, c, c)
-            .partial_piv_lu()
-            .solve(Mat::<f64>::identity(c, c));
-        if !cc_inverse.is_all_finite() {
-            return Err(crate::Error::Numerical(format!(
-                "singular clamp block of the mobility ({context})"
-            )));
-        }
-        let coupling = a.submatrix(c, 0, nx, c) * &cc_inverse;
+        let (cc_inverse, coupling) = clamp_coupling(&a, context)?;
         Ok(ClampedMobility {
             a,
             cc_inverse,
@@ -628,10 +662,33 @@ impl ClampedMobility {
 
     /// `S = A_ff - C A_cf`, the Schur complement of the clamp block: `Z_ff^{-1}`.
     fn schur(&self) -> Mat<f64> {
-        let c = 3 * Layout::CLAMPED_NODES;
-        let nx = self.a.nrows() - c;
-        self.a.submatrix(c, c, nx, nx) - &self.coupling * self.a.submatrix(0, c, c, nx)
+        schur_complement(&self.a, &self.coupling)
     }
+}
+
+/// `A_cc^{-1}` and `C = A_fc A_cc^{-1}` of the mobility `a` split at the clamp; a singular clamp
+/// block is an error naming `context`.
+fn clamp_coupling(a: &Mat<f64>, context: &str) -> Result<(Mat<f64>, Mat<f64>)> {
+    let c = 3 * Layout::CLAMPED_NODES;
+    let nx = a.nrows() - c;
+    let cc_inverse = a
+        .submatrix(0, 0, c, c)
+        .partial_piv_lu()
+        .solve(Mat::<f64>::identity(c, c));
+    if !cc_inverse.is_all_finite() {
+        return Err(crate::Error::Numerical(format!(
+            "singular clamp block of the mobility ({context})"
+        )));
+    }
+    let coupling = a.submatrix(c, 0, nx, c) * &cc_inverse;
+    Ok((cc_inverse, coupling))
+}
+
+/// `S = A_ff - C A_cf` of the mobility `a` with the coupling `C` ([`clamp_coupling`]).
+fn schur_complement(a: &Mat<f64>, coupling: &Mat<f64>) -> Mat<f64> {
+    let c = 3 * Layout::CLAMPED_NODES;
+    let nx = a.nrows() - c;
+    a.submatrix(c, c, nx, nx) - coupling * a.submatrix(0, c, c, nx)
 }
 
 /// `out = -s h` for a dense `s` and a banded `h`: in blocks of columns, each multiplied by the
