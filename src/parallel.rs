@@ -1,5 +1,5 @@
-//! Independent pieces of one linearization or one spectrum, run on two threads where they are
-//! large enough to pay for it.
+//! Independent pieces of one linearization or one stability pair, run on two threads where they
+//! are large enough to pay for it.
 
 /// Unknowns from which the pieces run on two threads ([`join_if`]). Below it each piece takes a
 /// fraction of a millisecond, and waking the second thread for it cost more than it saved: with
