@@ -191,9 +191,7 @@ impl<'a> Steady<'a> {
             parallel,
             || -> Result<Option<(Drag, Mat<f64>)>> {
                 if self.omega == 0.0 {
-                    if !self.model.fluid.definite_by_construction() {
-                        self.model.fluid.factorize(&a, x, &context)?;
-                    }
+                    self.check_definite(&a, x, &context)?;
                     return Ok(None);
                 }
                 let resistance = self.model.fluid.factorize(&a, x, &context)?;
@@ -264,10 +262,17 @@ impl<'a> Steady<'a> {
     fn clamped_mobility(&self, x: &[Vector3<f64>], what: &str) -> Result<ClampedMobility> {
         let context = format!("{what} at omegabar = {:.6e}, N = {}", self.omega, x.len());
         let a = self.model.fluid.mobility(x);
-        if !self.model.fluid.definite_by_construction() {
-            self.model.fluid.factorize(&a, x, &context)?;
-        }
+        self.check_definite(&a, x, &context)?;
         ClampedMobility::split(a, &context)
+    }
+
+    /// Where the mobility `a` at `x` is not positive definite by construction (Lighthill), its
+    /// Cholesky factorization, as the resistance would be made: the error names `context`.
+    fn check_definite(&self, a: &Mat<f64>, x: &[Vector3<f64>], context: &str) -> Result<()> {
+        if !self.model.fluid.definite_by_construction() {
+            self.model.fluid.factorize(a, x, context)?;
+        }
+        Ok(())
     }
 
     /// `velocity` (the free positions' rows) followed by the twist rows of `full`.
@@ -472,10 +477,10 @@ impl Steady<'_> {
         let rigid = stack_vectors(&rotation_velocity(1.0, &x));
         let c = 3 * Layout::CLAMPED_NODES;
         let carried = &lin.coupling * rigid.submatrix(0, 0, c, 1);
-        let nx = self.layout().free_positions();
+        let (n, nx) = (self.layout().free_len(), self.layout().free_positions());
         (0..nx)
             .map(|r| carried[(r, 0)] - rigid[(c + r, 0)])
-            .chain(std::iter::repeat_n(0.0, self.layout().nodes() - 2))
+            .chain(std::iter::repeat_n(0.0, n - nx))
             .collect()
     }
 
