@@ -145,7 +145,7 @@ impl<'a> Steady<'a> {
         let gradient = self.model.rod.gradient(&config, &self.chart);
         let force = self.full_residual(&gradient, None);
         let mobility = self.clamped_mobility(&config.x, "velocity")?;
-        let (_, velocity) = mobility.velocity(&force, &rotation_velocity(self.omega, &config.x));
+        let velocity = mobility.velocity(&force, &rotation_velocity(self.omega, &config.x));
         Ok(self.with_twist_rows(velocity, &force))
     }
 
@@ -647,10 +647,10 @@ impl ClampedMobility {
         })
     }
 
-    /// The forces on the fluid `F` (clamp reactions first, then `force` of the free nodes, all
-    /// nodes) and the velocity of the free nodes less `rigid` (eq. 4), for `force` in the full
-    /// layout of the unknowns (only its free positions are read) and the rigid velocities.
-    fn velocity(&self, force: &[f64], rigid: &[Vector3<f64>]) -> (Vec<Vector3<f64>>, Vec<f64>) {
+    /// The velocity of the free nodes less `rigid` (eq. 4), with the clamp reactions that carry
+    /// the clamp with `rigid`, for `force` in the full layout of the unknowns (only its free
+    /// positions are read) and the rigid velocities.
+    fn velocity(&self, force: &[f64], rigid: &[Vector3<f64>]) -> Vec<f64> {
         let n3 = self.a.nrows();
         let c = 3 * Layout::CLAMPED_NODES;
         let rigid = stack_vectors(rigid);
@@ -659,10 +659,7 @@ impl ClampedMobility {
         let reactions = &self.cc_inverse * rhs;
         f.submatrix_mut(0, 0, c, 1).copy_from(&reactions);
         let v = self.a.submatrix(c, 0, n3 - c, n3) * &f - rigid.submatrix(c, 0, n3 - c, 1);
-        let forces = (0..n3 / 3)
-            .map(|i| Vector3::new(f[(3 * i, 0)], f[(3 * i + 1, 0)], f[(3 * i + 2, 0)]))
-            .collect();
-        (forces, (0..n3 - c).map(|r| v[(r, 0)]).collect())
+        (0..n3 - c).map(|r| v[(r, 0)]).collect()
     }
 
     /// `S = A_ff - C A_cf`, the Schur complement of the clamp block: `Z_ff^{-1}`.
