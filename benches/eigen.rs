@@ -3,7 +3,7 @@
 //! certificate, src/continuation/krylov.rs), on the stability pair `(K, Z_ff)` of the
 //! representative helix at 0.4 rad/s, at N = 30, 45, 60 (Lighthill) and 120, 240 (RPY: the
 //! Lighthill operator is indefinite beyond N = 87); each as a multiple of one LU factorization
-//! of a matrix of the same size. The Krylov shift is seeded, as along a branch, from a leading
+//! of a matrix of the same size (`helixbif::lu::Lu`, as the Krylov path makes it). The Krylov shift is seeded, as along a branch, from a leading
 //! spectrum of the same state. Then `locate` at N = 60 (Lighthill) with each
 //! `continuation.eigen`, with the number of Krylov results, dense solves and fallbacks.
 //!
@@ -19,6 +19,7 @@ use helixbif::continuation::newton::NewtonSettings;
 use helixbif::continuation::stability::{eigen_counts, leading, reset_eigen_counts, spectrum};
 use helixbif::continuation::{ContinuationSettings, EigenMethod};
 use helixbif::fluid::FluidModel;
+use helixbif::lu::Lu;
 use helixbif::model::Model;
 use helixbif::params::Physical;
 use helixbif::solve::solve_at;
@@ -77,7 +78,7 @@ fn main() {
         let sigma = shift_after(&prior);
         let shifted = Mat::from_fn(n, n, |i, j| k[(i, j)] - sigma * m[(i, j)]);
         let lu = common::median_seconds(repeats, || {
-            std::hint::black_box(shifted.partial_piv_lu());
+            std::hint::black_box(Lu::new(shifted.as_ref()));
         });
         let dense = common::median_seconds(repeats, || {
             std::hint::black_box(spectrum(&k, &m, 6).unwrap());

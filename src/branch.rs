@@ -5,8 +5,8 @@ use std::borrow::Borrow;
 use std::cell::{OnceCell, RefCell};
 use std::sync::Arc;
 
+use crate::lu::Lu;
 use faer::Mat;
-use faer::linalg::solvers::PartialPivLu;
 use serde::Serialize;
 
 use crate::Result;
@@ -19,7 +19,6 @@ use crate::dynamics::{rechart, slave_twist_chord};
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{MobilityBlocks, Observables, Steady, SteadyState, height};
-use faer::prelude::Solve;
 
 /// The continuation parameter of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,7 +74,7 @@ pub struct TwistMap {
     /// The state `(u, p)`.
     u: Vec<f64>,
     p: f64,
-    j_tt: PartialPivLu<f64>,
+    j_tt: Lu<f64>,
     j_tx: Mat<f64>,
 }
 
@@ -109,7 +108,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
         let map = Arc::new(TwistMap {
             u: u.to_vec(),
             p,
-            j_tt: Mat::from_fn(nt, nt, |r, c| -h[(nx + r, nx + c)]).partial_piv_lu(),
+            j_tt: Lu::of(Mat::from_fn(nt, nt, |r, c| -h[(nx + r, nx + c)])),
             j_tx: Mat::from_fn(nt, nx, |r, c| -h[(nx + r, c)]),
         });
         *self.twist.borrow_mut() = Some(map.clone());
@@ -236,7 +235,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
             // The twist predicted to first order, theta* - J_tt^{-1} J_tx y, then slaved by the
             // chord method on J_tt (gradients only).
             let j_tx_y = &twist.j_tx * Mat::from_fn(nx, 1, |i, _| y[i]);
-            let dtheta = twist.j_tt.solve(&j_tx_y);
+            let dtheta = twist.j_tt.solve(j_tx_y.as_ref());
             let mut moved = u.clone();
             for (x, d) in moved.iter_mut().zip(y) {
                 *x += d;

@@ -108,7 +108,7 @@
 
 use std::ops::ControlFlow;
 
-use faer::linalg::solvers::PartialPivLu;
+use crate::lu::Lu;
 use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side, c64};
@@ -552,7 +552,7 @@ pub fn slave_twist_chord(
     chart: &Chart,
     u: &[f64],
     tol: f64,
-    j_tt: &PartialPivLu<f64>,
+    j_tt: &Lu<f64>,
 ) -> Result<Vec<f64>> {
     let mut chord = Chord::holding(j_tt.clone());
     slave_twist_with(model, chart, u, tol, Jacobians::Reuse(&mut chord))

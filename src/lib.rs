@@ -16,6 +16,7 @@ pub mod dynamics;
 pub mod error;
 pub mod fit;
 pub mod fluid;
+pub mod lu;
 pub mod model;
 pub mod orbits;
 pub mod output;

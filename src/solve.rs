@@ -6,7 +6,6 @@ use crate::Result;
 use crate::continuation::newton::{self, NewtonReport, NewtonSettings};
 use crate::model::Model;
 use crate::steady::{self, Observables, Steady, SteadyState, height};
-use faer::prelude::Solve;
 
 /// A steady state with everything `helixbif solve` reports.
 #[derive(Clone, Debug)]
@@ -126,7 +125,7 @@ fn ramp_tangent(model: &Model, load: Load, current: &SteadyState) -> Result<Opti
         Load::Weight => problem.weight_derivative(),
     };
     let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -derivative[i]);
-    let du = lin.jacobian.partial_piv_lu().solve(&rhs);
+    let du = crate::lu::Lu::of(lin.jacobian).solve(rhs.as_ref());
     let tangent: Vec<f64> = (0..u.len()).map(|i| du[(i, 0)]).collect();
     Ok(tangent.iter().all(|v| v.is_finite()).then_some(tangent))
 }

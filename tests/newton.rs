@@ -5,6 +5,7 @@
 use faer::Mat;
 use helixbif::Result;
 use helixbif::continuation::newton::{Chord, Globalization, Jacobians, Newton, System};
+use helixbif::lu::Lu;
 
 /// `G(x, y) = (x^2 + y^2 - 4, x y - 1)`: roots where the circle of radius 2 meets the hyperbola
 /// `x y = 1`, `x = sqrt(2 + sqrt 3) = 1.9318516525781366`, `y = 1/x` in the first quadrant.
@@ -119,7 +120,7 @@ fn a_stale_chord_whose_step_makes_the_residual_grow_is_dropped_at_the_point_it_s
     let start = vec![2.1, 0.6];
     let far = [0.4, -1.5];
     let (_, stale) = CircleHyperbola.residual_and_jacobian(&far).unwrap();
-    let mut chord = Chord::holding(stale.partial_piv_lu());
+    let mut chord = Chord::holding(Lu::new(stale.as_ref()));
     let (u, report) = newton(1e-12, Globalization::Full)
         .run(
             &CircleHyperbola,

@@ -53,8 +53,6 @@ use std::cell::RefCell;
 use std::ops::ControlFlow;
 
 use faer::Mat;
-use faer::linalg::solvers::PartialPivLu;
-use faer::prelude::Solve;
 
 use super::events::{self, Event, EventKind, modes_exchanged};
 use super::newton::{
@@ -62,6 +60,7 @@ use super::newton::{
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
+use crate::lu::Lu;
 use crate::{Error, Result};
 
 /// A corrector that has used all its iterations with the residual within this many times `tol`
@@ -205,17 +204,15 @@ fn tangent_over(
     metric: &Metric,
     r_u: &[f64],
     r_p: f64,
-    lu: Option<&PartialPivLu<f64>>,
+    lu: Option<&Lu<f64>>,
 ) -> Result<(Vec<f64>, f64)> {
     let n = lin.g.len();
     let rhs = Mat::from_fn(n + 1, 1, |i, _| if i == n { 1.0 } else { 0.0 });
     let z = match lu {
-        Some(lu) => lu.solve(&rhs),
+        Some(lu) => lu.solve(rhs.as_ref()),
         None => {
             let ru: Vec<f64> = r_u.iter().map(|v| metric.wu * v).collect();
-            bordered_matrix(lin, &ru, metric.wp * r_p)
-                .partial_piv_lu()
-                .solve(&rhs)
+            Lu::of(bordered_matrix(lin, &ru, metric.wp * r_p)).solve(rhs.as_ref())
         }
     };
     if !z.is_all_finite() {
@@ -239,7 +236,7 @@ pub struct Corrected {
     /// from it never claims to beat.
     pub uncertainty: f64,
     /// The factorized bordered matrix at the point, when the corrector made it there.
-    factorized: Option<PartialPivLu<f64>>,
+    factorized: Option<Lu<f64>>,
     /// The tangent the corrector's hyperplane was normal to.
     normal: (Vec<f64>, f64),
 }

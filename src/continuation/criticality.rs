@@ -55,13 +55,12 @@
 use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
 
-use faer::linalg::solvers::PartialPivLu;
-use faer::prelude::Solve;
 use faer::{Mat, c64};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Linearization, Problem};
+use crate::lu::Lu;
 use crate::{Error, Result};
 
 /// The step `h` of the differences, relative to the typical size of a unit vector of the
@@ -141,8 +140,8 @@ pub fn first_lyapunov(
     let shifted = Mat::from_fn(n, n, |i, j| c64::new(-k[(i, j)], 2.0 * w * m[(i, j)]));
     let critical = Critical {
         m: &m,
-        k: k.partial_piv_lu(),
-        resonant: shifted.partial_piv_lu(),
+        k: Lu::new(k.as_ref()),
+        resonant: Lu::of(shifted),
         q,
         r,
         w,
@@ -230,14 +229,14 @@ const SHIFT: f64 = 1e-9;
 /// The null vector of `K - s M`: two steps of inverse iteration from a fixed start (shifted by
 /// [`SHIFT`]), scaled to `<q, q> = 1` with `Re q` orthogonal to `Im q` and `|Re q| >= |Im q|`;
 /// with the factorization of the shifted pencil, whose adjoint gives the left vector.
-fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<(Vec<c64>, PartialPivLu<c64>)> {
+fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<(Vec<c64>, Lu<c64>)> {
     let n = k.nrows();
     let s = s + SHIFT * s.norm();
     let pencil = Mat::from_fn(n, n, |i, j| c64::new(k[(i, j)], 0.0) - s * m[(i, j)]);
     let mut v = start(n);
-    let lu = pencil.partial_piv_lu();
+    let lu = Lu::of(pencil);
     for _ in 0..2 {
-        let x = lu.solve(column(&v));
+        let x = lu.solve(column(&v).as_ref());
         v = (0..n).map(|i| x[(i, 0)]).collect();
         v = normalized(&v)?;
     }
@@ -265,11 +264,11 @@ fn right_vector(k: &Mat<f64>, m: &Mat<f64>, s: c64) -> Result<(Vec<c64>, Partial
 /// `r` with `(K^T - conj(s) M) r = 0`, by inverse iteration as in [`right_vector`] over the
 /// adjoint of its factorized pencil `K - s M` (`M` symmetric), scaled so that
 /// `<p, q> = r^H M q = 1` (`p = M r`, the left eigenvector of `A = M^{-1} K`).
-fn left_vector(pencil: &PartialPivLu<c64>, m: &Mat<f64>, q: &[c64]) -> Result<Vec<c64>> {
+fn left_vector(pencil: &Lu<c64>, m: &Mat<f64>, q: &[c64]) -> Result<Vec<c64>> {
     let n = m.nrows();
     let mut r = start(n);
     for _ in 0..2 {
-        let x = pencil.solve_adjoint(column(&r));
+        let x = pencil.solve_adjoint(column(&r).as_ref());
         r = (0..n).map(|i| x[(i, 0)]).collect();
         r = normalized(&r)?;
     }
@@ -482,8 +481,8 @@ impl<'a> Forms<'a> {
 /// factorized, the right and left critical vectors and the frequency.
 struct Critical<'a> {
     m: &'a Mat<f64>,
-    k: PartialPivLu<f64>,
-    resonant: PartialPivLu<c64>,
+    k: Lu<f64>,
+    resonant: Lu<c64>,
     q: Vec<c64>,
     r: Vec<c64>,
     w: f64,
@@ -535,10 +534,10 @@ impl Critical<'_> {
             .collect();
         // A^{-1} B(q, qb) = K^{-1} M B(q, qb) (real).
         let mb = m * Mat::from_fn(n, 1, |i, _| b_qqb[i]);
-        let a_inv = self.k.solve(&mb);
+        let a_inv = self.k.solve(mb.as_ref());
         let a_inv: Vec<c64> = (0..n).map(|i| c64::new(a_inv[(i, 0)], 0.0)).collect();
         // (2 i w - A)^{-1} B(q, q) = (2 i w M - K)^{-1} M B(q, q).
-        let second = self.resonant.solve(column(&real_times(m, &b_qq)));
+        let second = self.resonant.solve(column(&real_times(m, &b_qq)).as_ref());
         let second: Vec<c64> = (0..n).map(|i| second[(i, 0)]).collect();
         if !second
             .iter()

@@ -79,14 +79,13 @@
 //! [`Refusal`]; [`super::stability::leading`] then falls back to the dense solver.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::solvers::PartialPivLu;
 use faer::matrix_free::LinOp;
 use faer::matrix_free::eigen::{PartialEigenParams, partial_eigen, partial_eigen_scratch};
-use faer::prelude::Solve;
 use faer::reborrow::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, Side, c64};
 
 use super::stability::Spectrum;
+use crate::lu::Lu;
 
 /// Largest backward error (4) of an eigenpair that is kept.
 pub const RESIDUAL_TOL: f64 = 1e-11;
@@ -121,7 +120,7 @@ pub enum Refusal {
 
 /// The shift-invert operator (1), applied over the LU factorization of `K - sigma M`.
 struct ShiftInvert<'a> {
-    lu: &'a PartialPivLu<f64>,
+    lu: &'a Lu<f64>,
     m: MatRef<'a, f64>,
 }
 
@@ -311,7 +310,7 @@ pub fn rightmost(
 ) -> Result<Spectrum, Refusal> {
     let n = k.nrows();
     let shifted = Mat::from_fn(n, n, |i, j| k[(i, j)] - sigma * m[(i, j)]);
-    let lu = shifted.partial_piv_lu();
+    let lu = Lu::of(shifted);
     let op = ShiftInvert {
         lu: &lu,
         m: m.as_ref(),
@@ -430,7 +429,7 @@ mod tests {
         let n = 40;
         let k = Mat::from_fn(n, n, |i, j| if i == j { -(i as f64) - 1.0 } else { 0.0 });
         let m = Mat::<f64>::identity(n, n);
-        let lu = (&k - &m).partial_piv_lu();
+        let lu = Lu::of(&k - &m);
         let op = ShiftInvert {
             lu: &lu,
             m: m.as_ref(),

@@ -35,10 +35,9 @@
 //! or when the Newton step is at round-off size (`|du| <= 1e-13 (1 + |u|)`).
 
 use faer::Mat;
-use faer::linalg::solvers::PartialPivLu;
-use faer::prelude::Solve;
 use serde::{Deserialize, Serialize};
 
+use crate::lu::Lu;
 use crate::{Error, Result};
 
 /// A square nonlinear system.
@@ -112,7 +111,7 @@ pub enum Jacobians<'c> {
 /// factorizations made.
 #[derive(Default)]
 pub struct Chord {
-    lu: Option<PartialPivLu<f64>>,
+    lu: Option<Lu<f64>>,
     /// Factorizations made so far.
     pub built: usize,
 }
@@ -120,7 +119,7 @@ pub struct Chord {
 impl Chord {
     /// A chord holding `lu`, the factorization of a Jacobian made elsewhere (e.g. at a nearby
     /// solution), counted as built.
-    pub fn holding(lu: PartialPivLu<f64>) -> Self {
+    pub fn holding(lu: Lu<f64>) -> Self {
         Chord {
             lu: Some(lu),
             built: 1,
@@ -135,7 +134,7 @@ impl Chord {
         self.lu.is_some()
     }
     /// The factorization held, if any, taken out of the chord.
-    pub fn take(&mut self) -> Option<PartialPivLu<f64>> {
+    pub fn take(&mut self) -> Option<Lu<f64>> {
         self.lu.take()
     }
 }
@@ -249,9 +248,9 @@ pub fn norm(v: &[f64]) -> f64 {
 }
 
 /// `-M^{-1} g` for a factorized `M`, or `None` when the result is not finite (singular `M`).
-fn newton_step(lu: &PartialPivLu<f64>, g: &[f64]) -> Option<Vec<f64>> {
+fn newton_step(lu: &Lu<f64>, g: &[f64]) -> Option<Vec<f64>> {
     let rhs = Mat::from_fn(g.len(), 1, |i, _| -g[i]);
-    let x = lu.solve(&rhs);
+    let x = lu.solve(rhs.as_ref());
     let x: Vec<f64> = (0..g.len()).map(|i| x[(i, 0)]).collect();
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
@@ -326,7 +325,7 @@ impl Newton {
             {
                 u = start;
                 let (g_start, jac) = system.residual_and_jacobian(&u)?;
-                chord.lu = Some(jac.partial_piv_lu());
+                chord.lu = Some(Lu::of(jac));
                 chord.built += 1;
                 fresh = true;
                 g = g_start;
@@ -353,7 +352,7 @@ impl Newton {
                     return Err(fail(no_convergence(), &history));
                 }
                 let (_, jac) = system.residual_and_jacobian(&u)?;
-                chord.lu = Some(jac.partial_piv_lu());
+                chord.lu = Some(Lu::of(jac));
                 chord.built += 1;
                 fresh = true;
             }
@@ -361,7 +360,7 @@ impl Newton {
                 retreat = Some(u.clone());
             }
             if let Some(jac) = pending.take() {
-                chord.lu = Some(jac.partial_piv_lu());
+                chord.lu = Some(Lu::of(jac));
                 chord.built += 1;
             }
             let lu = chord.lu.as_ref().expect("a factorization is held here");

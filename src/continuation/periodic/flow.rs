@@ -1,8 +1,8 @@
 //! The period map `Phi(x0, T, p)` of equal BDF2 steps and its sensitivities, eqs. (2) and (3)
 //! of the module docs.
 
+use crate::lu::Lu;
 use faer::Mat;
-use faer::linalg::solvers::PartialPivLu;
 use faer::prelude::Solve;
 use serde::{Deserialize, Serialize};
 
@@ -221,7 +221,7 @@ pub fn period_map<D: ImplicitDynamics>(
         let v = velocity.at(&u[..nx]);
         if sensitivities {
             let lin = dynamics.step_linearize(p, velocity, &u)?;
-            let lu: PartialPivLu<f64> = lin.g_u.partial_piv_lu();
+            let lu = Lu::new(lin.g_u.as_ref());
             let s1 = &sens[sens.len() - 1];
             // h db, the change of the offset with the earlier states, eq. (3):
             // -2 S_0 - h df_0 for the trapezoidal step, -2 S_{k-1} + S_{k-2}/2 for BDF2.
@@ -249,7 +249,7 @@ pub fn period_map<D: ImplicitDynamics>(
             for (r, gp) in lin.g_p.iter().enumerate() {
                 rhs[(r, nx + 1)] -= gp;
             }
-            let du = lu.solve(&rhs);
+            let du = lu.solve(rhs.as_ref());
             if !du.is_all_finite() {
                 return Err(Error::Numerical(format!(
                     "periodic orbit: singular step Jacobian at step {k} of {n}"

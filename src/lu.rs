@@ -1,0 +1,203 @@
+//! Dense LU factorization with partial pivoting, `P A = L U` (faer's kernels), for the solves of
+//! the size of the rod's unknowns: Newton's steps (the continuation corrector's bordered matrix,
+//! the steady solve, the time step), the tangent, the shift-invert spectrum and the criticality
+//! solves.
+//!
+//! Two differences from faer's `PartialPivLu`:
+//!
+//! * From [`FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
+//!   explicitly: faer's own type reads a process-wide setting, which would let concurrent cases
+//!   of a sweep change each other's parallelism (and so their round-off) by timing. The split of
+//!   the work is fixed at two parts whatever the number of threads rayon runs, so the factors
+//!   are the same bits on every machine (`the_factors_do_not_depend_on_the_thread_count`).
+//! * `L` (unit lower, below the diagonal) and `U` (upper, with the diagonal) stay in the one
+//!   matrix the factorization overwrote, as in LAPACK: faer's type copies them into two new
+//!   matrices, two more `n x n` allocations filled once per factorization.
+//!
+//! Solves run on one thread: with a few right-hand sides they read the factors once and are
+//! bound by memory, not arithmetic.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::lu::partial_pivoting::{factor, solve};
+use faer::linalg::triangular_solve;
+use faer::perm::{PermRef, permute_rows_in_place, permute_rows_in_place_scratch};
+use faer::traits::ComplexField;
+use faer::{Conj, Mat, MatMut, MatRef, Par};
+
+/// Rows from which the factorization runs on two threads: the threshold of the linearization's
+/// joins ([`crate::parallel::FROM`]). On the 2-core machine an LU of order 1593 (the bordered
+/// matrix at RPY `N = 400`) took 76-96 ms on two threads against 88-113 ms on one (eight
+/// alternated runs in one process, a noisy phase of the machine).
+pub const FROM: usize = crate::parallel::FROM;
+
+/// `P A = L U`, the factors held in one matrix.
+#[derive(Clone)]
+pub struct Lu<T: ComplexField> {
+    factors: Mat<T>,
+    forward: Vec<usize>,
+    backward: Vec<usize>,
+}
+
+impl<T: ComplexField> Lu<T> {
+    /// The factorization of `a` (square), which it copies.
+    pub fn new(a: MatRef<'_, T>) -> Self {
+        Self::of(a.to_owned())
+    }
+
+    /// The factorization of `a` (square), overwritten by its factors.
+    pub fn of(mut a: Mat<T>) -> Self {
+        let n = a.nrows();
+        assert_eq!(n, a.ncols(), "LU of a {n} x {} matrix", a.ncols());
+        let par = if n >= FROM { Par::rayon(2) } else { Par::Seq };
+        let mut forward = vec![0usize; n];
+        let mut backward = vec![0usize; n];
+        let mut scratch = MemBuffer::new(factor::lu_in_place_scratch::<usize, T>(
+            n,
+            n,
+            par,
+            Default::default(),
+        ));
+        factor::lu_in_place(
+            a.as_mut(),
+            &mut forward,
+            &mut backward,
+            par,
+            MemStack::new(&mut scratch),
+            Default::default(),
+        );
+        Lu {
+            factors: a,
+            forward,
+            backward,
+        }
+    }
+
+    /// The order of the matrix.
+    pub fn dim(&self) -> usize {
+        self.factors.nrows()
+    }
+
+    fn perm(&self) -> PermRef<'_, usize> {
+        PermRef::new_checked(&self.forward, &self.backward, self.dim())
+    }
+
+    /// `rhs <- A^{-1} rhs`.
+    pub fn solve_in_place(&self, rhs: MatMut<'_, T>) {
+        let mut scratch = MemBuffer::new(solve::solve_in_place_scratch::<usize, T>(
+            self.dim(),
+            rhs.ncols(),
+            Par::Seq,
+        ));
+        // The unit lower solve reads only below the diagonal, the upper one only on and above.
+        solve::solve_in_place_with_conj(
+            self.factors.as_ref(),
+            self.factors.as_ref(),
+            self.perm(),
+            Conj::No,
+            rhs,
+            Par::Seq,
+            MemStack::new(&mut scratch),
+        );
+    }
+
+    /// `A^{-1} rhs`.
+    pub fn solve(&self, rhs: MatRef<'_, T>) -> Mat<T> {
+        let mut x = rhs.to_owned();
+        self.solve_in_place(x.as_mut());
+        x
+    }
+
+    /// `A^{-H} rhs` (the conjugate transpose; the transpose for a real matrix).
+    pub fn solve_adjoint(&self, rhs: MatRef<'_, T>) -> Mat<T> {
+        let mut x = rhs.to_owned();
+        let lu = self.factors.as_ref();
+        // A = P^T L U, so A^H = U^H L^H P: solve with U^H (lower), L^H (unit upper), then P^T.
+        triangular_solve::solve_lower_triangular_in_place_with_conj(
+            lu.transpose(),
+            Conj::Yes,
+            x.as_mut(),
+            Par::Seq,
+        );
+        triangular_solve::solve_unit_upper_triangular_in_place_with_conj(
+            lu.transpose(),
+            Conj::Yes,
+            x.as_mut(),
+            Par::Seq,
+        );
+        let mut scratch = MemBuffer::new(permute_rows_in_place_scratch::<usize, T>(
+            self.dim(),
+            x.ncols(),
+        ));
+        permute_rows_in_place(
+            x.as_mut(),
+            self.perm().inverse(),
+            MemStack::new(&mut scratch),
+        );
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::c64;
+    use faer::prelude::Solve;
+
+    /// A well-conditioned test matrix of order `n` with a generic pattern of signs (pivoting
+    /// happens: the diagonal is not dominant).
+    fn matrix(n: usize) -> Mat<f64> {
+        Mat::from_fn(n, n, |i, j| {
+            ((i * 7919 + j * 104_729) % 1000) as f64 / 500.0 - 1.0 + if i == j { 2.0 } else { 0.0 }
+        })
+    }
+
+    fn relative(x: &Mat<f64>, y: &Mat<f64>) -> f64 {
+        (x - y).norm_l2() / y.norm_l2()
+    }
+
+    #[test]
+    fn solves_agree_with_faers_partial_piv_lu() {
+        for n in [5, 60, FROM + 37] {
+            let a = matrix(n);
+            let b = Mat::from_fn(n, 3, |i, j| ((i + 3 * j) as f64).sin());
+            let ours = Lu::new(a.as_ref());
+            let theirs = a.partial_piv_lu();
+            let x = ours.solve(b.as_ref());
+            assert!(relative(&x, &theirs.solve(&b)) < 1e-12, "n = {n}");
+            // The residual of the solve itself.
+            assert!(relative(&(&a * &x), &b) < 1e-12, "n = {n}");
+            let xt = ours.solve_adjoint(b.as_ref());
+            assert!(relative(&(a.transpose() * &xt), &b) < 1e-12, "n = {n}");
+        }
+    }
+
+    #[test]
+    fn the_adjoint_solve_conjugates_a_complex_matrix() {
+        let n = 40;
+        let (re, im) = (matrix(n), matrix(n).transpose().to_owned());
+        let a = Mat::from_fn(n, n, |i, j| c64::new(re[(i, j)], 0.3 * im[(i, j)]));
+        let b = Mat::from_fn(n, 1, |i, _| c64::new((i as f64).cos(), 1.0));
+        let lu = Lu::new(a.as_ref());
+        let x = lu.solve(b.as_ref());
+        let y = lu.solve_adjoint(b.as_ref());
+        let err = |r: Mat<c64>| r.norm_l2() / b.norm_l2();
+        assert!(err(&a * &x - &b) < 1e-12);
+        assert!(err(a.adjoint() * &y - &b) < 1e-12);
+    }
+
+    #[test]
+    fn the_factors_do_not_depend_on_the_thread_count() {
+        let n = FROM + 100;
+        let a = matrix(n);
+        let b = Mat::from_fn(n, 1, |i, _| (i as f64).sqrt());
+        let solve_on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool")
+                .install(|| Lu::new(a.as_ref()).solve(b.as_ref()))
+        };
+        let (one, three) = (solve_on(1), solve_on(3));
+        assert!((0..n).all(|i| one[(i, 0)].to_bits() == three[(i, 0)].to_bits()));
+    }
+}
