@@ -30,6 +30,12 @@ use faer::{Conj, Mat, MatMut, MatRef, Par};
 /// alternated runs in one process, a noisy phase of the machine).
 pub const FROM: usize = crate::parallel::FROM;
 
+/// The parallelism of a dense factorization of order `n`: two threads (a fixed split) from
+/// [`FROM`] rows, else one. Also the Krylov certificate's complex Cholesky factorization.
+pub fn parallelism(n: usize) -> Par {
+    if n >= FROM { Par::rayon(2) } else { Par::Seq }
+}
+
 /// `P A = L U`, the factors held in one matrix.
 #[derive(Clone)]
 pub struct Lu<T: ComplexField> {
@@ -48,7 +54,7 @@ impl<T: ComplexField> Lu<T> {
     pub fn of(mut a: Mat<T>) -> Self {
         let n = a.nrows();
         assert_eq!(n, a.ncols(), "LU of a {n} x {} matrix", a.ncols());
-        let par = if n >= FROM { Par::rayon(2) } else { Par::Seq };
+        let par = parallelism(n);
         let mut forward = vec![0usize; n];
         let mut backward = vec![0usize; n];
         let mut scratch = MemBuffer::new(factor::lu_in_place_scratch::<usize, T>(

@@ -79,10 +79,11 @@
 //! [`Refusal`]; [`super::stability::leading`] then falls back to the dense solver.
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
 use faer::matrix_free::LinOp;
 use faer::matrix_free::eigen::{PartialEigenParams, partial_eigen, partial_eigen_scratch};
 use faer::reborrow::ReborrowMut;
-use faer::{Mat, MatMut, MatRef, Par, Side, c64};
+use faer::{Mat, MatMut, MatRef, Par, c64};
 
 use super::stability::Spectrum;
 use crate::lu::Lu;
@@ -275,11 +276,21 @@ fn backward_errors(k: &Mat<f64>, m: &Mat<f64>, s: &[c64], v: &Mat<c64>) -> Vec<f
 /// has `Re s + |Im s| < c`.
 fn wedge_holds(k: &Mat<f64>, m: &Mat<f64>, c: f64) -> bool {
     let n = k.nrows();
-    let g = Mat::from_fn(n, n, |i, j| {
+    // Factorized in place (only its lower triangle is read), on two threads when large.
+    let mut g = Mat::from_fn(n, n, |i, j| {
         let (kij, kji) = (k[(i, j)], k[(j, i)]);
         c64::new(c * m[(i, j)] - 0.5 * (kij + kji), 0.5 * (kij - kji))
     });
-    g.llt(Side::Lower).is_ok()
+    let par = crate::lu::parallelism(n);
+    let mut scratch = MemBuffer::new(cholesky_in_place_scratch::<c64>(n, par, Default::default()));
+    cholesky_in_place(
+        g.as_mut(),
+        Default::default(),
+        par,
+        MemStack::new(&mut scratch),
+        Default::default(),
+    )
+    .is_ok()
 }
 
 /// The largest `c` allowed by (3) for the disk `|s - sigma| < radius` and the real part `r`.
