@@ -5,7 +5,6 @@ use std::borrow::Borrow;
 use std::cell::{OnceCell, RefCell};
 use std::sync::Arc;
 
-use crate::lu::Lu;
 use faer::Mat;
 use serde::Serialize;
 
@@ -16,6 +15,7 @@ use crate::continuation::events::{Event, EventKind};
 use crate::continuation::newton::{NewtonSettings, System};
 use crate::continuation::{ContinuationSettings, Field, Linearization, Problem};
 use crate::dynamics::{rechart, slave_twist_chord};
+use crate::lu::Lu;
 use crate::model::Model;
 use crate::rod::frame::Chart;
 use crate::steady::{MobilityBlocks, Observables, Steady, SteadyState, height};

@@ -108,7 +108,6 @@
 
 use std::ops::ControlFlow;
 
-use crate::lu::Lu;
 use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
 use faer::prelude::Solve;
 use faer::{Mat, Par, Side, c64};
@@ -124,6 +123,7 @@ use crate::continuation::stability::reduce_with_factor;
 use crate::dofs::Layout;
 use crate::error::ensure;
 use crate::fluid::Resistance;
+use crate::lu::Lu;
 use crate::model::Model;
 use crate::rod::Config;
 use crate::rod::frame::Chart;

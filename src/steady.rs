@@ -573,14 +573,8 @@ impl Steady<'_> {
         let (mut k, resistance) = (elastic?, resistance?);
         // `Z_ff W` column by column: its first `VISCOUS_BESIDE_INVERSE` of the columns on the
         // thread that makes the inverse, the rest on the other.
-        let (split, columns) = match &blocks.viscous {
-            Some(w) => {
-                let columns = w.ncols();
-                let split = (VISCOUS_BESIDE_INVERSE * columns as f64) as usize;
-                (split, columns)
-            }
-            None => (0, 0),
-        };
+        let columns = blocks.viscous.as_ref().map_or(0, |w| w.ncols());
+        let split = (VISCOUS_BESIDE_INVERSE * columns as f64) as usize;
         let solve = |from: usize, count: usize| {
             blocks
                 .viscous

@@ -1,7 +1,6 @@
 //! The period map `Phi(x0, T, p)` of equal BDF2 steps and its sensitivities, eqs. (2) and (3)
 //! of the module docs.
 
-use crate::lu::Lu;
 use faer::Mat;
 use faer::prelude::Solve;
 use serde::{Deserialize, Serialize};
@@ -9,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::{ImplicitDynamics, StepVelocity};
 use crate::continuation::newton::{Chord, Globalization, Iterate, Jacobians, Newton, System, norm};
 use crate::error::ensure;
+use crate::lu::Lu;
 use crate::{Error, Result};
 
 /// How the period is stepped.
