@@ -5,7 +5,7 @@
 //!
 //! Two differences from faer's `PartialPivLu`:
 //!
-//! * From [`FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
+//! * From [`crate::parallel::FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
 //!   explicitly: faer's own type reads a process-wide setting, which would let concurrent cases
 //!   of a sweep change each other's parallelism (and so their round-off) by timing. The split of
 //!   the work is fixed at two parts whatever the number of threads rayon runs, so the factors
@@ -24,14 +24,13 @@ use faer::perm::{PermRef, permute_rows_in_place, permute_rows_in_place_scratch};
 use faer::traits::ComplexField;
 use faer::{Conj, Mat, MatMut, MatRef, Par};
 
-/// Rows from which the factorization runs on two threads: the threshold of the linearization's
-/// joins ([`crate::parallel::FROM`]). On the 2-core machine an LU of order 1593 (the bordered
-/// matrix at RPY `N = 400`) took 76-96 ms on two threads against 88-113 ms on one (eight
-/// alternated runs in one process, a noisy phase of the machine).
-pub const FROM: usize = crate::parallel::FROM;
+use crate::parallel::FROM;
 
-/// The parallelism of a dense factorization of order `n`: two threads (a fixed split) from
-/// [`FROM`] rows, else one. Also the Krylov certificate's complex Cholesky factorization.
+/// The parallelism of a dense factorization of order `n`: two threads (a fixed split) from the
+/// threshold of the linearization's joins ([`FROM`]), else one. Also the Krylov certificate's
+/// complex Cholesky factorization. On the 2-core machine an LU of order 1593 (the bordered matrix
+/// at RPY `N = 400`) took 76-96 ms on two threads against 88-113 ms on one (eight alternated runs
+/// in one process, a noisy phase of the machine).
 pub fn parallelism(n: usize) -> Par {
     if n >= FROM { Par::rayon(2) } else { Par::Seq }
 }

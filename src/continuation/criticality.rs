@@ -140,7 +140,7 @@ pub fn first_lyapunov(
     let shifted = Mat::from_fn(n, n, |i, j| c64::new(-k[(i, j)], 2.0 * w * m[(i, j)]));
     let critical = Critical {
         m: &m,
-        k: Lu::new(k.as_ref()),
+        k: Lu::of(k),
         resonant: Lu::of(shifted),
         q,
         r,
