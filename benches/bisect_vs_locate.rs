@@ -11,15 +11,15 @@
 use std::time::Instant;
 
 use helixbif::branch::locate;
-use helixbif::continuation::ContinuationSettings;
-use helixbif::continuation::arclength::Silent;
-use helixbif::continuation::newton::NewtonSettings;
 use helixbif::dynamics::{BisectSettings, bisect};
+use helixbif::engine::ContinuationSettings;
+use helixbif::engine::arclength::Silent;
+use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::params::Physical;
+use helixbif::model::params::Physical;
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     let args: Vec<usize> = std::env::args()
         .skip(1)

@@ -16,7 +16,7 @@ use helixbif::study::Study;
 use helixbif::study::runs::run_locate;
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!(
         "boundary curve against locate at the same points, {}",

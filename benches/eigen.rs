@@ -3,7 +3,7 @@
 //! certificate, src/continuation/krylov.rs), on the stability pair `(K, Z_ff)` of the
 //! representative helix at 0.4 rad/s, at N = 30, 45, 60 (Lighthill) and 120, 240 (RPY: the
 //! Lighthill operator is indefinite beyond N = 87); each as a multiple of one LU factorization
-//! of a matrix of the same size (`helixbif::lu::Lu`, as the Krylov path makes it). The Krylov shift is seeded, as along a branch, from a leading
+//! of a matrix of the same size (`helixbif::numerics::lu::Lu`, as the Krylov path makes it). The Krylov shift is seeded, as along a branch, from a leading
 //! spectrum of the same state. Then `locate` at N = 60 (Lighthill) with each
 //! `continuation.eigen`, with the number of Krylov results, dense solves and fallbacks.
 //!
@@ -13,17 +13,17 @@ mod common;
 
 use faer::Mat;
 use helixbif::branch::locate;
-use helixbif::continuation::arclength::Silent;
-use helixbif::continuation::krylov::shift_after;
-use helixbif::continuation::newton::NewtonSettings;
-use helixbif::continuation::stability::{eigen_counts, leading, reset_eigen_counts, spectrum};
-use helixbif::continuation::{ContinuationSettings, EigenMethod};
-use helixbif::fluid::FluidModel;
-use helixbif::lu::Lu;
+use helixbif::engine::arclength::Silent;
+use helixbif::engine::krylov::shift_after;
+use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stability::{eigen_counts, leading, reset_eigen_counts, spectrum};
+use helixbif::engine::{ContinuationSettings, EigenMethod};
 use helixbif::model::Model;
-use helixbif::params::Physical;
+use helixbif::model::fluid::FluidModel;
+use helixbif::model::params::Physical;
+use helixbif::model::steady::Steady;
+use helixbif::numerics::lu::Lu;
 use helixbif::solve::solve_at;
-use helixbif::steady::Steady;
 
 fn model(nodes: usize) -> Model {
     let mut p = Physical::representative();
@@ -51,7 +51,7 @@ fn pair(nodes: usize, omega: f64) -> (Mat<f64>, Mat<f64>) {
 }
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("stability spectrum, {}", common::machine());
     println!(

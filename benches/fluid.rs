@@ -11,9 +11,9 @@
 
 mod common;
 
-use helixbif::fluid::{Fluid, FluidModel, Resistance};
 use helixbif::model::Model;
-use helixbif::params::Physical;
+use helixbif::model::fluid::{Fluid, FluidModel, Resistance};
+use helixbif::model::params::Physical;
 use nalgebra::Vector3;
 
 fn model(fluid: FluidModel, nodes: usize) -> Model {
@@ -51,7 +51,7 @@ fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 3] {
 }
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     println!(
         "hydrodynamics on the representative helix, {}",
         common::machine()

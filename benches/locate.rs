@@ -5,7 +5,7 @@
 //! engine (bordered solves, eigenvalues), and the number of points and corrector iterations;
 //! then the representative helix on the RPY fluid at N = 60, 240 and 400 (docs/model.md section
 //! 9). Each row also gives the time per accepted point as a multiple of one LU factorization of
-//! a bordered matrix of the corrector's size, measured in the same run (`helixbif::lu::Lu`, as the
+//! a bordered matrix of the corrector's size, measured in the same run (`helixbif::numerics::lu::Lu`, as the
 //! corrector makes it: on two threads from 600 rows).
 //!
 //! Run: `cargo bench --bench locate`.
@@ -18,13 +18,13 @@ use std::time::Instant;
 use faer::Mat;
 use helixbif::Result;
 use helixbif::branch::{Parameter, RodProblem, rest_state};
-use helixbif::continuation::arclength::{Limits, Silent, follow};
-use helixbif::continuation::newton::NewtonSettings;
-use helixbif::continuation::{ContinuationSettings, Linearization, Problem};
-use helixbif::fluid::FluidModel;
-use helixbif::lu::Lu;
+use helixbif::engine::arclength::{Limits, Silent, follow};
+use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::{ContinuationSettings, Linearization, Problem};
 use helixbif::model::Model;
-use helixbif::params::{Physical, ShapeParams};
+use helixbif::model::fluid::FluidModel;
+use helixbif::model::params::{Physical, ShapeParams};
+use helixbif::numerics::lu::Lu;
 
 /// The rod problem with a stopwatch on each call.
 struct Timed<'a> {
@@ -149,7 +149,7 @@ fn run(label: &str, physical: &Physical) {
 }
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     // `cargo bench --bench locate -- rpy` runs only the rows whose label contains "rpy".
     let filter = std::env::args()

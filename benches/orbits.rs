@@ -10,16 +10,16 @@
 mod common;
 
 use helixbif::branch::hopf_criticality;
-use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
-use helixbif::continuation::periodic::orbit::{Condition, ShootingSettings, shoot};
-use helixbif::continuation::periodic::{ImplicitDynamics, StepVelocity};
+use helixbif::engine::periodic::flow::{FlowSettings, period_map};
+use helixbif::engine::periodic::orbit::{Condition, ShootingSettings, shoot};
+use helixbif::engine::periodic::{ImplicitDynamics, StepVelocity};
 use helixbif::model::Model;
 use helixbif::orbits::hopf_start;
 use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("periodic orbits, {}", common::machine());
     println!(

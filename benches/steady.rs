@@ -8,11 +8,11 @@
 
 mod common;
 
-use helixbif::continuation::newton::{NewtonSettings, System};
+use helixbif::engine::newton::{NewtonSettings, System};
 use helixbif::model::Model;
-use helixbif::params::Physical;
+use helixbif::model::params::Physical;
+use helixbif::model::steady::Steady;
 use helixbif::solve::solve_at;
-use helixbif::steady::Steady;
 
 fn model(r0: f64, nodes: usize) -> Model {
     let mut p = Physical::representative();
@@ -22,7 +22,7 @@ fn model(r0: f64, nodes: usize) -> Model {
 }
 
 fn main() {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     faer::set_global_parallelism(faer::Par::Seq);
     println!("steady solver, {}", common::machine());
     println!(

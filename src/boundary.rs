@@ -1,7 +1,7 @@
 //! `helixbif boundary`: the stability boundary `omega_b(q)` as a curve in a second model field
 //! `q` (any numeric study field, or the helix ratios `shape.R_over_lambda`,
 //! `shape.lambda_over_l`), by two-parameter continuation of the Hopf point
-//! ([`crate::continuation::curve`], docs/model.md section 11).
+//! ([`crate::engine::curve`], docs/model.md section 11).
 //!
 //! The curve starts from `locate` at the first value of `q`. It is the first loss of stability
 //! of the branch from rest as long as no other mode becomes unstable below it; the rest of the
@@ -22,15 +22,15 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use crate::branch::{Parameter, RodProblem, locate, observables_at, omega_scale};
-use crate::continuation::arclength::Silent;
-use crate::continuation::curve::{
+use crate::engine::arclength::Silent;
+use crate::engine::curve::{
     CurveObserver, CurvePoint, CurveSettings, CurveStop, Family, Special, SpecialKind, follow_curve,
 };
-use crate::continuation::event_curve::{EventPoint, follow_event_curve};
-use crate::continuation::events::EventKind;
-use crate::dofs::Layout;
-use crate::fit::{PowerLaw, common_power_law, power_law};
+use crate::engine::event_curve::{EventPoint, follow_event_curve};
+use crate::engine::events::EventKind;
 use crate::model::Model;
+use crate::model::dofs::Layout;
+use crate::numerics::fit::{PowerLaw, common_power_law, power_law};
 use crate::output::{CsvWriter, create_dir};
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::solve::rest_state;
@@ -133,7 +133,7 @@ impl Family for RodFamily {
     }
 
     /// `to` measures the angles in `from`'s chart carried onto the edges of `guess`, with its
-    /// own clamp frame ([`crate::rod::frame::Chart::with_clamp_of`]).
+    /// own clamp frame ([`crate::model::rod::frame::Chart::with_clamp_of`]).
     fn adopt(&self, from: &RodProblem<Model>, to: &RodProblem<Model>, guess: &[f64]) {
         let x = to.steady(0.0).config(guess).x;
         to.set_chart(from.chart().transported(&x).with_clamp_of(&to.model.chart));

@@ -9,16 +9,18 @@ use faer::Mat;
 use serde::Serialize;
 
 use crate::Result;
-use crate::continuation::arclength::{Branch, Limits, Observer, Stop, follow};
-use crate::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
-use crate::continuation::events::{Event, EventKind};
-use crate::continuation::newton::{NewtonSettings, System};
-use crate::continuation::{ContinuationSettings, Field, Linearization, Problem};
 use crate::dynamics::{rechart, slave_twist_chord};
-use crate::lu::Lu;
+use crate::engine::arclength::{Branch, Limits, Observer, Stop, follow};
+use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
+use crate::engine::events::{Event, EventKind};
+use crate::engine::newton::NewtonSettings;
+use crate::engine::{ContinuationSettings, Field, Linearization, Problem};
 use crate::model::Model;
-use crate::rod::frame::Chart;
-use crate::steady::{MobilityBlocks, Observables, Steady, SteadyState, height};
+use crate::model::observables::{Observables, height};
+use crate::model::rod::frame::Chart;
+use crate::model::steady::{MobilityBlocks, Steady};
+use crate::numerics::lu::Lu;
+use crate::problem::steady::SteadyState;
 
 /// The continuation parameter of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -59,7 +59,7 @@
 //! ```
 //!
 //! with `E` the injection of the free positions and `B(X; y) = d(A(X) y)/dX`
-//! ([`crate::fluid::Lighthill::mobility_derivative`]); the Jacobian of (2) is that of the steady
+//! ([`crate::model::fluid::Lighthill::mobility_derivative`]); the Jacobian of (2) is that of the steady
 //! residual ([`Steady::linearize`]) minus (3) in the position block.
 //!
 //! **Error control** (positions only: the twist is an algebraic variable, determined by the
@@ -115,20 +115,21 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::branch::rest_state;
-use crate::continuation::newton::{
+use crate::engine::newton::{
     Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, System, norm,
 };
-use crate::continuation::periodic::StepLinearization;
-use crate::continuation::stability::reduce_with_factor;
-use crate::dofs::Layout;
+use crate::engine::periodic::StepLinearization;
+use crate::engine::stability::reduce_with_factor;
 use crate::error::ensure;
-use crate::fluid::Resistance;
-use crate::lu::Lu;
 use crate::model::Model;
-use crate::rod::Config;
-use crate::rod::frame::Chart;
+use crate::model::dofs::Layout;
+use crate::model::fluid::Resistance;
+use crate::model::observables::height;
+use crate::model::rod::Config;
+use crate::model::rod::frame::Chart;
+use crate::model::steady::{Steady, rotation_velocity};
+use crate::numerics::lu::Lu;
 use crate::solve::solve_at;
-use crate::steady::{Steady, height, rotation_velocity};
 use crate::{Error, Result};
 
 /// Settings of the integrator. Times in `mu ell^4 / EI`, lengths in `ell`.
@@ -414,7 +415,7 @@ impl<'a> ImplicitStep<'a> {
 
 impl ImplicitStep<'_> {
     /// The residual and Jacobian of (2) with what the sensitivities of a periodic orbit need
-    /// besides ([`crate::continuation::periodic`]): the mass matrix `M = Z_ff` at `u` and the
+    /// besides ([`crate::engine::periodic`]): the mass matrix `M = Z_ff` at `u` and the
     /// derivative of (2) in `omegabar` at fixed `u` and `v`, `-[Z Omega_1 X]_free`.
     pub fn linearize_with_mass(&self, u: &[f64]) -> Result<StepLinearization> {
         let step = self.linearized(u, true)?;
@@ -633,7 +634,7 @@ impl System for TwistBlock<'_> {
 }
 
 /// The free unknowns of `config`, whose twist is measured in `chart` (at `config.x`, e.g. a
-/// [`crate::steady::SteadyState`] with its carried chart), with the twist converted to the
+/// [`crate::problem::steady::SteadyState`] with its carried chart), with the twist converted to the
 /// model's natural chart, the one of [`integrate`] and [`crate::branch::RodProblem`].
 ///
 /// Both charts give the same material frames when the discrete twists
@@ -794,7 +795,7 @@ struct Factored {
     c0: f64,
 }
 
-/// Newton's method on one step (full steps, the one solver of [`crate::continuation::newton`]);
+/// Newton's method on one step (full steps, the one solver of [`crate::engine::newton`]);
 /// `Ok(None)` when it does not converge (the step is retried shorter). With `reuse_jacobian`, the
 /// factorization in `cache` serves while it converges (the chord method: it is rebuilt when `c0`
 /// changed by more than 20%, when the residual falls by less than a factor 3 in an iteration,
@@ -1207,9 +1208,9 @@ pub struct Mode {
 }
 
 impl Mode {
-    /// True for a complex pair (see [`crate::continuation::stability::is_complex`]).
+    /// True for a complex pair (see [`crate::engine::stability::is_complex`]).
     pub fn is_complex(&self) -> bool {
-        crate::continuation::stability::is_complex(self.eigenvalue)
+        crate::engine::stability::is_complex(self.eigenvalue)
     }
 
     /// The complex amplitude `a` of this mode in a position deviation `dx` (length

@@ -8,12 +8,12 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
 use helixbif::boundary::run_boundary;
-use helixbif::continuation::periodic::branch::OrbitStop;
 use helixbif::dynamics::{BisectSettings, bisect};
-use helixbif::fit::power_law;
+use helixbif::engine::periodic::branch::OrbitStop;
 use helixbif::model::Model;
+use helixbif::model::params::ShapeParams;
+use helixbif::numerics::fit::power_law;
 use helixbif::output::Table;
-use helixbif::params::ShapeParams;
 use helixbif::report::{BisectReport, FitReport, MergeReport, Report, RunReport, Titled};
 use helixbif::solve::{Solution, solve_at};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
@@ -764,7 +764,7 @@ fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
 }
 
 fn main() -> ExitCode {
-    helixbif::allocator::keep_freed_pages();
+    helixbif::numerics::allocator::keep_freed_pages();
     let cli = Cli::parse();
     // The dense matrices here are small (a few hundred rows): threading inside one factorization
     // costs more than it gains; parallelism is over independent solves instead.

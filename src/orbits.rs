@@ -1,6 +1,6 @@
 //! Periodic orbits of the rod in the co-rotating frame, born at the Hopf point that `locate`
 //! finds (docs/model.md section 12): the rod as an [`ImplicitDynamics`] for the generic
-//! shooting of [`crate::continuation::periodic`], and the orbit branch with its time averages.
+//! shooting of [`crate::engine::periodic`], and the orbit branch with its time averages.
 //!
 //! The dynamics is (1) of [`crate::dynamics`]: `Z_ff(x) dx_f/dt = R_x(x_f, theta)`,
 //! `R_theta = 0`, the free positions differential and the twist algebraic, the rate
@@ -18,18 +18,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::Result;
 use crate::branch::Critical;
-use crate::continuation::newton::System;
-use crate::continuation::periodic::branch::{
+use crate::dynamics::{ImplicitStep, natural_chart_unknowns, slave_twist_in};
+use crate::engine::newton::System;
+use crate::engine::periodic::branch::{
     Checkpoint, HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits, resume_orbits,
 };
-use crate::continuation::periodic::flow::carried;
-use crate::continuation::periodic::orbit::Orbit;
-use crate::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
-use crate::dynamics::{ImplicitStep, natural_chart_unknowns, slave_twist_in};
+use crate::engine::periodic::flow::carried;
+use crate::engine::periodic::orbit::Orbit;
+use crate::engine::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use crate::model::Model;
-use crate::rod::frame::Chart;
-use crate::steady::{Steady, height, thrust_and_torque};
-use crate::study::simulate::moving_forces;
+use crate::model::observables::moving_forces;
+use crate::model::observables::{height, thrust_and_torque};
+use crate::model::rod::frame::Chart;
+use crate::model::steady::Steady;
 
 /// The rod's slaved-twist dynamics in the chart `chart`.
 pub struct RodDynamics<'a> {
@@ -84,7 +85,7 @@ impl ImplicitDynamics for RodDynamics<'_> {
     }
     /// Root mean square node displacement: `|dx| / sqrt(N - 2)`.
     fn size(&self, dx: &[f64]) -> f64 {
-        crate::continuation::newton::norm(dx) / ((dx.len() / 3) as f64).sqrt()
+        crate::engine::newton::norm(dx) / ((dx.len() / 3) as f64).sqrt()
     }
 }
 

@@ -68,13 +68,13 @@ pub struct Meta<'a, T: Serialize> {
     pub command_line: Vec<String>,
     pub study: &'a Study,
     pub nodes: usize,
-    pub scales: crate::params::Scales,
+    pub scales: crate::model::params::Scales,
     /// What the command adds (timings, stop reason, ...).
     pub run: T,
 }
 
 impl<'a, T: Serialize> Meta<'a, T> {
-    pub fn new(study: &'a Study, scales: crate::params::Scales, run: T) -> Self {
+    pub fn new(study: &'a Study, scales: crate::model::params::Scales, run: T) -> Self {
         Meta {
             crate_version: env!("CARGO_PKG_VERSION"),
             command_line: std::env::args().collect(),

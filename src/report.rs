@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::branch::Located;
 use crate::dynamics::Bisection;
-use crate::fit::PowerLaw;
+use crate::numerics::fit::PowerLaw;
 use crate::output::LeftOut;
 use crate::solve::SolutionSummary;
 use crate::study::runs::{BranchReport, Ladder, Refinement};

@@ -3,9 +3,12 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::continuation::newton::{self, NewtonReport, NewtonSettings};
+use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::model::Model;
-use crate::steady::{self, Observables, Steady, SteadyState, height};
+use crate::model::observables::{Observables, height};
+use crate::model::steady::Steady;
+use crate::problem;
+use crate::problem::steady::SteadyState;
 
 /// A steady state with everything `helixbif solve` reports.
 #[derive(Clone, Debug)]
@@ -70,10 +73,13 @@ impl Load {
 /// solve.
 pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyState> {
     let natural = model.natural_config();
-    steady::solve(model, 0.0, model.weight, &natural, &model.chart, settings).or_else(|_| {
-        let weightless = steady::solve(model, 0.0, 0.0, &natural, &model.chart, settings)?;
-        ramp(model, &weightless, Load::Weight, model.weight, settings)
-    })
+    problem::steady::solve(model, 0.0, model.weight, &natural, &model.chart, settings).or_else(
+        |_| {
+            let weightless =
+                problem::steady::solve(model, 0.0, 0.0, &natural, &model.chart, settings)?;
+            ramp(model, &weightless, Load::Weight, model.weight, settings)
+        },
+    )
 }
 
 /// Solves for the steady state at `omegabar`: first the shape hanging at rest, then the rotating
@@ -125,7 +131,7 @@ fn ramp_tangent(model: &Model, load: Load, current: &SteadyState) -> Result<Opti
         Load::Weight => problem.weight_derivative(),
     };
     let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -derivative[i]);
-    let du = crate::lu::Lu::of(lin.jacobian).solve(rhs.as_ref());
+    let du = crate::numerics::lu::Lu::of(lin.jacobian).solve(rhs.as_ref());
     let tangent: Vec<f64> = (0..u.len()).map(|i| du[(i, 0)]).collect();
     Ok(tangent.iter().all(|v| v.is_finite()).then_some(tangent))
 }
@@ -139,7 +145,7 @@ fn predict(
     current: &SteadyState,
     tangent: Option<&[f64]>,
     dv: f64,
-) -> crate::rod::Config {
+) -> crate::model::rod::Config {
     let Some(tangent) = tangent else {
         return current.config.clone();
     };
@@ -186,7 +192,7 @@ fn ramp(
         };
         let (omega, weight) = load.at(model, value);
         let guess = predict(model, &current, tangent.as_deref(), value - here);
-        match steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
+        match problem::steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
             Ok(next) => {
                 iterations += next.report.iterations;
                 history.extend_from_slice(&next.report.history);

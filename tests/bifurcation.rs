@@ -5,14 +5,14 @@ mod common;
 
 use common::straight_rod;
 use helixbif::branch::{Parameter, RodProblem, locate, observables_at, rest_state, trace};
-use helixbif::continuation::ContinuationSettings;
-use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
-use helixbif::continuation::criticality::Verdict;
-use helixbif::continuation::events::EventKind;
-use helixbif::continuation::newton::NewtonSettings;
-use helixbif::fit::extrapolate;
+use helixbif::engine::ContinuationSettings;
+use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
+use helixbif::engine::criticality::Verdict;
+use helixbif::engine::events::EventKind;
+use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::params::{Handedness, Physical, ShapeParams};
+use helixbif::model::params::{Handedness, Physical, ShapeParams};
+use helixbif::numerics::fit::extrapolate;
 use helixbif::solve::solve_at;
 
 /// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its
@@ -87,8 +87,8 @@ fn branch_points_agree_with_solve() {
 /// independent ramped Newton solve at its rate to 1e-8 relative; returns how many were checked.
 fn agree_with_solve<'a>(
     model: &Model,
-    rest: &helixbif::steady::SteadyState,
-    points: impl Iterator<Item = &'a helixbif::continuation::arclength::Point>,
+    rest: &helixbif::problem::steady::SteadyState,
+    points: impl Iterator<Item = &'a helixbif::engine::arclength::Point>,
 ) -> usize {
     let mut checked = 0;
     for point in points {
@@ -363,7 +363,7 @@ fn follow_the_tight_arc(overrides: &[&str], omega_max: f64, every: usize) {
         .windows(2)
         .map(|e| (e[1] - e[0]).normalize())
         .collect();
-    let steady = helixbif::steady::Steady::new(&model, 0.0);
+    let steady = helixbif::model::steady::Steady::new(&model, 0.0);
     let most_turned = branch
         .points
         .iter()

@@ -8,9 +8,9 @@
 mod common;
 
 use common::straight_rod;
-use helixbif::continuation::newton::NewtonSettings;
+use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::steady;
+use helixbif::problem::steady;
 
 /// Integrates the elastica by RK4 from `theta'(0) = k`; returns `(theta'(1), drop, reach)`.
 fn integrate(w: f64, k: f64, steps: usize) -> (f64, f64, f64) {

@@ -3,15 +3,13 @@
 
 use std::ops::ControlFlow;
 
-use helixbif::continuation::arclength::{
+use helixbif::engine::arclength::{
     Continuation, Detector, Limits, Metric, Outcome, Point, Silent, Stop, StopRule, follow,
     follow_with,
 };
-use helixbif::continuation::events::{Event, EventKind};
-use helixbif::continuation::reference::{
-    Reference, brusselator, fold, hopf_normal_form, pitchfork,
-};
-use helixbif::continuation::{ContinuationSettings, Problem};
+use helixbif::engine::events::{Event, EventKind};
+use helixbif::engine::reference::{Reference, brusselator, fold, hopf_normal_form, pitchfork};
+use helixbif::engine::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
     ContinuationSettings {
@@ -35,7 +33,7 @@ fn run(
     p0: f64,
     direction: f64,
     l: Limits,
-) -> helixbif::continuation::arclength::Branch {
+) -> helixbif::engine::arclength::Branch {
     follow(problem, u0, p0, direction, &settings(), &l, &mut Silent).unwrap()
 }
 
@@ -161,18 +159,14 @@ impl<P: Problem> Problem for Counted<P> {
     fn residual(&self, u: &[f64], p: f64) -> helixbif::Result<Vec<f64>> {
         self.inner.residual(u, p)
     }
-    fn linearize(
-        &self,
-        u: &[f64],
-        p: f64,
-    ) -> helixbif::Result<helixbif::continuation::Linearization> {
+    fn linearize(&self, u: &[f64], p: f64) -> helixbif::Result<helixbif::engine::Linearization> {
         self.inner.linearize(u, p)
     }
     fn stability_pair(
         &self,
         u: &[f64],
         p: f64,
-        lin: &helixbif::continuation::Linearization,
+        lin: &helixbif::engine::Linearization,
     ) -> helixbif::Result<(faer::Mat<f64>, faer::Mat<f64>)> {
         self.stability.set(self.stability.get() + 1);
         self.inner.stability_pair(u, p, lin)
@@ -253,7 +247,7 @@ fn events_are_pinned_down_in_a_few_samples_not_by_bisection() {
 /// stable pair (distance 5) than its own value at the crossing (`5i`, distance 6.3): a search
 /// that identified the crossing mode by its value at the first far end would read the stable
 /// pair on the unstable side, see no sign change and fall back to bisection.
-fn racing_pair() -> helixbif::continuation::reference::Reference {
+fn racing_pair() -> helixbif::engine::reference::Reference {
     let jacobian = |p: f64| {
         let (re, w) = (p - 1.0, 2.0 + 3.0 * p);
         vec![
@@ -263,7 +257,7 @@ fn racing_pair() -> helixbif::continuation::reference::Reference {
             vec![0.0, 0.0, 11.0, -3.0],
         ]
     };
-    helixbif::continuation::reference::Analytic {
+    helixbif::engine::reference::Analytic {
         dim: 4,
         g: Box::new(move |u, p| {
             jacobian(p)
@@ -318,7 +312,7 @@ fn a_crossing_mode_whose_frequency_races_is_still_pinned_down_by_the_secant() {
 fn crossings_closer_than_the_tolerance_are_one_event_with_their_multiplicity() {
     let split = 5e-9;
     let jacobian = move |p: f64| vec![vec![p - 1.0, 0.0], vec![0.0, p - 1.0 - split]];
-    let problem = helixbif::continuation::reference::Analytic {
+    let problem = helixbif::engine::reference::Analytic {
         dim: 2,
         g: Box::new(move |u: &[f64], p: f64| vec![(p - 1.0) * u[0], (p - 1.0 - split) * u[1]]),
         g_u: Box::new(move |_: &[f64], p: f64| jacobian(p)),

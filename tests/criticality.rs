@@ -5,9 +5,9 @@
 
 use faer::{Mat, c64};
 use helixbif::Result;
-use helixbif::continuation::criticality::{Lyapunov, Verdict, first_lyapunov};
-use helixbif::continuation::reference::{brusselator, hopf_cubic};
-use helixbif::continuation::{Field, Linearization, Problem};
+use helixbif::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
+use helixbif::engine::reference::{brusselator, hopf_cubic};
+use helixbif::engine::{Field, Linearization, Problem};
 
 fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
     let lin = problem.linearize(u, p).unwrap();

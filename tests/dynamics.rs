@@ -17,21 +17,22 @@ use std::ops::ControlFlow;
 use common::{Rng, relative_max_error};
 use faer::c64;
 use helixbif::branch::{locate, observables_at, rest_state};
-use helixbif::continuation::ContinuationSettings;
-use helixbif::continuation::arclength::Silent;
-use helixbif::continuation::events::EventKind;
-use helixbif::continuation::newton::{NewtonSettings, System, norm};
-use helixbif::continuation::stability::spectrum;
 use helixbif::dynamics::{
     BisectSettings, Checkpoints, DynamicsSettings, ImplicitStep, IntegratorState, Rate, Start,
     bisect, integrate, integrate_from, least_stable_mode, natural_chart_unknowns, perturb, rechart,
     slave_twist_in,
 };
+use helixbif::engine::ContinuationSettings;
+use helixbif::engine::arclength::Silent;
+use helixbif::engine::events::EventKind;
+use helixbif::engine::newton::{NewtonSettings, System, norm};
+use helixbif::engine::stability::spectrum;
 use helixbif::model::Model;
-use helixbif::params::Physical;
-use helixbif::rod::frame::Chart;
+use helixbif::model::observables::height;
+use helixbif::model::params::Physical;
+use helixbif::model::rod::frame::Chart;
+use helixbif::model::steady::Steady;
 use helixbif::solve::solve_at;
-use helixbif::steady::{Steady, height};
 use helixbif::study::simulate::IntegratorTable;
 
 /// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
@@ -501,8 +502,8 @@ fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
     )
     .unwrap();
     let moving =
-        helixbif::study::simulate::moving_forces(&model, &u, &model.chart, omegabar).unwrap();
-    let steady = helixbif::steady::Steady::new(&model, omegabar);
+        helixbif::model::observables::moving_forces(&model, &u, &model.chart, omegabar).unwrap();
+    let steady = helixbif::model::steady::Steady::new(&model, omegabar);
     let drag = steady.drag(&steady.config(&u).x).unwrap().unwrap().forces;
     let scale = drag.iter().map(|f| f.norm()).fold(0.0, f64::max);
     for (a, b) in moving.iter().zip(&drag) {

@@ -4,11 +4,11 @@
 //! cannot be evaluated.
 
 use faer::Mat;
-use helixbif::continuation::arclength::{Branch, Limits, Silent, Stop, follow};
-use helixbif::continuation::events::EventKind;
-use helixbif::continuation::newton::{self, NewtonSettings, System};
-use helixbif::continuation::reference::{Analytic, Jacobian, Reference, Residual};
-use helixbif::continuation::{ContinuationSettings, Linearization, Problem};
+use helixbif::engine::arclength::{Branch, Limits, Silent, Stop, follow};
+use helixbif::engine::events::EventKind;
+use helixbif::engine::newton::{self, NewtonSettings, System};
+use helixbif::engine::reference::{Analytic, Jacobian, Reference, Residual};
+use helixbif::engine::{ContinuationSettings, Linearization, Problem};
 use helixbif::{Error, Result};
 
 fn settings() -> ContinuationSettings {

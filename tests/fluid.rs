@@ -1,11 +1,11 @@
-//! Tests of the Lighthill slender-body mobility (`helixbif::fluid`).
+//! Tests of the Lighthill slender-body mobility (`helixbif::model::fluid`).
 //!
 //! Run with `cargo test --release --test fluid -- --nocapture` to see the measured numbers.
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use helixbif::Error;
-use helixbif::fluid::{
+use helixbif::model::fluid::{
     Lighthill, Quadrature, Resistance, lighthill_cutoff, stack_vectors, unstack_vectors,
 };
 use nalgebra::Vector3;
@@ -270,7 +270,7 @@ fn helix_mobility_symmetric_and_positive_definite_up_to_spacing_four_delta() {
     assert!(pd.iter().all(|&(n, ok)| ok == (n < 88)));
     // The bracketing search of the admissible range finds the same limit as this scan.
     assert_eq!(
-        helixbif::model::admissible_max_nodes(&helixbif::params::Physical::representative()),
+        helixbif::model::admissible_max_nodes(&helixbif::model::params::Physical::representative()),
         Some(87)
     );
     match Resistance::new(&model.mobility(&helix(90)), "natural helix, N = 90") {
@@ -570,7 +570,7 @@ fn original_quadrature_symmetric_indefinite_and_not_converging() {
 #[test]
 fn admissible_range_by_bisection_equals_a_full_scan() {
     use helixbif::model::admissible_max_nodes;
-    use helixbif::shape::natural_nodes;
+    use helixbif::model::shape::natural_nodes;
     for shape in [
         "shape={kind=\"straight\",L=0.12,alpha_deg=15}",
         "shape={kind=\"arc\",L=0.12,R=0.0348}",

@@ -9,15 +9,13 @@ use faer::{Mat, Side, c64};
 use std::cell::RefCell;
 
 use helixbif::branch::{Parameter, RodProblem, locate, omega_scale, rest_state};
-use helixbif::continuation::arclength::{Limits, Silent, Stop, follow};
-use helixbif::continuation::krylov::{Refusal, rightmost, shift_after};
-use helixbif::continuation::newton::NewtonSettings;
-use helixbif::continuation::stability::{
-    Spectrum, eigen_counts, leading, reset_eigen_counts, spectrum,
-};
-use helixbif::continuation::{ContinuationSettings, EigenMethod, Linearization, Problem};
+use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
+use helixbif::engine::krylov::{Refusal, rightmost, shift_after};
+use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stability::{Spectrum, eigen_counts, leading, reset_eigen_counts, spectrum};
+use helixbif::engine::{ContinuationSettings, EigenMethod, Linearization, Problem};
 use helixbif::model::Model;
-use helixbif::params::Physical;
+use helixbif::model::params::Physical;
 
 /// The largest relative difference between two lists of eigenvalues, entry by entry.
 fn relative_difference(a: &[c64], b: &[c64]) -> f64 {
@@ -293,7 +291,7 @@ fn krylov_and_dense_agree_on_the_rpy_line_at_240_nodes() {
     // A few points of the branch from rest on the RPY-regularized fluid (docs/model.md section
     // 9), where the pencil has 714 unknowns.
     let mut physical = Physical::representative();
-    physical.fluid.model = helixbif::fluid::FluidModel::Rpy;
+    physical.fluid.model = helixbif::model::fluid::FluidModel::Rpy;
     physical.discretization.nodes = 240;
     let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15);
     assert!(points >= 4, "{points}");
@@ -357,10 +355,8 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
 
 #[test]
 fn the_canonical_problems_give_the_same_events_with_either_eigensolver() {
-    use helixbif::continuation::arclength::{Limits, follow};
-    use helixbif::continuation::reference::{
-        Reference, brusselator, fold, hopf_normal_form, pitchfork,
-    };
+    use helixbif::engine::arclength::{Limits, follow};
+    use helixbif::engine::reference::{Reference, brusselator, fold, hopf_normal_form, pitchfork};
     let events = |problem: &dyn Fn(EigenMethod) -> Vec<(f64, usize, usize)>| {
         let dense = problem(EigenMethod::Dense);
         reset_eigen_counts();

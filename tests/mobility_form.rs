@@ -16,11 +16,10 @@ mod common;
 use common::{perturbed_natural, relative_max_error};
 use faer::Mat;
 use faer::prelude::Solve;
-use helixbif::continuation::newton::System;
-use helixbif::fluid::FluidModel;
 use helixbif::model::Model;
-use helixbif::params::Physical;
-use helixbif::steady::Steady;
+use helixbif::model::fluid::FluidModel;
+use helixbif::model::params::Physical;
+use helixbif::model::steady::Steady;
 
 fn model(fluid: FluidModel, nodes: usize) -> Model {
     let mut physical = Physical::representative();
@@ -165,7 +164,7 @@ fn the_velocity_jacobian_is_s_times_the_jacobian_of_the_force_balance() {
 /// they differ by the curvature of `S(X)` times the force residual.
 #[test]
 fn at_a_steady_state_the_velocity_jacobian_is_the_derivative_of_the_velocity() {
-    use helixbif::continuation::newton::NewtonSettings;
+    use helixbif::engine::newton::NewtonSettings;
     for (fluid, nodes, omega) in [(FluidModel::Lighthill, 30, 0.4), (FluidModel::Rpy, 20, 0.4)] {
         let model = model(fluid, nodes);
         let omegabar = model.scales.omega_to_bar(omega);

@@ -4,8 +4,8 @@
 
 use faer::Mat;
 use helixbif::Result;
-use helixbif::continuation::newton::{Chord, Globalization, Jacobians, Newton, System};
-use helixbif::lu::Lu;
+use helixbif::engine::newton::{Chord, Globalization, Jacobians, Newton, System};
+use helixbif::numerics::lu::Lu;
 
 /// `G(x, y) = (x^2 + y^2 - 4, x y - 1)`: roots where the circle of radius 2 meets the hyperbola
 /// `x y = 1`, `x = sqrt(2 + sqrt 3) = 1.9318516525781366`, `y = 1/x` in the first quadrant.

@@ -6,15 +6,15 @@
 use std::ops::ControlFlow;
 
 use faer::c64;
-use helixbif::continuation::Problem;
-use helixbif::continuation::criticality::first_lyapunov;
-use helixbif::continuation::periodic::VectorField;
-use helixbif::continuation::periodic::branch::{
+use helixbif::engine::Problem;
+use helixbif::engine::criticality::first_lyapunov;
+use helixbif::engine::periodic::VectorField;
+use helixbif::engine::periodic::branch::{
     Checkpoint, HopfStart, OrbitBranchSettings, OrbitEventKind, follow_orbits, resume_orbits,
 };
-use helixbif::continuation::periodic::flow::{FlowSettings, period_map};
-use helixbif::continuation::periodic::orbit::{Condition, ShootingSettings, shoot};
-use helixbif::continuation::reference::{Jacobian, Reference, Residual, brusselator, hopf_cubic};
+use helixbif::engine::periodic::flow::{FlowSettings, period_map};
+use helixbif::engine::periodic::orbit::{Condition, ShootingSettings, shoot};
+use helixbif::engine::reference::{Jacobian, Reference, Residual, brusselator, hopf_cubic};
 
 /// A Hopf point at the origin, `p = 0`, of frequency `w`, with the mode `(1, -i)/sqrt 2` of
 /// the planar normal forms.
@@ -186,7 +186,7 @@ fn the_orbit_branch_leaves_the_hopf_point_on_the_side_of_its_criticality() {
 /// at `r^2 = 1/2`, `p = -1/4`, unstable below it and stable above.
 /// `r' = (p + r^2 - r^4) r`, `phi' = 1` in Cartesian form.
 fn quintic() -> Reference {
-    helixbif::continuation::reference::Analytic {
+    helixbif::engine::reference::Analytic {
         dim: 2,
         g: Box::new(|u: &[f64], p: f64| {
             let (x, y) = (u[0], u[1]);
@@ -213,10 +213,10 @@ fn quintic() -> Reference {
 fn quintic_branch(
     mut observer: impl FnMut(
         usize,
-        &helixbif::continuation::periodic::orbit::Orbit,
+        &helixbif::engine::periodic::orbit::Orbit,
         Option<&Checkpoint>,
     ) -> ControlFlow<()>,
-) -> helixbif::continuation::periodic::branch::OrbitBranch {
+) -> helixbif::engine::periodic::branch::OrbitBranch {
     let problem = quintic();
     let field = VectorField(&problem);
     follow_orbits(

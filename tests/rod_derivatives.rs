@@ -4,8 +4,8 @@
 mod common;
 
 use common::{Rng, helix, relative_max_error};
-use helixbif::rod::frame::Chart;
-use helixbif::rod::{Config, Rod, Stiffness};
+use helixbif::model::rod::frame::Chart;
+use helixbif::model::rod::{Config, Rod, Stiffness};
 use nalgebra::{Rotation3, Vector3};
 
 const STIFFNESS: Stiffness = Stiffness {

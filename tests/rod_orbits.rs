@@ -10,15 +10,15 @@ use std::ops::ControlFlow;
 mod common;
 
 use helixbif::branch::hopf_criticality;
-use helixbif::continuation::periodic::branch::{
+use helixbif::dynamics::{DynamicsSettings, Rate, integrate, natural_chart_unknowns};
+use helixbif::engine::periodic::branch::{
     HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
 };
-use helixbif::continuation::periodic::flow::{FlowSettings, carried, period_map};
-use helixbif::continuation::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
-use helixbif::dynamics::{DynamicsSettings, Rate, integrate, natural_chart_unknowns};
+use helixbif::engine::periodic::flow::{FlowSettings, carried, period_map};
+use helixbif::engine::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use helixbif::model::Model;
+use helixbif::model::steady::Steady;
 use helixbif::orbits::{RodDynamics, amplitude_factor, hopf_start};
-use helixbif::steady::Steady;
 use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
 
@@ -27,7 +27,7 @@ fn located(
 ) -> (
     Model,
     helixbif::branch::Critical,
-    helixbif::continuation::criticality::Lyapunov,
+    helixbif::engine::criticality::Lyapunov,
 ) {
     let study = Study::from_path(None, &[format!("discretization.nodes={nodes}")]).unwrap();
     let model = Model::new(&study.physical()).unwrap();
@@ -158,7 +158,7 @@ fn the_period_map_does_not_depend_on_the_chart_the_twist_is_measured_in() {
     let (sa, sb) = (a.sensitivity.unwrap(), b.sensitivity.unwrap());
     let sensitivity = (&sa.x0 - &sb.x0).norm_max() / sb.x0.norm_max();
     let forces = |u: &[f64], chart| {
-        helixbif::study::simulate::moving_forces(&model, u, chart, start.p).unwrap()
+        helixbif::model::observables::moving_forces(&model, u, chart, start.p).unwrap()
     };
     let (fa, fb) = (
         forces(a.states.last().unwrap(), end_chart),

@@ -1,16 +1,16 @@
-//! Tests of the RPY-regularised centreline (`helixbif::fluid::rpy`, docs/model.md section 9).
+//! Tests of the RPY-regularised centreline (`helixbif::model::fluid::rpy`, docs/model.md section 9).
 //!
 //! Run with `cargo test --release --test rpy -- --nocapture` to see the measured numbers.
 
 use faer::{Mat, Side};
 use helixbif::Error;
-use helixbif::fluid::{
+use helixbif::model::fluid::{
     Fluid, FluidModel, Lighthill, Quadrature, Resistance, Rpy, rpy::POINTS_PER_BLOB,
     rpy_blob_radius, stack_vectors,
 };
+use helixbif::model::params::Physical;
+use helixbif::model::shape::natural_nodes;
 use helixbif::model::{Model, admissible_max_nodes};
-use helixbif::params::Physical;
-use helixbif::shape::natural_nodes;
 use helixbif::study::Study;
 use helixbif::study::runs::default_ladder;
 use nalgebra::Vector3;
@@ -239,7 +239,7 @@ fn rpy_rod_drag(l: f64, r0: f64, n: usize) -> ([f64; 2], [f64; 2], usize) {
 ///     resp. `- 1/2`, that these theories share; the error is `O(1/Lambda^2)` relative);
 /// (u) the continuous RPY line with uniform density in closed form ([`rpy_uniform_integral`]),
 ///     which differs from (b) only by end corrections `O(a/L)` (the blob radius is chosen so
-///     that the local integrals agree exactly, see `helixbif::fluid::rpy`).
+///     that the local integrals agree exactly, see `helixbif::model::fluid::rpy`).
 ///
 /// Hat functions reproduce a uniform density exactly, so the discrete uniform-density drag
 /// differs from (u) only by the quadrature: asserted within 1e-3 (measured below). The discrete
@@ -490,7 +490,7 @@ fn assembly_does_not_depend_on_the_thread_count() {
     assert!(a1 == a3 && b1 == b3);
 }
 
-/// The limits of the definiteness argument (module documentation of `helixbif::fluid::rpy`):
+/// The limits of the definiteness argument (module documentation of `helixbif::model::fluid::rpy`):
 /// two edges crossing at their common middle Gauss point (`Q = 3`) keep `A` definite, while a
 /// rod folded exactly onto itself (the second edge retraces the first) makes it singular, the
 /// null vector being equal and opposite forces on the two coincident ends. Measured

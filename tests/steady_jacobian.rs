@@ -8,11 +8,11 @@
 mod common;
 
 use common::{Rng, perturbed_natural, relative_max_error};
-use helixbif::continuation::newton::System;
-use helixbif::fluid::FluidModel;
+use helixbif::engine::newton::System;
 use helixbif::model::Model;
-use helixbif::params::Physical;
-use helixbif::steady::Steady;
+use helixbif::model::fluid::FluidModel;
+use helixbif::model::params::Physical;
+use helixbif::model::steady::Steady;
 
 /// Relative errors of the whole Jacobian, of its viscous part, and of its twist-twist block (each
 /// relative to its own largest entry) at a random state.
@@ -106,7 +106,7 @@ fn jacobian_matches_finite_differences_on_rpy() {
 #[test]
 fn parameter_derivatives_match_finite_differences() {
     use helixbif::branch::{Parameter, RodProblem, WEIGHT_SCALE, omega_scale};
-    use helixbif::continuation::Problem;
+    use helixbif::engine::Problem;
     let mut physical = Physical::representative();
     physical.discretization.nodes = 24;
     let model = Model::new(&physical).unwrap();

@@ -3,11 +3,12 @@
 //! the open-coiled spring with the convergence order in N, quadratic convergence of Newton's
 //! method, and the `solve` pipeline on the default.
 
-use helixbif::continuation::newton::NewtonSettings;
+use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::params::{Handedness, Physical, ShapeParams};
+use helixbif::model::observables::height;
+use helixbif::model::params::{Handedness, Physical, ShapeParams};
+use helixbif::problem::steady;
 use helixbif::solve::solve_at;
-use helixbif::steady::{self, height};
 
 fn helix(handedness: Handedness, nodes: usize) -> Model {
     let mut p = Physical::representative();
@@ -116,7 +117,7 @@ fn rigid_helix_thrust_against_the_continuous_slender_body_integral() {
         let continuous = slender_body_thrust(mu, r0, l, lambda, radius, omega).abs();
         // The RPY line (docs/model.md section 9) matches the same slender-body theory at the
         // orders in 1/ln(L/r0) that it resolves.
-        p.fluid.model = helixbif::fluid::FluidModel::Rpy;
+        p.fluid.model = helixbif::model::fluid::FluidModel::Rpy;
         let rpy = Model::new(&p).unwrap();
         let regularized =
             rpy.rigid_thrust(rpy.scales.omega_to_bar(omega)).unwrap() * rpy.scales.force;

@@ -4,18 +4,18 @@
 
 use std::rc::Rc;
 
-use helixbif::continuation::arclength::{Branch, Limits, Silent, follow};
-use helixbif::continuation::curve::{
+use helixbif::engine::arclength::{Branch, Limits, Silent, follow};
+use helixbif::engine::curve::{
     Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
     follow_curve, others,
 };
-use helixbif::continuation::event_curve::{EventPoint, follow_event_curve};
-use helixbif::continuation::events::EventKind;
-use helixbif::continuation::reference::{
+use helixbif::engine::event_curve::{EventPoint, follow_event_curve};
+use helixbif::engine::events::EventKind;
+use helixbif::engine::reference::{
     Members, bautin, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle,
     shifted_pitchfork,
 };
-use helixbif::continuation::{ContinuationSettings, Problem};
+use helixbif::engine::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
     ContinuationSettings {

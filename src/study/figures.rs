@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use crate::Result;
-use crate::fit::{common_power_law, local_exponents, power_law, through_origin};
+use crate::numerics::fit::{common_power_law, local_exponents, power_law, through_origin};
 use crate::output::{Table, io_error};
 use crate::plot::{Figure, Marker, MarkerShape, Scale, Series, Style, write_figure};
 use crate::study::Study;

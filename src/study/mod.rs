@@ -21,9 +21,9 @@ pub use plan::Plan;
 
 use serde::{Deserialize, Serialize};
 
-use crate::continuation::ContinuationSettings;
-use crate::continuation::newton::NewtonSettings;
-use crate::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
+use crate::engine::ContinuationSettings;
+use crate::engine::newton::NewtonSettings;
+use crate::model::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use crate::{Error, Result};
 
 /// One study file.

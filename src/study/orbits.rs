@@ -12,16 +12,16 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
 use crate::branch::{hopf_criticality, rest_state};
-use crate::continuation::criticality::Verdict;
-use crate::continuation::periodic::branch::{
+use crate::engine::criticality::Verdict;
+use crate::engine::periodic::branch::{
     Checkpoint, OrbitBranchSettings, OrbitEvent, OrbitEventKind, OrbitStop,
 };
 use crate::model::Model;
+use crate::model::observables::height;
 use crate::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
 use crate::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::report::Section;
-use crate::steady::height;
 use crate::study::Study;
 use crate::study::plan::OrbitPlan;
 use crate::study::runs::{run_branch, run_locate_critical};
@@ -156,7 +156,7 @@ impl Section for OrbitsReport {
 /// Writes `events.csv` (rates in rad/s), returning its rows.
 fn write_events(
     events: &[OrbitEvent],
-    s: &crate::params::Scales,
+    s: &crate::model::params::Scales,
     path: &Path,
 ) -> Result<Vec<OrbitEventRow>> {
     let rows: Vec<OrbitEventRow> = events

@@ -16,10 +16,10 @@ use super::sweep::variant;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study};
 use crate::boundary::{RodFamily, read_rows, run_family};
 use crate::branch::{observables_at, rest_state, trace};
-use crate::continuation::arclength::Silent;
+use crate::engine::arclength::Silent;
 use crate::model::Model;
+use crate::model::params::ShapeParams;
 use crate::output::{CsvWriter, Table};
-use crate::params::ShapeParams;
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
 use crate::{Error, Result};
 

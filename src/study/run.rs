@@ -13,10 +13,10 @@ use super::runs::{
 };
 use super::sweep::{cases, run_sweep, variant};
 use super::{Study, sweep_figures};
-use crate::continuation::periodic::branch::OrbitStop;
+use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
+use crate::model::params::ShapeParams;
 use crate::output::{Meta, create_dir};
-use crate::params::ShapeParams;
 use crate::{Error, Result};
 
 /// A folder-friendly form of a case label.

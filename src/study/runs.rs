@@ -8,12 +8,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::branch::{Critical, Located, locate, observables_at, rest_state, trace};
-use crate::continuation::arclength::{Observer, Point, Stop};
-use crate::continuation::events::Event;
-use crate::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
+use crate::engine::arclength::{Observer, Point, Stop};
+use crate::engine::events::Event;
 use crate::model::{Model, admissible_max_nodes};
+use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
 use crate::output::{CsvWriter, Meta, create_dir};
-use crate::steady::SteadyState;
+use crate::problem::steady::SteadyState;
 use crate::study::Study;
 use crate::{Error, Result};
 

@@ -10,76 +10,27 @@
 use std::ops::ControlFlow;
 use std::path::Path;
 
-use faer::Mat;
-use faer::prelude::Solve;
 use indicatif::ProgressBar;
-use nalgebra::Vector3;
 use serde::Serialize;
 
 use crate::branch::rest_state;
-use crate::continuation::newton::NewtonSettings;
-use crate::dofs::Layout;
 use crate::dynamics::{
     Checkpoints, DynamicsSettings, IntegratorState, Rate, Sample, Start, integrate_from,
     least_stable_mode, natural_chart_unknowns, perturb,
 };
+use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
+use crate::model::observables::moving_forces;
+use crate::model::observables::{Observables, height};
+use crate::model::steady::Steady;
 use crate::orbits::{OrbitRow, OrbitStart};
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
-use crate::rod::frame::Chart;
 use crate::solve::solve_at;
-use crate::steady::{Observables, Steady, height, rotation_velocity};
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
 use crate::study::runs::BranchRow;
 use crate::{Error, Result};
-
-/// The forces on the fluid of a moving state `u` (twist measured in `chart`, e.g. a
-/// [`Sample`]'s `u_chart` and `chart`) at rate `omegabar` (see the module docs).
-pub fn moving_forces(
-    model: &Model,
-    u: &[f64],
-    chart: &Chart,
-    omegabar: f64,
-) -> Result<Vec<Vector3<f64>>> {
-    let steady = Steady::new(model, omegabar);
-    let config = steady.config(u);
-    let gradient = model.rod.gradient(&config, chart);
-    let gravity = model.gravity(model.weight);
-    let layout = model.rod.layout;
-    let n = layout.nodes();
-    let c = Layout::CLAMPED_NODES;
-    let free: Vec<Vector3<f64>> = (c..n)
-        .map(|i| Vector3::from_fn(|k, _| -gradient[layout.x(i, k)] + gravity[i][k]))
-        .collect();
-    let a = model.fluid.mobility(&config.x);
-    let velocity = rotation_velocity(omegabar, &config.x);
-    let nc = 3 * c;
-    let a_cc = Mat::from_fn(nc, nc, |r, k| a[(r, k)]);
-    let rhs = Mat::from_fn(nc, 1, |r, _| {
-        velocity[r / 3][r % 3]
-            - (0..3 * (n - c))
-                .map(|k| a[(r, nc + k)] * free[k / 3][k % 3])
-                .sum::<f64>()
-    });
-    let clamp = a_cc.partial_piv_lu().solve(&rhs);
-    if !clamp.is_all_finite() {
-        return Err(Error::Numerical(
-            "singular clamp block of the mobility matrix".into(),
-        ));
-    }
-    Ok((0..c)
-        .map(|i| {
-            Vector3::new(
-                clamp[(3 * i, 0)],
-                clamp[(3 * i + 1, 0)],
-                clamp[(3 * i + 2, 0)],
-            )
-        })
-        .chain(free)
-        .collect())
-}
 
 /// One row of `timeseries.csv` (SI and normalized).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -206,7 +157,7 @@ impl IntegratorTable {
     }
 
     /// The integrator's settings in solver units (lengths in `ell`, times in `mu ell^4/EI`).
-    pub fn settings(&self, scales: &crate::params::Scales) -> DynamicsSettings {
+    pub fn settings(&self, scales: &crate::model::params::Scales) -> DynamicsSettings {
         let defaults = DynamicsSettings::default();
         DynamicsSettings {
             rtol: self.rtol,

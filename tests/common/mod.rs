@@ -1,7 +1,7 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
-use helixbif::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
+use helixbif::model::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use nalgebra::Vector3;
 
 /// Runs the `helixbif` binary: exit code, stdout, stderr.
@@ -145,7 +145,7 @@ pub fn finite_difference_derivative(
     h: f64,
 ) -> faer::Mat<f64> {
     let n = x.len();
-    let ys = helixbif::fluid::stack_vectors(y);
+    let ys = helixbif::model::fluid::stack_vectors(y);
     let mut b = faer::Mat::zeros(3 * n, 3 * n);
     for j in 0..n {
         for k in 0..3 {
@@ -167,7 +167,7 @@ pub fn finite_difference_derivative(
 pub fn perturbed_natural(model: &helixbif::model::Model, amp: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed);
     let ds = model.rod.rest_lengths[0];
-    helixbif::steady::Steady::new(model, 0.0)
+    helixbif::model::steady::Steady::new(model, 0.0)
         .free_vector(&model.natural_config())
         .iter()
         .map(|v| v + amp * ds * rng.uniform())

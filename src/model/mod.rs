@@ -1,13 +1,21 @@
 //! The dimensionless model: the rod, the fluid and gravity in the solver's units, built once
 //! from validated SI parameters.
 
+pub mod dofs;
+pub mod fluid;
+pub mod observables;
+pub mod params;
+pub mod rod;
+pub mod shape;
+pub mod steady;
+
 use nalgebra::Vector3;
 
-use crate::fluid::Fluid;
-use crate::params::{Physical, Scales};
-use crate::rod::frame::Chart;
-use crate::rod::{Rod, Stiffness};
-use crate::shape::natural_nodes;
+use crate::model::fluid::Fluid;
+use crate::model::params::{Physical, Scales};
+use crate::model::rod::frame::Chart;
+use crate::model::rod::{Config, Rod, Stiffness};
+use crate::model::shape::natural_nodes;
 use crate::{Error, Result};
 
 /// Everything the solver needs, dimensionless (lengths by `ell`, forces by `EI/ell^2`, time by
@@ -98,6 +106,14 @@ impl Model {
                  Lighthill operator is not positive definite (docs/model.md section 3)"
             ),
         ))
+    }
+
+    /// The natural configuration (`theta = 0`).
+    pub fn natural_config(&self) -> Config {
+        Config {
+            x: self.natural.clone(),
+            theta: vec![0.0; self.nodes() - 1],
+        }
     }
 }
 

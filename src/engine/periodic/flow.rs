@@ -6,9 +6,9 @@ use faer::prelude::Solve;
 use serde::{Deserialize, Serialize};
 
 use super::{ImplicitDynamics, StepVelocity};
-use crate::continuation::newton::{Chord, Globalization, Iterate, Jacobians, Newton, System, norm};
+use crate::engine::newton::{Chord, Globalization, Iterate, Jacobians, Newton, System, norm};
 use crate::error::ensure;
-use crate::lu::Lu;
+use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// How the period is stepped.

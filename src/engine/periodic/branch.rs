@@ -2,7 +2,7 @@
 //! continuation of (4).
 //!
 //! **Start.** Near a Hopf point `(x_H, p_H)` with critical eigenvalue `i w` and mode `q` (scaled
-//! as the problem's Lyapunov coefficient is, [`crate::continuation::Problem::mode_size`] 1, `Re q` orthogonal to `Im q`), the orbits are `x = x_H + 2 Re(r e^{i w t} q) +
+//! as the problem's Lyapunov coefficient is, [`crate::engine::Problem::mode_size`] 1, `Re q` orthogonal to `Im q`), the orbits are `x = x_H + 2 Re(r e^{i w t} q) +
 //! O(r^2)` with period `2 pi / w + O(r^2)` and `p - p_H = O(r^2)` (on the side set by the sign
 //! of the first Lyapunov coefficient). Two orbits are solved with the amplitude fixed instead
 //! of the parameter, `Re q . (x0 - x_H) / |Re q|^2 = 2 r` at `r = r_0` and `2 r_0`, from those
@@ -410,7 +410,7 @@ fn crossing_kind(a: &[c64], b: &[c64]) -> OrbitEventKind {
         .min_by(|x, y| (x.norm() - 1.0).abs().total_cmp(&(y.norm() - 1.0).abs()))
         .copied()
         .unwrap_or(c64::new(1.0, 0.0));
-    if crate::continuation::stability::is_complex(nearest) {
+    if crate::engine::stability::is_complex(nearest) {
         OrbitEventKind::Torus
     } else if nearest.re > 0.0 {
         OrbitEventKind::CycleFold

@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::fluid::{FluidModel, Quadrature};
+use crate::model::fluid::{FluidModel, Quadrature};
 use crate::{Error, Result};
 
 /// The elastic rod: material and cross-section.
@@ -52,7 +52,7 @@ pub struct FluidParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blob_radius: Option<f64>,
     /// RPY quadrature points per blob radius (default
-    /// [`crate::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): fewer is cheaper (the kernels cost
+    /// [`crate::model::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): fewer is cheaper (the kernels cost
     /// the square) and less accurate (the rigid helix's thrust at N = 120 moves by 0.30% at 2,
     /// 0.10% at 4, 0.026% at 8, against 16: `tests/rpy.rs`). Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -14,8 +14,8 @@ pub mod stretch;
 use faer::Mat;
 use nalgebra::{SVector, Vector3};
 
-use crate::dofs::Layout;
-use crate::shape::voronoi_lengths;
+use crate::model::dofs::Layout;
+use crate::model::shape::voronoi_lengths;
 use bend_twist::{BendTwist, STENCIL, strains, unknowns};
 use frame::{Chart, unwrap_offset};
 

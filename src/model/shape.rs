@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-use crate::params::{HelixClamp, ShapeParams};
+use crate::model::params::{HelixClamp, ShapeParams};
 
 /// Node positions of the natural shape, in SI units (m).
 ///
@@ -103,7 +103,7 @@ pub fn voronoi_lengths(x: &[Vector3<f64>]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::Handedness;
+    use crate::model::params::Handedness;
 
     #[test]
     fn helix_has_equal_chords_and_is_shorter_than_the_curve() {

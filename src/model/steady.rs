@@ -24,16 +24,14 @@ use faer::prelude::Solve;
 use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 use nalgebra::Vector3;
-use serde::Serialize;
 
 use crate::Result;
-use crate::continuation::newton::{self, NewtonReport, NewtonSettings, System};
-use crate::dofs::Layout;
-use crate::fluid::{Resistance, stack_vectors};
 use crate::model::Model;
-use crate::parallel::{self, join_if};
-use crate::rod::Config;
-use crate::rod::frame::Chart;
+use crate::model::dofs::Layout;
+use crate::model::fluid::{Resistance, stack_vectors};
+use crate::model::rod::Config;
+use crate::model::rod::frame::Chart;
+use crate::numerics::parallel::{self, join_if};
 
 /// The share of the columns of `Z_ff W` that the stability pair computes on the thread that also
 /// makes the inverse `Z_ff` (the rest on the other thread): with the whole of `Z_ff W` 78 ms and
@@ -353,8 +351,9 @@ impl<'a> Steady<'a> {
     }
 }
 
-impl System for Steady<'_> {
-    fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
+impl Steady<'_> {
+    /// The force balance (1)-(2) at the free unknowns `u`.
+    pub fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
         let config = self.config(u);
         let gradient = self.model.rod.gradient(&config, &self.chart);
         let drag = self.drag(&config.x)?;
@@ -371,7 +370,7 @@ impl System for Steady<'_> {
     /// second order: with the stretching stiffness `EA` some `1e4..1e6` times the bending one,
     /// that spurious stretch would otherwise throw the iterate far off (the basin of plain Newton
     /// shrinks to displacements of order `ds^2 EI/EA`). Angles are updated additively.
-    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
+    pub fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
         let layout = self.layout();
         let fp = layout.free_positions();
         let old = self.config(u);
@@ -409,11 +408,6 @@ impl System for Steady<'_> {
             .flat_map(|p| [p.x, p.y, p.z])
             .chain(u[fp..].iter().zip(&du[fp..]).map(|(a, b)| a + b))
             .collect()
-    }
-
-    fn residual_and_jacobian(&self, u: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
-        let lin = self.linearize(u)?;
-        Ok((lin.residual, lin.jacobian))
     }
 }
 
@@ -732,125 +726,5 @@ fn banded_product(s: MatRef<'_, f64>, h: MatRef<'_, f64>, mut out: MatMut<'_, f6
             -1.0,
             Par::Seq,
         );
-    }
-}
-
-/// A converged steady state.
-#[derive(Clone, Debug)]
-pub struct SteadyState {
-    pub omega: f64,
-    pub weight: f64,
-    pub config: Config,
-    /// The chart carried to this configuration (the source for the next solve).
-    pub chart: Chart,
-    pub report: NewtonReport,
-}
-
-/// Solves the steady problem from the initial configuration `start` (measured in `chart`).
-pub fn solve(
-    model: &Model,
-    omega: f64,
-    weight: f64,
-    start: &Config,
-    chart: &Chart,
-    settings: &NewtonSettings,
-) -> Result<SteadyState> {
-    let problem = Steady {
-        model,
-        omega,
-        weight,
-        chart: chart.clone(),
-    };
-    let context = format!(
-        "at omegabar = {omega:.6e} (omega = {:.6e} rad/s), N = {}",
-        model.scales.omega_from_bar(omega),
-        model.nodes()
-    );
-    let (u, report) = newton::solve(&problem, problem.free_vector(start), settings, &context)?;
-    let config = problem.config(&u);
-    Ok(SteadyState {
-        omega,
-        weight,
-        chart: chart.transported(&config.x),
-        config,
-        report,
-    })
-}
-
-/// Observables of a steady state (docs/model.md section 6), SI and normalized.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Observables {
-    /// Rotation rate (rad/s) and `omegabar = omega mu ell^4 / EI`.
-    pub omega: f64,
-    pub omegabar: f64,
-    /// Propulsive force `F_p = -e_z . sum_j F_j` (N) and `F_p ell^2 / EI`.
-    #[serde(rename = "Fp")]
-    pub fp: f64,
-    #[serde(rename = "Fpbar")]
-    pub fpbar: f64,
-    /// Motor torque `T_p = e_z . sum_j x_j x F_j` (N m).
-    #[serde(rename = "Tp")]
-    pub tp: f64,
-    /// Efficiency `F_p ell / T_p` (`None` at rest).
-    pub eta: Option<f64>,
-    /// Suspended height (m), its value at rest, and their ratio.
-    pub h: f64,
-    pub h0: f64,
-    pub hbar: f64,
-}
-
-/// Vertical distance from the clamp to the lowest node (solver units).
-pub fn height(x: &[Vector3<f64>]) -> f64 {
-    let lowest = x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-    x[0].z - lowest
-}
-
-/// Propulsive force and motor torque (solver units) of the nodal forces `forces` at `x`.
-pub fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> (f64, f64) {
-    let fp = -forces.iter().map(|f| f.z).sum::<f64>();
-    let tp = x.iter().zip(forces).map(|(p, f)| p.cross(f).z).sum();
-    (fp, tp)
-}
-
-impl Model {
-    /// Observables of the state `x` at `omegabar`, with `h0` the height at rest (solver units).
-    pub fn observables(
-        &self,
-        omegabar: f64,
-        x: &[Vector3<f64>],
-        forces: &[Vector3<f64>],
-        h0: f64,
-    ) -> Observables {
-        let s = &self.scales;
-        let (fp, tp) = thrust_and_torque(x, forces);
-        let h = height(x);
-        Observables {
-            omega: s.omega_from_bar(omegabar),
-            omegabar,
-            fp: fp * s.force,
-            fpbar: fp,
-            tp: tp * s.torque(),
-            eta: (tp != 0.0).then(|| fp / tp),
-            h: h * s.length,
-            h0: h0 * s.length,
-            hbar: h / h0,
-        }
-    }
-
-    /// `F_p ell^2 / EI` of the natural shape held rigid and turned at `omegabar` (linear in it).
-    pub fn rigid_thrust(&self, omegabar: f64) -> Result<f64> {
-        let problem = Steady::new(self, omegabar);
-        Ok(match problem.drag(&self.natural)? {
-            Some(d) => thrust_and_torque(&self.natural, &d.forces).0,
-            None => 0.0,
-        })
-    }
-
-    /// The natural configuration (`theta = 0`).
-    pub fn natural_config(&self) -> Config {
-        Config {
-            x: self.natural.clone(),
-            theta: vec![0.0; self.nodes() - 1],
-        }
     }
 }

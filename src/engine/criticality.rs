@@ -60,7 +60,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{Linearization, Problem};
-use crate::lu::Lu;
+use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// The step `h` of the differences, relative to the typical size of a unit vector of the

@@ -86,7 +86,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, c64};
 
 use super::stability::Spectrum;
-use crate::lu::Lu;
+use crate::numerics::lu::Lu;
 
 /// Largest backward error (4) of an eigenpair that is kept.
 pub const RESIDUAL_TOL: f64 = 1e-11;
@@ -281,7 +281,7 @@ fn wedge_holds(k: &Mat<f64>, m: &Mat<f64>, c: f64) -> bool {
         let (kij, kji) = (k[(i, j)], k[(j, i)]);
         c64::new(c * m[(i, j)] - 0.5 * (kij + kji), 0.5 * (kij - kji))
     });
-    let par = crate::lu::parallelism(n);
+    let par = crate::numerics::lu::parallelism(n);
     let mut scratch = MemBuffer::new(cholesky_in_place_scratch::<c64>(n, par, Default::default()));
     cholesky_in_place(
         g.as_mut(),

@@ -60,7 +60,7 @@ use super::newton::{
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
-use crate::lu::Lu;
+use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// A corrector that has used all its iterations with the residual within this many times `tol`

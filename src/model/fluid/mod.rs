@@ -85,7 +85,7 @@ pub use resistance::Resistance;
 pub use rpy::{Rpy, rpy_blob_radius};
 
 use crate::Result;
-use crate::params::FluidParams;
+use crate::model::params::FluidParams;
 use faer::Mat;
 use nalgebra::Vector3;
 

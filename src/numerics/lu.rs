@@ -5,7 +5,7 @@
 //!
 //! Two differences from faer's `PartialPivLu`:
 //!
-//! * From [`crate::parallel::FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
+//! * From [`crate::numerics::parallel::FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
 //!   explicitly: faer's own type reads a process-wide setting, which would let concurrent cases
 //!   of a sweep change each other's parallelism (and so their round-off) by timing. The split of
 //!   the work is fixed at two parts whatever the number of threads rayon runs, so the factors
@@ -24,7 +24,7 @@ use faer::perm::{PermRef, permute_rows_in_place, permute_rows_in_place_scratch};
 use faer::traits::ComplexField;
 use faer::{Conj, Mat, MatMut, MatRef, Par};
 
-use crate::parallel::FROM;
+use crate::numerics::parallel::FROM;
 
 /// The parallelism of a dense factorization of order `n`: two threads (a fixed split) from the
 /// threshold of the linearization's joins ([`FROM`]), else one. Also the Krylov certificate's

@@ -37,7 +37,7 @@
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::lu::Lu;
+use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// A square nonlinear system.

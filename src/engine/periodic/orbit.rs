@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ImplicitDynamics;
 use super::flow::{FlowSettings, period_map};
-use crate::continuation::newton::norm;
+use crate::engine::newton::norm;
 use crate::error::ensure;
 use crate::{Error, Result};
 

@@ -426,8 +426,13 @@ mod tests {
             };
             let (t0n, a0, m1_0, m2_0) = directors(0, &e0);
             let (t1n, a1, m1_1, m2_1) = directors(1, &e1);
-            let mref =
-                crate::rod::frame::reference_twist(&t0n, &a0, &t1n, &a1, stencil.twist_offset);
+            let mref = crate::model::rod::frame::reference_twist(
+                &t0n,
+                &a0,
+                &t1n,
+                &a1,
+                stencil.twist_offset,
+            );
             assert!((k1 - 0.5 * (m2_0 + m2_1).dot(&kb)).abs() < 1e-13);
             assert!((k2 + 0.5 * (m1_0 + m1_1).dot(&kb)).abs() < 1e-13);
             assert!((m - (v[7] - v[6] + mref)).abs() < 1e-13);
