@@ -10,8 +10,8 @@
 
 use std::time::Instant;
 
+use helixbif::analysis::dynamics::{BisectSettings, bisect};
 use helixbif::branch::locate;
-use helixbif::dynamics::{BisectSettings, bisect};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::newton::NewtonSettings;

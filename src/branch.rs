@@ -9,7 +9,6 @@ use faer::Mat;
 use serde::Serialize;
 
 use crate::Result;
-use crate::dynamics::{rechart, slave_twist_chord};
 use crate::engine::arclength::{Branch, Limits, Observer, Stop, follow};
 use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::engine::events::{Event, EventKind};
@@ -18,9 +17,11 @@ use crate::engine::{ContinuationSettings, Field, Linearization, Problem};
 use crate::model::Model;
 use crate::model::observables::{Observables, height};
 use crate::model::rod::frame::Chart;
+use crate::model::rod::frame::rechart;
 use crate::model::steady::{MobilityBlocks, Steady};
 use crate::numerics::lu::Lu;
 use crate::problem::steady::SteadyState;
+use crate::problem::twist::slave_twist_chord;
 
 /// The continuation parameter of the rod.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -223,7 +224,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     }
 
     /// `dx_f/dt = Z_ff^{-1} R_x(x_f, theta*(x_f))` at the free positions of `u` displaced by `y`,
-    /// the twist slaved (docs/model.md section 5; [`crate::dynamics`] eq. (1)), started from the
+    /// the twist slaved (docs/model.md section 5; [`crate::analysis::dynamics`] eq. (1)), started from the
     /// twist of `u` and converged to round-off: the differences of the Lyapunov coefficient
     /// divide this by `h^3`. The velocity is taken in mobility form
     /// ([`Steady::free_velocity`]), without `Z`. The field holds the twist blocks of the
@@ -272,7 +273,7 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
     ///
     /// The tangent in the new coordinates is the derivative of the change of coordinates along
     /// it: positions are unchanged, and the angles shift by the partial sums of the difference of
-    /// the two charts' reference twists at the configuration ([`crate::dynamics::rechart`]),
+    /// the two charts' reference twists at the configuration ([`crate::analysis::dynamics::rechart`]),
     /// a smooth function of the positions, differentiated by central differences (step
     /// `1e-5` of the tangent's largest component; truncation and round-off near `1e-10` of the
     /// tangent, which only predicts).

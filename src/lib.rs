@@ -7,9 +7,9 @@
 //! co-rotating steady problem), [`continuation`] (generic Newton and continuation), [`solve`]
 //! (one steady state with its observables), [`study`] (study files).
 
+pub mod analysis;
 pub mod boundary;
 pub mod branch;
-pub mod dynamics;
 pub mod engine;
 pub mod error;
 pub mod model;

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use helixbif::Error;
+use helixbif::analysis::dynamics::{BisectSettings, bisect};
 use helixbif::boundary::run_boundary;
-use helixbif::dynamics::{BisectSettings, bisect};
 use helixbif::engine::periodic::branch::OrbitStop;
 use helixbif::model::Model;
 use helixbif::model::params::ShapeParams;

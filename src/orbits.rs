@@ -2,7 +2,7 @@
 //! finds (docs/model.md section 12): the rod as an [`ImplicitDynamics`] for the generic
 //! shooting of [`crate::engine::periodic`], and the orbit branch with its time averages.
 //!
-//! The dynamics is (1) of [`crate::dynamics`]: `Z_ff(x) dx_f/dt = R_x(x_f, theta)`,
+//! The dynamics is (1) of [`crate::analysis::dynamics`]: `Z_ff(x) dx_f/dt = R_x(x_f, theta)`,
 //! `R_theta = 0`, the free positions differential and the twist algebraic, the rate
 //! `omegabar` the parameter. A step of the shooting is the implicit step of the time
 //! integrator ([`ImplicitStep`]). Its twist angles are measured in a chart carried from step to
@@ -18,7 +18,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::Result;
 use crate::branch::Critical;
-use crate::dynamics::{ImplicitStep, natural_chart_unknowns, slave_twist_in};
 use crate::engine::newton::System;
 use crate::engine::periodic::branch::{
     Checkpoint, HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits, resume_orbits,
@@ -31,6 +30,8 @@ use crate::model::observables::moving_forces;
 use crate::model::observables::{height, thrust_and_torque};
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
+use crate::problem::step::ImplicitStep;
+use crate::problem::twist::{natural_chart_unknowns, slave_twist_in};
 
 /// The rod's slaved-twist dynamics in the chart `chart`.
 pub struct RodDynamics<'a> {

@@ -5,8 +5,8 @@ use std::fmt::{self, Display, Formatter};
 
 use serde::Serialize;
 
+use crate::analysis::dynamics::Bisection;
 use crate::branch::Located;
-use crate::dynamics::Bisection;
 use crate::numerics::fit::PowerLaw;
 use crate::output::LeftOut;
 use crate::solve::SolutionSummary;

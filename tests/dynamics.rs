@@ -1,4 +1,4 @@
-//! Time integration of the overdamped rod (`helixbif::dynamics`) against the linear stability
+//! Time integration of the overdamped rod (`helixbif::analysis::dynamics`) against the linear stability
 //! analysis and the steady solver, on the representative helix at a small node count:
 //!
 //! 1. the Jacobian of one implicit step against finite differences (and its mass-matrix part,
@@ -16,12 +16,11 @@ use std::ops::ControlFlow;
 
 use common::{Rng, relative_max_error};
 use faer::c64;
-use helixbif::branch::{locate, observables_at, rest_state};
-use helixbif::dynamics::{
-    BisectSettings, Checkpoints, DynamicsSettings, ImplicitStep, IntegratorState, Rate, Start,
-    bisect, integrate, integrate_from, least_stable_mode, natural_chart_unknowns, perturb, rechart,
-    slave_twist_in,
+use helixbif::analysis::dynamics::{
+    BisectSettings, Checkpoints, DynamicsSettings, IntegratorState, Rate, Start, bisect, integrate,
+    integrate_from, least_stable_mode, perturb,
 };
+use helixbif::branch::{locate, observables_at, rest_state};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::events::EventKind;
@@ -31,7 +30,10 @@ use helixbif::model::Model;
 use helixbif::model::observables::height;
 use helixbif::model::params::Physical;
 use helixbif::model::rod::frame::Chart;
+use helixbif::model::rod::frame::rechart;
 use helixbif::model::steady::Steady;
+use helixbif::problem::step::ImplicitStep;
+use helixbif::problem::twist::{natural_chart_unknowns, slave_twist_in};
 use helixbif::solve::solve_at;
 use helixbif::study::simulate::IntegratorTable;
 
@@ -495,7 +497,7 @@ fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
     let model = Model::new(&physical).unwrap();
     let omegabar = 150.0;
     let solution = helixbif::solve::solve_at(&model, omegabar, &NewtonSettings::default()).unwrap();
-    let u = helixbif::dynamics::natural_chart_unknowns(
+    let u = helixbif::problem::twist::natural_chart_unknowns(
         &model,
         &solution.state.config,
         &solution.state.chart,

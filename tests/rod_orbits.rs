@@ -9,8 +9,8 @@ use std::ops::ControlFlow;
 
 mod common;
 
+use helixbif::analysis::dynamics::{DynamicsSettings, Rate, integrate};
 use helixbif::branch::hopf_criticality;
-use helixbif::dynamics::{DynamicsSettings, Rate, integrate, natural_chart_unknowns};
 use helixbif::engine::periodic::branch::{
     HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
 };
@@ -19,6 +19,7 @@ use helixbif::engine::periodic::{ImplicitDynamics, StepLinearization, StepVeloci
 use helixbif::model::Model;
 use helixbif::model::steady::Steady;
 use helixbif::orbits::{RodDynamics, amplitude_factor, hopf_start};
+use helixbif::problem::twist::natural_chart_unknowns;
 use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
 

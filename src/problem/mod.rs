@@ -3,3 +3,5 @@
 //! time step, the twist slaved to the positions, and the rod's dynamics for periodic orbits.
 
 pub mod steady;
+pub mod step;
+pub mod twist;

@@ -13,11 +13,11 @@ use std::path::Path;
 use indicatif::ProgressBar;
 use serde::Serialize;
 
-use crate::branch::rest_state;
-use crate::dynamics::{
+use crate::analysis::dynamics::{
     Checkpoints, DynamicsSettings, IntegratorState, Rate, Sample, Start, integrate_from,
-    least_stable_mode, natural_chart_unknowns, perturb,
+    least_stable_mode, perturb,
 };
+use crate::branch::rest_state;
 use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
 use crate::model::observables::moving_forces;
@@ -26,6 +26,7 @@ use crate::model::steady::Steady;
 use crate::orbits::{OrbitRow, OrbitStart};
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
+use crate::problem::twist::natural_chart_unknowns;
 use crate::solve::solve_at;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
