@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use helixbif::analysis::dynamics::{BisectSettings, bisect};
-use helixbif::branch::locate;
+use helixbif::analysis::locate::locate;
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::newton::NewtonSettings;

@@ -12,7 +12,8 @@
 mod common;
 
 use faer::Mat;
-use helixbif::branch::locate;
+use helixbif::analysis::locate::locate;
+use helixbif::analysis::solve::solve_at;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::krylov::shift_after;
 use helixbif::engine::newton::NewtonSettings;
@@ -23,7 +24,6 @@ use helixbif::model::fluid::FluidModel;
 use helixbif::model::params::Physical;
 use helixbif::model::steady::Steady;
 use helixbif::numerics::lu::Lu;
-use helixbif::solve::solve_at;
 
 fn model(nodes: usize) -> Model {
     let mut p = Physical::representative();

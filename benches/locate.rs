@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use faer::Mat;
 use helixbif::Result;
-use helixbif::branch::{Parameter, RodProblem, rest_state};
+use helixbif::analysis::solve::rest_state;
 use helixbif::engine::arclength::{Limits, Silent, follow};
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::{ContinuationSettings, Linearization, Problem};
@@ -25,6 +25,7 @@ use helixbif::model::Model;
 use helixbif::model::fluid::FluidModel;
 use helixbif::model::params::{Physical, ShapeParams};
 use helixbif::numerics::lu::Lu;
+use helixbif::problem::rod::{Parameter, RodProblem};
 
 /// The rod problem with a stopwatch on each call.
 struct Timed<'a> {
@@ -81,7 +82,7 @@ fn run(label: &str, physical: &Physical) {
         inner: RodProblem::new(
             &model,
             Parameter::Omega,
-            helixbif::branch::omega_scale(omegabar_max),
+            helixbif::problem::rod::omega_scale(omegabar_max),
         ),
         linearize: RefCell::new((0, 0.0)),
         residual: RefCell::new((0, 0.0)),

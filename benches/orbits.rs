@@ -9,12 +9,12 @@
 
 mod common;
 
-use helixbif::branch::hopf_criticality;
+use helixbif::analysis::locate::hopf_criticality;
+use helixbif::analysis::orbits::hopf_start;
 use helixbif::engine::periodic::flow::{FlowSettings, period_map};
 use helixbif::engine::periodic::orbit::{Condition, ShootingSettings, shoot};
 use helixbif::engine::periodic::{ImplicitDynamics, StepVelocity};
 use helixbif::model::Model;
-use helixbif::orbits::hopf_start;
 use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
 

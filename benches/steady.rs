@@ -8,11 +8,11 @@
 
 mod common;
 
+use helixbif::analysis::solve::solve_at;
 use helixbif::engine::newton::{NewtonSettings, System};
 use helixbif::model::Model;
 use helixbif::model::params::Physical;
 use helixbif::model::steady::Steady;
-use helixbif::solve::solve_at;
 
 fn model(r0: f64, nodes: usize) -> Model {
     let mut p = Physical::representative();

@@ -21,7 +21,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
-use crate::branch::{Parameter, RodProblem, locate, observables_at, omega_scale};
+use crate::problem::rod::{Parameter, RodProblem, omega_scale};
+
+use crate::analysis::locate::{locate, observables_at};
+use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Silent;
 use crate::engine::curve::{
     CurveObserver, CurvePoint, CurveSettings, CurveStop, Family, Special, SpecialKind, follow_curve,
@@ -33,7 +36,6 @@ use crate::model::dofs::Layout;
 use crate::numerics::fit::{PowerLaw, common_power_law, power_law};
 use crate::output::{CsvWriter, create_dir};
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
-use crate::solve::rest_state;
 use crate::study::plan::Case;
 use crate::study::run::slug;
 use crate::study::sweep::variant;

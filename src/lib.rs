@@ -9,17 +9,14 @@
 
 pub mod analysis;
 pub mod boundary;
-pub mod branch;
 pub mod engine;
 pub mod error;
 pub mod model;
 pub mod numerics;
-pub mod orbits;
 pub mod output;
 pub mod plot;
 pub mod problem;
 pub mod report;
-pub mod solve;
 pub mod study;
 
 pub use error::{Error, Result};

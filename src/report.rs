@@ -6,10 +6,10 @@ use std::fmt::{self, Display, Formatter};
 use serde::Serialize;
 
 use crate::analysis::dynamics::Bisection;
-use crate::branch::Located;
+use crate::analysis::locate::Located;
+use crate::analysis::solve::SolutionSummary;
 use crate::numerics::fit::PowerLaw;
 use crate::output::LeftOut;
-use crate::solve::SolutionSummary;
 use crate::study::runs::{BranchReport, Ladder, Refinement};
 use crate::study::simulate::SimulateReport;
 use crate::study::slurm::{SlurmScripts, SlurmSubmission};

@@ -4,7 +4,9 @@
 mod common;
 
 use common::straight_rod;
-use helixbif::branch::{Parameter, RodProblem, locate, observables_at, rest_state, trace};
+use helixbif::analysis::locate::{locate, observables_at, trace};
+use helixbif::analysis::solve::rest_state;
+use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
 use helixbif::engine::criticality::Verdict;
@@ -13,14 +15,18 @@ use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::numerics::fit::extrapolate;
-use helixbif::solve::solve_at;
+use helixbif::problem::rod::{Parameter, RodProblem};
 
 /// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its
 /// own weight at `q L^3 / EI = 7.8373` (continuum).
 fn greenhill(nodes: usize) -> f64 {
     let physical = straight_rod(1.0, 1e-3, 180.0, nodes);
     let model = Model::new(&physical).unwrap();
-    let problem = RodProblem::new(&model, Parameter::Weight, helixbif::branch::WEIGHT_SCALE);
+    let problem = RodProblem::new(
+        &model,
+        Parameter::Weight,
+        helixbif::problem::rod::WEIGHT_SCALE,
+    );
     let u0 = problem.steady(0.0).free_vector(&model.natural_config());
     let settings = ContinuationSettings {
         ds: 1.0,

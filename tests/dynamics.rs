@@ -20,7 +20,9 @@ use helixbif::analysis::dynamics::{
     BisectSettings, Checkpoints, DynamicsSettings, IntegratorState, Rate, Start, bisect, integrate,
     integrate_from, least_stable_mode, perturb,
 };
-use helixbif::branch::{locate, observables_at, rest_state};
+use helixbif::analysis::locate::{locate, observables_at};
+use helixbif::analysis::solve::rest_state;
+use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::events::EventKind;
@@ -34,7 +36,6 @@ use helixbif::model::rod::frame::rechart;
 use helixbif::model::steady::Steady;
 use helixbif::problem::step::ImplicitStep;
 use helixbif::problem::twist::{natural_chart_unknowns, slave_twist_in};
-use helixbif::solve::solve_at;
 use helixbif::study::simulate::IntegratorTable;
 
 /// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
@@ -496,7 +497,8 @@ fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
     physical.discretization.nodes = 24;
     let model = Model::new(&physical).unwrap();
     let omegabar = 150.0;
-    let solution = helixbif::solve::solve_at(&model, omegabar, &NewtonSettings::default()).unwrap();
+    let solution =
+        helixbif::analysis::solve::solve_at(&model, omegabar, &NewtonSettings::default()).unwrap();
     let u = helixbif::problem::twist::natural_chart_unknowns(
         &model,
         &solution.state.config,

@@ -8,7 +8,11 @@ use common::SplitMix64;
 use faer::{Mat, Side, c64};
 use std::cell::RefCell;
 
-use helixbif::branch::{Parameter, RodProblem, locate, omega_scale, rest_state};
+use helixbif::problem::rod::{Parameter, RodProblem, omega_scale};
+
+use helixbif::analysis::locate::locate;
+
+use helixbif::analysis::solve::rest_state;
 use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
 use helixbif::engine::krylov::{Refusal, rightmost, shift_after};
 use helixbif::engine::newton::NewtonSettings;

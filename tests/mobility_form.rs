@@ -168,9 +168,10 @@ fn at_a_steady_state_the_velocity_jacobian_is_the_derivative_of_the_velocity() {
     for (fluid, nodes, omega) in [(FluidModel::Lighthill, 30, 0.4), (FluidModel::Rpy, 20, 0.4)] {
         let model = model(fluid, nodes);
         let omegabar = model.scales.omega_to_bar(omega);
-        let solution = helixbif::solve::solve_at(&model, omegabar, &NewtonSettings::default())
-            .unwrap()
-            .state;
+        let solution =
+            helixbif::analysis::solve::solve_at(&model, omegabar, &NewtonSettings::default())
+                .unwrap()
+                .state;
         let problem = Steady {
             model: &model,
             omega: omegabar,

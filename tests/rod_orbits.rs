@@ -1,4 +1,4 @@
-//! Periodic orbits of the rod (`helixbif::orbits`) near its Hopf point: the period map's
+//! Periodic orbits of the rod (`helixbif::analysis::orbits`) near its Hopf point: the period map's
 //! monodromy against finite differences, the map and the forces the same whether the twist
 //! chart is carried through the period or held fixed, the orbits' Floquet multiplier and amplitude against
 //! the first Lyapunov coefficient (two independent routes), and an orbit against the adaptive
@@ -10,7 +10,8 @@ use std::ops::ControlFlow;
 mod common;
 
 use helixbif::analysis::dynamics::{DynamicsSettings, Rate, integrate};
-use helixbif::branch::hopf_criticality;
+use helixbif::analysis::locate::hopf_criticality;
+use helixbif::analysis::orbits::hopf_start;
 use helixbif::engine::periodic::branch::{
     HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits,
 };
@@ -18,7 +19,7 @@ use helixbif::engine::periodic::flow::{FlowSettings, carried, period_map};
 use helixbif::engine::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use helixbif::model::Model;
 use helixbif::model::steady::Steady;
-use helixbif::orbits::{RodDynamics, amplitude_factor, hopf_start};
+use helixbif::problem::orbit::{RodDynamics, amplitude_factor};
 use helixbif::problem::twist::natural_chart_unknowns;
 use helixbif::study::Study;
 use helixbif::study::runs::run_locate_critical;
@@ -27,7 +28,7 @@ fn located(
     nodes: usize,
 ) -> (
     Model,
-    helixbif::branch::Critical,
+    helixbif::analysis::locate::Critical,
     helixbif::engine::criticality::Lyapunov,
 ) {
     let study = Study::from_path(None, &[format!("discretization.nodes={nodes}")]).unwrap();

@@ -105,8 +105,8 @@ fn jacobian_matches_finite_differences_on_rpy() {
 /// `omegabar` (at rest, where the drag is assembled on purpose, and turning) and in the weight.
 #[test]
 fn parameter_derivatives_match_finite_differences() {
-    use helixbif::branch::{Parameter, RodProblem, WEIGHT_SCALE, omega_scale};
     use helixbif::engine::Problem;
+    use helixbif::problem::rod::{Parameter, RodProblem, WEIGHT_SCALE, omega_scale};
     let mut physical = Physical::representative();
     physical.discretization.nodes = 24;
     let model = Model::new(&physical).unwrap();

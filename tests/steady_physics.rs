@@ -3,12 +3,12 @@
 //! the open-coiled spring with the convergence order in N, quadratic convergence of Newton's
 //! method, and the `solve` pipeline on the default.
 
+use helixbif::analysis::solve::solve_at;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
 use helixbif::model::observables::height;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::problem::steady;
-use helixbif::solve::solve_at;
 
 fn helix(handedness: Handedness, nodes: usize) -> Model {
     let mut p = Physical::representative();

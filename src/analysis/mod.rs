@@ -3,3 +3,6 @@
 //! typed results; none prints or writes files.
 
 pub mod dynamics;
+pub mod locate;
+pub mod orbits;
+pub mod solve;

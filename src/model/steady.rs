@@ -254,7 +254,7 @@ impl<'a> Steady<'a> {
     /// The root-mean-square eigenvalue of `S = Z_ff^{-1}` at the positions `x`,
     /// `|S|_F / sqrt(n_x)`: the factor by which `S` enlarges a force of no particular shape, such
     /// as the round-off of the force balance. The continuation divides the velocity rows by it
-    /// ([`crate::branch::RodProblem`]), so that its tolerance measures a force, as in (1).
+    /// ([`crate::problem::rod::RodProblem`]), so that its tolerance measures a force, as in (1).
     pub fn typical_mobility(&self, x: &[Vector3<f64>]) -> Result<f64> {
         let s = self.clamped_mobility(x, "mobility scale")?.schur();
         Ok(s.norm_l2() / (s.nrows() as f64).sqrt())

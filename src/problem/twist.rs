@@ -126,7 +126,7 @@ impl System for TwistBlock<'_> {
 
 /// The free unknowns of `config`, whose twist is measured in `chart` (at `config.x`, e.g. a
 /// [`crate::problem::steady::SteadyState`] with its carried chart), with the twist converted to the
-/// model's natural chart, the one of [`integrate`] and [`crate::branch::RodProblem`].
+/// model's natural chart, the one of [`integrate`] and [`crate::problem::rod::RodProblem`].
 ///
 /// Both charts give the same material frames when the discrete twists
 /// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped in both), so

@@ -18,7 +18,7 @@
 
 use serde::Serialize;
 
-use crate::orbits::OrbitStart;
+use crate::analysis::orbits::OrbitStart;
 use crate::study::simulate::trapezoid_mean;
 
 /// One row of `cycles.csv` (times in s).

@@ -1,5 +1,5 @@
 //! `helixbif orbits`: the branch of periodic orbits born at the Hopf point that `locate` finds
-//! ([`crate::orbits`]): `orbits.csv` (one row per orbit, written as each one converges, so an
+//! ([`crate::analysis::orbits`]): `orbits.csv` (one row per orbit, written as each one converges, so an
 //! interrupted run keeps every finished orbit), `states/orbit_<index>.json` (each orbit's start
 //! and observables over a period, for `simulate --from-orbit`), `events.csv`, `meta.json`, and `amplitude.svg`,
 //! `hbar.svg`, `Fpbar.svg` (time averages over a period against `omega` over the steady branch
@@ -11,14 +11,16 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
-use crate::branch::{hopf_criticality, rest_state};
+use crate::analysis::locate::hopf_criticality;
+
+use crate::analysis::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
+use crate::analysis::solve::rest_state;
 use crate::engine::criticality::Verdict;
 use crate::engine::periodic::branch::{
     Checkpoint, OrbitBranchSettings, OrbitEvent, OrbitEventKind, OrbitStop,
 };
 use crate::model::Model;
 use crate::model::observables::height;
-use crate::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
 use crate::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::report::Section;

@@ -7,7 +7,9 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::branch::{Critical, Located, locate, observables_at, rest_state, trace};
+use crate::analysis::locate::{Critical, Located, locate, observables_at, trace};
+
+use crate::analysis::solve::rest_state;
 use crate::engine::arclength::{Observer, Point, Stop};
 use crate::engine::events::Event;
 use crate::model::{Model, admissible_max_nodes};

@@ -10,13 +10,13 @@ use serde_json::{Value, json};
 use super::Study;
 use super::plan::Plan;
 use super::runs::locate_study;
+use crate::analysis::solve::solve_at;
 use crate::engine::arclength::Silent;
 use crate::engine::stability::mode;
 use crate::model::Model;
 use crate::model::dofs::Layout;
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_panels};
-use crate::solve::solve_at;
 use crate::{Error, Result};
 
 /// One node of a shape in `shapes.csv` (SI).

@@ -17,17 +17,17 @@ use crate::analysis::dynamics::{
     Checkpoints, DynamicsSettings, IntegratorState, Rate, Sample, Start, integrate_from,
     least_stable_mode, perturb,
 };
-use crate::branch::rest_state;
+use crate::analysis::orbits::{OrbitRow, OrbitStart};
+use crate::analysis::solve::rest_state;
+use crate::analysis::solve::solve_at;
 use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
 use crate::model::observables::moving_forces;
 use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
-use crate::orbits::{OrbitRow, OrbitStart};
 use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
-use crate::solve::solve_at;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
 use crate::study::runs::BranchRow;

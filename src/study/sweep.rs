@@ -173,7 +173,7 @@ pub fn header(vary: &[Vary]) -> Vec<String> {
 const ERROR: &str = "error: ";
 
 /// True for the status of a finished point: `ok`, or the whole `unstable_at_rest (...)` of
-/// [`crate::branch::Located::status`]. Anything else (an error, or a status cut short by a
+/// [`crate::analysis::locate::Located::status`]. Anything else (an error, or a status cut short by a
 /// kill) runs again.
 fn finished(status: &str) -> bool {
     status == "ok" || (status.starts_with("unstable_at_rest (") && status.ends_with(')'))

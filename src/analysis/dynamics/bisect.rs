@@ -5,13 +5,13 @@ use std::ops::ControlFlow;
 
 use serde::Serialize;
 
+use crate::analysis::solve::rest_state;
+use crate::analysis::solve::solve_at;
 use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
 use crate::model::dofs::Layout;
 use crate::model::observables::height;
 use crate::model::steady::Steady;
-use crate::solve::rest_state;
-use crate::solve::solve_at;
 use crate::{Error, Result};
 
 use super::integrator::{DynamicsSettings, Rate, Sample, Start, Trajectory, run};
@@ -289,7 +289,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
 /// `N = 30..60`) and is measured to about `+-0.1` with the default settings (BDF2 damping,
 /// beating with the next mode, the finite windows): a trial within about `0.1%` of `omega_b`
 /// can come out either way, well below the default precision `1e-2`. Each trial costs thousands of time steps; continuation
-/// ([`crate::branch::locate`]) is two orders of magnitude faster for a far tighter bracket.
+/// ([`crate::analysis::locate::locate`]) is two orders of magnitude faster for a far tighter bracket.
 pub fn bisect(model: &Model, lo: f64, hi: f64, settings: &BisectSettings) -> Result<Bisection> {
     settings.validate()?;
     // The motor may turn either way: the bracket lies on one side of zero, `lo` nearer zero.

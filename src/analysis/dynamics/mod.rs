@@ -16,7 +16,7 @@
 //! fluid for the lab velocity `Omega X + V` (`V = 0` on the clamp nodes, `V = dx_f/dt` on the
 //! free ones) is `Z (Omega X + V)`, whose free part is `[Z Omega X]_free + Z_ff dx_f/dt`. The
 //! unknowns are the free unknowns `u = (x_2..x_{N-1}, theta^1..theta^{N-2})` of [`Steady`], with
-//! the twist measured in the model's natural chart (as in [`crate::branch::RodProblem`]); the
+//! the twist measured in the model's natural chart (as in [`crate::problem::rod::RodProblem`]); the
 //! clamp nodes are not unknowns and stay exactly at their natural positions. Time is in the
 //! solver's unit `mu ell^4 / EI`, rates are `omegabar`.
 //!

@@ -1,26 +1,20 @@
-//! The rotating rod as a continuation problem (parameter `omegabar` or the weight `q`), and the
-//! drivers of `helixbif branch` and `helixbif locate`.
+//! The rotating rod as the engine's continuation problem: the velocity form of the steady
+//! problem in the parameter `omegabar` or the weight `q`, its twist measured in a chart that
+//! follows the branch, its stability pair and its dynamics (for the Lyapunov coefficient).
 
 use std::borrow::Borrow;
 use std::cell::{OnceCell, RefCell};
 use std::sync::Arc;
 
 use faer::Mat;
-use serde::Serialize;
 
 use crate::Result;
-use crate::engine::arclength::{Branch, Limits, Observer, Stop, follow};
-use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
-use crate::engine::events::{Event, EventKind};
-use crate::engine::newton::NewtonSettings;
-use crate::engine::{ContinuationSettings, Field, Linearization, Problem};
+use crate::engine::{Field, Linearization, Problem};
 use crate::model::Model;
-use crate::model::observables::{Observables, height};
 use crate::model::rod::frame::Chart;
 use crate::model::rod::frame::rechart;
 use crate::model::steady::{MobilityBlocks, Steady};
 use crate::numerics::lu::Lu;
-use crate::problem::steady::SteadyState;
 use crate::problem::twist::slave_twist_chord;
 
 /// The continuation parameter of the rod.
@@ -36,7 +30,7 @@ pub enum Parameter {
 /// with the parameter's scale, the units of the arclength.
 const POSITION_SCALE: f64 = 5e-2;
 /// The smallest scale of `omegabar` in the arclength, and the typical weight `q ell^3/EI`.
-const OMEGA_SCALE: f64 = 10.0;
+pub const OMEGA_SCALE: f64 = 10.0;
 pub const WEIGHT_SCALE: f64 = 1.0;
 
 /// The scale of `omegabar` in the arclength for a branch followed up to `omegabar_max`: a
@@ -299,271 +293,4 @@ impl<M: Borrow<Model>> Problem for RodProblem<M> {
         *self.chart.borrow_mut() = moved;
         Some(converted)
     }
-}
-
-pub use crate::solve::rest_state;
-
-/// Continuation in `omegabar` from rest up to `omegabar_max`, which may be negative (the motor
-/// turning clockwise seen from above): the branch is then followed towards negative rates.
-pub fn trace(
-    model: &Model,
-    rest: &SteadyState,
-    omegabar_max: f64,
-    settings: &ContinuationSettings,
-    stop_at_first_instability: bool,
-    observer: &mut impl Observer,
-) -> Result<Branch> {
-    let (branch, _) = trace_in_chart(
-        model,
-        rest,
-        omegabar_max,
-        settings,
-        stop_at_first_instability,
-        observer,
-    )?;
-    Ok(branch)
-}
-
-/// [`trace`], with the chart the last points and events are measured in.
-fn trace_in_chart(
-    model: &Model,
-    rest: &SteadyState,
-    omegabar_max: f64,
-    settings: &ContinuationSettings,
-    stop_at_first_instability: bool,
-    observer: &mut impl Observer,
-) -> Result<(Branch, Chart)> {
-    model.check_resolution()?;
-    if !model.fluid.is_mass_matrix() {
-        return Err(crate::Error::input(
-            "fluid.quadrature",
-            "the original quadrature's mobility is indefinite (A_ii t_i = 0), so Z_ff is no mass \
-             matrix for the stability problem: continuation needs \"reference\"",
-        ));
-    }
-    let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
-    let u0 = problem.steady(0.0).free_vector(&rest.config);
-    // A fold may take the branch back past rest, a little.
-    let limits = Limits {
-        p_min: omegabar_max.min(-0.5 * omegabar_max),
-        p_max: omegabar_max.max(-0.5 * omegabar_max),
-        stop_at_first_instability,
-    };
-    let direction = omegabar_max.signum();
-    let branch = follow(&problem, u0, 0.0, direction, settings, &limits, observer)?;
-    Ok((branch, problem.chart()))
-}
-
-/// Observables of the solution `u` at `omegabar` on a branch from `rest`.
-pub fn observables_at(
-    model: &Model,
-    rest: &SteadyState,
-    u: &[f64],
-    omegabar: f64,
-) -> Result<Observables> {
-    let steady = Steady::new(model, omegabar);
-    let config = steady.config(u);
-    let forces = match steady.drag(&config.x)? {
-        Some(d) => d.forces,
-        None => vec![nalgebra::Vector3::zeros(); model.nodes()],
-    };
-    Ok(model.observables(omegabar, &config.x, &forces, height(&rest.config.x)))
-}
-
-/// What `helixbif locate` reports.
-#[derive(Clone, Debug, Serialize)]
-pub struct Located {
-    /// `hopf`, `fold`, `branch_point` (the first loss of stability), `unstable_at_rest` (the
-    /// state at `omega = 0` is already unstable: nothing to locate), or `none` when the branch
-    /// stays stable up to `omega_max`.
-    pub kind: String,
-    pub omega_b: Option<f64>,
-    pub omegabar_b: Option<f64>,
-    /// Critical frequency `Im(s)` of the mode (rad/s) and normalized (`Im(s) mu ell^4/EI`).
-    pub im: Option<f64>,
-    pub imbar: Option<f64>,
-    #[serde(rename = "Fp")]
-    pub fp: Option<f64>,
-    #[serde(rename = "Fpbar")]
-    pub fpbar: Option<f64>,
-    pub hbar: Option<f64>,
-    pub nodes: usize,
-    /// Relative width of the final bracket in `omega`.
-    pub precision: Option<f64>,
-    /// Number of unstable eigenvalues of the rest state (0 unless `kind` is
-    /// `unstable_at_rest`).
-    pub unstable_at_rest: usize,
-    /// Largest rate followed (rad/s) when no instability was found.
-    pub omega_max: f64,
-    pub points: usize,
-    pub corrector_iterations: usize,
-    /// At a Hopf point: the first Lyapunov coefficient `l1` (solver units `EI/(mu ell^6)`, for the
-    /// critical mode scaled to a largest node displacement of `ell`: [`hopf_criticality`];
-    /// docs/model.md section 12), its estimated error, and the verdict `supercritical` /
-    /// `subcritical` / `undetermined`.
-    pub l1: Option<f64>,
-    pub l1_precision: Option<f64>,
-    pub criticality: Option<Verdict>,
-    /// Why the coefficient of a Hopf point could not be computed, if it could not.
-    pub l1_failure: Option<String>,
-}
-
-/// The first Lyapunov coefficient of the Hopf point `event` of the rod's branch in `omegabar`,
-/// whose state is measured in `chart` (critical mode scaled by [`RodProblem`]'s mode size: a
-/// largest node displacement of `ell`).
-pub fn hopf_criticality(model: &Model, event: &Event, chart: &Chart) -> Result<Lyapunov> {
-    let problem = RodProblem::new(model, Parameter::Omega, OMEGA_SCALE);
-    problem.set_chart(chart.clone());
-    let lin = problem.linearize(&event.u, event.p)?;
-    first_lyapunov(&problem, &event.u, event.p, &lin, event.eigenvalue)?
-        .ok_or_else(|| crate::Error::Numerical("the rod defines its dynamics".into()))
-}
-
-impl Located {
-    /// The status of a located result in a table: `ok` for a loss of stability or a branch
-    /// stable throughout, else what prevents an `omega_b`.
-    pub fn status(&self) -> String {
-        match self.kind.as_str() {
-            "unstable_at_rest" => format!(
-                "unstable_at_rest ({} unstable eigenvalues at omega = 0)",
-                self.unstable_at_rest
-            ),
-            _ => "ok".into(),
-        }
-    }
-}
-
-/// The first loss of stability of a branch from rest: the event, whose state `u` has its twist
-/// angles measured in `chart` (the natural chart unless the branch moved it).
-#[derive(Clone, Debug)]
-pub struct Critical {
-    pub event: Event,
-    pub chart: Chart,
-    /// The last point of the branch before the event, `(u, omegabar)` (a start for following
-    /// the event in a second parameter).
-    pub lead: (Vec<f64>, f64),
-}
-
-impl Critical {
-    /// The steady problem at the event, in the event's chart.
-    pub fn steady<'a>(&self, model: &'a Model) -> Steady<'a> {
-        let mut s = Steady::new(model, self.event.p);
-        s.chart = self.chart.clone();
-        s
-    }
-}
-
-/// Follows the branch from rest to its first loss of stability and pins it down.
-pub fn locate(
-    model: &Model,
-    omega_max: f64,
-    newton: &NewtonSettings,
-    settings: &ContinuationSettings,
-    observer: &mut impl Observer,
-) -> Result<(Located, Option<Critical>)> {
-    model.check_resolution()?;
-    let rest = rest_state(model, newton)?;
-    let omegabar_max = model.scales.omega_to_bar(omega_max);
-    let (branch, chart) = trace_in_chart(model, &rest, omegabar_max, settings, true, observer)?;
-    let points = branch.points.len();
-    let corrector_iterations = branch.points.iter().map(|p| p.iterations).sum();
-    let none = Located {
-        kind: "none".into(),
-        omega_b: None,
-        omegabar_b: None,
-        im: None,
-        imbar: None,
-        fp: None,
-        fpbar: None,
-        hbar: None,
-        nodes: model.nodes(),
-        precision: None,
-        unstable_at_rest: 0,
-        omega_max,
-        points,
-        corrector_iterations,
-        l1: None,
-        l1_precision: None,
-        criticality: None,
-        l1_failure: None,
-    };
-    let reached = branch.points.last().map_or(0.0, |p| p.p);
-    let reached_omega = model.scales.omega_from_bar(reached);
-    match branch.stop {
-        Stop::FirstInstability => {}
-        Stop::UnstableAtStart => {
-            let count = branch.points[0].spectrum.unstable;
-            let located = Located {
-                kind: "unstable_at_rest".into(),
-                unstable_at_rest: count,
-                ..none
-            };
-            return Ok((located, None));
-        }
-        Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => return Ok((none, None)),
-        Stop::StepTooSmall(reason) => {
-            return Err(crate::Error::Numerical(format!(
-                "continuation stalled at omega = {reached_omega:.6e} rad/s before any \
-                 instability: {reason}"
-            )));
-        }
-        Stop::ParameterLimit => {
-            return Err(crate::Error::Numerical(format!(
-                "the branch turned back past omega = 0 at omega = {reached_omega:.6e} rad/s \
-                 (after {points} points) before reaching omega_max = {omega_max} rad/s, with \
-                 no instability found"
-            )));
-        }
-        Stop::Rule(reason) => {
-            return Err(crate::Error::Numerical(format!(
-                "the continuation was ended by a stop rule at omega = {reached_omega:.6e} rad/s: \
-                 {reason}"
-            )));
-        }
-        Stop::MaxPoints => {
-            return Err(crate::Error::Numerical(format!(
-                "the continuation used all {points} points (continuation.max_points) by omega = \
-                 {reached_omega:.6e} rad/s, before omega_max = {omega_max} rad/s, with no \
-                 instability found: raise continuation.max_points (or continuation.ds_max)"
-            )));
-        }
-    }
-    let event = branch
-        .first_loss_of_stability()
-        .ok_or_else(|| {
-            crate::Error::Numerical(
-                "the branch became unstable but no event was located where it did".into(),
-            )
-        })?
-        .clone();
-    let o = observables_at(model, &rest, &event.u, event.p)?;
-    let s = &model.scales;
-    let imbar = event.eigenvalue.im.abs();
-    // A coefficient that cannot be computed does not take away omega_b: it says why.
-    let (lyapunov, l1_failure) = match event.kind {
-        EventKind::Hopf => match hopf_criticality(model, &event, &chart) {
-            Ok(l) => (Some(l), None),
-            Err(e) => (None, Some(e.to_string())),
-        },
-        _ => (None, None),
-    };
-    let located = Located {
-        kind: event.kind.name().into(),
-        omega_b: Some(o.omega),
-        omegabar_b: Some(event.p),
-        im: (event.kind == EventKind::Hopf).then(|| s.omega_from_bar(imbar)),
-        imbar: (event.kind == EventKind::Hopf).then_some(imbar),
-        fp: Some(o.fp),
-        fpbar: Some(o.fpbar),
-        hbar: Some(o.hbar),
-        precision: Some(event.precision),
-        l1: lyapunov.as_ref().map(|l| l.l1),
-        l1_precision: lyapunov.as_ref().map(|l| l.precision),
-        criticality: lyapunov.as_ref().map(|l| l.verdict),
-        l1_failure,
-        ..none
-    };
-    let before = branch.point_before(&event);
-    let lead = (before.u.clone(), before.p);
-    Ok((located, Some(Critical { event, chart, lead })))
 }

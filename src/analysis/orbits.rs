@@ -17,78 +17,19 @@ use std::ops::ControlFlow;
 use serde::{Deserialize, Serialize};
 
 use crate::Result;
-use crate::branch::Critical;
-use crate::engine::newton::System;
+use crate::analysis::locate::Critical;
 use crate::engine::periodic::branch::{
     Checkpoint, HopfStart, OrbitBranch, OrbitBranchSettings, follow_orbits, resume_orbits,
 };
 use crate::engine::periodic::flow::carried;
 use crate::engine::periodic::orbit::Orbit;
-use crate::engine::periodic::{ImplicitDynamics, StepLinearization, StepVelocity};
 use crate::model::Model;
 use crate::model::observables::moving_forces;
 use crate::model::observables::{height, thrust_and_torque};
-use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
-use crate::problem::step::ImplicitStep;
-use crate::problem::twist::{natural_chart_unknowns, slave_twist_in};
+use crate::problem::twist::natural_chart_unknowns;
 
-/// The rod's slaved-twist dynamics in the chart `chart`.
-pub struct RodDynamics<'a> {
-    pub model: &'a Model,
-    pub chart: Chart,
-}
-
-impl RodDynamics<'_> {
-    fn step(&self, p: f64, v: StepVelocity) -> ImplicitStep<'_> {
-        ImplicitStep {
-            steady: Steady {
-                chart: self.chart.clone(),
-                ..Steady::new(self.model, p)
-            },
-            c0: v.c0,
-            offset: v.offset.to_vec(),
-        }
-    }
-}
-
-impl ImplicitDynamics for RodDynamics<'_> {
-    fn dim(&self) -> usize {
-        self.model.rod.layout.free_len()
-    }
-    fn differential(&self) -> usize {
-        self.model.rod.layout.free_positions()
-    }
-    fn step_residual(&self, p: f64, v: StepVelocity, u: &[f64]) -> Result<Vec<f64>> {
-        self.step(p, v).residual(u)
-    }
-    fn step_linearize(&self, p: f64, v: StepVelocity, u: &[f64]) -> Result<StepLinearization> {
-        self.step(p, v).linearize_with_mass(u)
-    }
-    fn consistent(&self, _p: f64, u: &[f64]) -> Result<Vec<f64>> {
-        slave_twist_in(self.model, &self.chart, u)
-    }
-    /// The chart transported to `u`'s edges (as the time integrator carries its chart): the
-    /// twist angles of `u` are the same in it.
-    fn centred_on(&self, u: &[f64]) -> Option<Self> {
-        let x = Steady::new(self.model, 0.0).config(u).x;
-        Some(RodDynamics {
-            model: self.model,
-            chart: self.chart.transported(&x),
-        })
-    }
-    fn retract(&self, u: &[f64], du: &[f64]) -> Vec<f64> {
-        Steady {
-            chart: self.chart.clone(),
-            ..Steady::new(self.model, 0.0)
-        }
-        .retract(u, du)
-    }
-    /// Root mean square node displacement: `|dx| / sqrt(N - 2)`.
-    fn size(&self, dx: &[f64]) -> f64 {
-        crate::engine::newton::norm(dx) / ((dx.len() / 3) as f64).sqrt()
-    }
-}
+use crate::problem::orbit::RodDynamics;
 
 /// One row of `orbits.csv` (SI and normalized).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -299,10 +240,4 @@ pub fn follow_rod_orbits(
         return Err(e);
     }
     Ok((branch, table))
-}
-
-/// The mean square amplitude `2 |z|^2 size(q)^2` of an orbit whose normal-form radius is
-/// `|z|` (for `q` the complex mode): the factor `2 size(q)^2`.
-pub fn amplitude_factor(dynamics: &RodDynamics, mode: &(Vec<f64>, Vec<f64>)) -> f64 {
-    2.0 * (dynamics.size(&mode.0).powi(2) + dynamics.size(&mode.1).powi(2))
 }
