@@ -10,9 +10,9 @@ mod common;
 
 use std::time::Instant;
 
-use helixbif::boundary::{read_rows, run_boundary};
 use helixbif::model::Model;
 use helixbif::study::Study;
+use helixbif::study::boundary::run_boundary;
 use helixbif::study::runs::run_locate;
 
 fn main() {
@@ -52,9 +52,10 @@ fn main() {
         let dir =
             std::env::temp_dir().join(format!("helixbif-bench-boundary-{}", std::process::id()));
         let started = Instant::now();
-        let report = run_boundary(&study, "shape.R_over_lambda", from, to, &dir).expect("a curve");
+        let (rows, report) =
+            run_boundary(&study, "shape.R_over_lambda", from, to, &dir).expect("a curve");
+        let report = report.expect("a curve");
         let curve = started.elapsed().as_secs_f64();
-        let rows = read_rows(&dir.join("boundary.csv")).expect("the curve's rows");
         let started = Instant::now();
         let mut worst: f64 = 0.0;
         for row in &rows {

@@ -8,15 +8,12 @@
 //! (one steady state with its observables), [`study`] (study files).
 
 pub mod analysis;
-pub mod boundary;
 pub mod engine;
 pub mod error;
 pub mod model;
 pub mod numerics;
-pub mod output;
 pub mod plot;
 pub mod problem;
-pub mod report;
 pub mod study;
 
 pub use error::{Error, Result};

@@ -4,9 +4,9 @@
 mod common;
 
 use common::helixbif;
-use helixbif::boundary::run_boundary;
 use helixbif::model::Model;
 use helixbif::study::Study;
+use helixbif::study::boundary::run_boundary;
 use helixbif::study::runs::run_locate;
 
 /// The representative helix at `N = 30` from `R/lambda = 0.2` to `0.24`: the branch moves the
@@ -17,7 +17,10 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
     let overrides = ["discretization.nodes=30".to_string()];
     let study = Study::load(None, &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-{}", std::process::id()));
-    let report = run_boundary(&study, "shape.R_over_lambda", 0.2, 0.24, &dir).unwrap();
+    let report = run_boundary(&study, "shape.R_over_lambda", 0.2, 0.24, &dir)
+        .unwrap()
+        .1
+        .unwrap();
     assert_eq!(report.segments, 1);
     assert!(report.special.is_empty(), "{:?}", report.special);
     let mut rows = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
@@ -112,12 +115,17 @@ fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points(
     ];
     let study = Study::from_path(Some(std::path::Path::new(path)), &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-end-{}", std::process::id()));
-    let err = run_boundary(&study, "shape.R_over_lambda", 0.14, 0.1, &dir).unwrap_err();
+    let (rows, outcome) = run_boundary(&study, "shape.R_over_lambda", 0.14, 0.1, &dir).unwrap();
+    let err = outcome.unwrap_err();
     assert!(!err.is_input(), "{err}");
     let message = err.to_string();
     assert!(message.contains("admissible range"), "{message}");
-    let rows = helixbif::boundary::read_rows(&dir.join("boundary.csv")).unwrap();
     assert!(rows.len() >= 5, "{} rows kept", rows.len());
+    let on_disk = csv::Reader::from_path(dir.join("boundary.csv"))
+        .unwrap()
+        .records()
+        .count();
+    assert_eq!(on_disk, rows.len(), "the points found are on disk");
     let end = rows.last().unwrap().q;
     // The model at the last point is admissible at the study's N, and one that lies a
     // thousandth of the range further is not.

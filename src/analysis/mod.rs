@@ -2,6 +2,7 @@
 //! stability boundaries, periodic orbits and the dynamics. Each takes its inputs typed and returns
 //! typed results; none prints or writes files.
 
+pub mod boundary;
 pub mod dynamics;
 pub mod locate;
 pub mod orbits;

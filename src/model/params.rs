@@ -468,3 +468,161 @@ impl Scales {
         self.force * self.length
     }
 }
+
+/// A number of the physical model that a second parameter varies (the stability boundary as a
+/// curve in it): a typed lens on [`Physical`], named by its study key. The helix ratios set one
+/// length from another: `shape.lambda_over_l` sets the pitch to the value times `l` (`l` and `R`
+/// fixed), `shape.R_over_lambda` the radius to the value times the pitch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    YoungsModulus,
+    RodRadius,
+    RodDensity,
+    Poisson,
+    Viscosity,
+    FluidDensity,
+    Gravity,
+    BlobRadius,
+    PointsPerBlob,
+    /// `shape.l` of a helix.
+    AxialLength,
+    /// `shape.L` of an arc or a straight rod.
+    ContourLength,
+    Pitch,
+    Radius,
+    Tilt,
+    LambdaOverL,
+    ROverLambda,
+}
+
+impl Field {
+    /// Every field, in the order of the study file.
+    pub const ALL: [Field; 16] = [
+        Field::YoungsModulus,
+        Field::RodRadius,
+        Field::RodDensity,
+        Field::Poisson,
+        Field::Viscosity,
+        Field::FluidDensity,
+        Field::Gravity,
+        Field::BlobRadius,
+        Field::PointsPerBlob,
+        Field::AxialLength,
+        Field::ContourLength,
+        Field::Pitch,
+        Field::Radius,
+        Field::Tilt,
+        Field::LambdaOverL,
+        Field::ROverLambda,
+    ];
+
+    /// The study key (`rod.E`, `shape.R_over_lambda`, ...).
+    pub fn key(self) -> &'static str {
+        match self {
+            Field::YoungsModulus => "rod.E",
+            Field::RodRadius => "rod.r0",
+            Field::RodDensity => "rod.rho",
+            Field::Poisson => "rod.nu",
+            Field::Viscosity => "fluid.mu",
+            Field::FluidDensity => "fluid.rho",
+            Field::Gravity => "fluid.g",
+            Field::BlobRadius => "fluid.blob_radius",
+            Field::PointsPerBlob => "fluid.points_per_blob",
+            Field::AxialLength => "shape.l",
+            Field::ContourLength => "shape.L",
+            Field::Pitch => "shape.lambda",
+            Field::Radius => "shape.R",
+            Field::Tilt => "shape.alpha_deg",
+            Field::LambdaOverL => "shape.lambda_over_l",
+            Field::ROverLambda => "shape.R_over_lambda",
+        }
+    }
+
+    /// The field of a study key, if it is one.
+    pub fn of_key(key: &str) -> Option<Field> {
+        Field::ALL.into_iter().find(|f| f.key() == key)
+    }
+
+    /// The value in `p`, or `None` where the model has no such number (a helix length of an
+    /// arc, an RPY setting left at its default).
+    pub fn get(self, p: &Physical) -> Option<f64> {
+        let helix = match p.shape {
+            ShapeParams::Helix {
+                l, lambda, radius, ..
+            } => Some((l, lambda, radius)),
+            _ => None,
+        };
+        match (self, &p.shape) {
+            (Field::YoungsModulus, _) => Some(p.rod.youngs_modulus),
+            (Field::RodRadius, _) => Some(p.rod.r0),
+            (Field::RodDensity, _) => Some(p.rod.rho),
+            (Field::Poisson, _) => Some(p.rod.nu),
+            (Field::Viscosity, _) => Some(p.fluid.mu),
+            (Field::FluidDensity, _) => Some(p.fluid.rho),
+            (Field::Gravity, _) => Some(p.fluid.g),
+            (Field::BlobRadius, _) => p.fluid.blob_radius,
+            (Field::PointsPerBlob, _) => p.fluid.points_per_blob,
+            (Field::AxialLength, _) => helix.map(|h| h.0),
+            (
+                Field::ContourLength,
+                ShapeParams::Arc { length, .. } | ShapeParams::Straight { length, .. },
+            ) => Some(*length),
+            (Field::Pitch, _) => helix.map(|h| h.1),
+            (
+                Field::Radius,
+                ShapeParams::Helix { radius, .. } | ShapeParams::Arc { radius, .. },
+            ) => Some(*radius),
+            (Field::Tilt, ShapeParams::Straight { alpha_deg, .. }) => Some(*alpha_deg),
+            (Field::LambdaOverL, _) => helix.map(|(l, lambda, _)| lambda / l),
+            (Field::ROverLambda, _) => helix.map(|(_, lambda, r)| r / lambda),
+            _ => None,
+        }
+    }
+
+    /// `p` with this field set to `value` (not validated: see [`Physical::validate`]); an input
+    /// error naming the key where the model has no such number.
+    pub fn set(self, p: &mut Physical, value: f64) -> Result<()> {
+        let missing = || {
+            Error::input(
+                self.key(),
+                match self {
+                    Field::LambdaOverL | Field::ROverLambda => "needs a helix".to_string(),
+                    _ => "is not a number of this shape".to_string(),
+                },
+            )
+        };
+        let target: &mut f64 = match (self, &mut p.shape) {
+            (Field::YoungsModulus, _) => &mut p.rod.youngs_modulus,
+            (Field::RodRadius, _) => &mut p.rod.r0,
+            (Field::RodDensity, _) => &mut p.rod.rho,
+            (Field::Poisson, _) => &mut p.rod.nu,
+            (Field::Viscosity, _) => &mut p.fluid.mu,
+            (Field::FluidDensity, _) => &mut p.fluid.rho,
+            (Field::Gravity, _) => &mut p.fluid.g,
+            (Field::BlobRadius, _) => p.fluid.blob_radius.insert(value),
+            (Field::PointsPerBlob, _) => p.fluid.points_per_blob.insert(value),
+            (Field::AxialLength, ShapeParams::Helix { l, .. }) => l,
+            (
+                Field::ContourLength,
+                ShapeParams::Arc { length, .. } | ShapeParams::Straight { length, .. },
+            ) => length,
+            (Field::Pitch, ShapeParams::Helix { lambda, .. }) => lambda,
+            (
+                Field::Radius,
+                ShapeParams::Helix { radius, .. } | ShapeParams::Arc { radius, .. },
+            ) => radius,
+            (Field::Tilt, ShapeParams::Straight { alpha_deg, .. }) => alpha_deg,
+            (Field::LambdaOverL, ShapeParams::Helix { l, lambda, .. }) => {
+                *lambda = value * *l;
+                return Ok(());
+            }
+            (Field::ROverLambda, ShapeParams::Helix { lambda, radius, .. }) => {
+                *radius = value * *lambda;
+                return Ok(());
+            }
+            _ => return Err(missing()),
+        };
+        *target = value;
+        Ok(())
+    }
+}

@@ -387,6 +387,47 @@ pub fn local_exponents(x: &[f64], y: &[f64]) -> Vec<LocalExponent> {
         .collect()
 }
 
+/// `dy/dx` at every sample of `(x, y)` (in the order given): the three-point formula on an
+/// uneven grid inside, two points at the ends; `None` for a lone sample or a non-finite value
+/// (`x`, `y` logarithms of non-positive numbers). For densely sampled curves, where the
+/// derivative at the samples is wanted; [`local_exponents`] gives chords between coarse samples.
+pub fn log_slopes(x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
+    let n = x.len();
+    let d = |a: usize, b: usize| (y[b] - y[a]) / (x[b] - x[a]);
+    (0..n)
+        .map(|i| {
+            let slope = match (i, n) {
+                (_, 0 | 1) => return None,
+                (0, _) => d(0, 1),
+                (i, n) if i == n - 1 => d(n - 2, n - 1),
+                (i, _) => {
+                    let (h0, h1) = (x[i] - x[i - 1], x[i + 1] - x[i]);
+                    (h0 * d(i, i + 1) + h1 * d(i - 1, i)) / (h0 + h1)
+                }
+            };
+            slope.is_finite().then_some(slope)
+        })
+        .collect()
+}
+
+/// The intercept `a` of the least-squares line `y = a + b x` through `points`; `None` with
+/// fewer than three points.
+pub fn line_intercept(points: &[(f64, f64)]) -> Option<f64> {
+    let n = points.len() as f64;
+    if points.len() < 3 {
+        return None;
+    }
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let b = sxy / sxx;
+    let a = my - b * mx;
+    a.is_finite().then_some(a)
+}
+
 /// One exponent shared by several groups, each with its own prefactor:
 /// `y = N_k x^p` for group `k` (the separable form `y = M(x) N(group)` with `M = x^p`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -641,5 +682,33 @@ mod tests {
         let local = local_exponents(&[0.2, 0.1, 0.3, -1.0], &[4.0, 16.0, 1.0, 1.0]);
         assert_eq!(local.len(), 2);
         assert!((local[0].p - (0.25f64).ln() / 2f64.ln()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn the_log_slope_is_second_order_on_an_uneven_grid() {
+        // y = sin(x) on uneven points: the three-point derivative errs by O(h^2).
+        let error = |h: f64| {
+            let x: Vec<f64> = (0..12)
+                .map(|i| 1.0 + h * (i as f64 + 0.3 * (i % 3) as f64))
+                .collect();
+            let y: Vec<f64> = x.iter().map(|x| x.sin()).collect();
+            let slopes = log_slopes(&x, &y);
+            (1..x.len() - 1)
+                .map(|i| (slopes[i].unwrap() - x[i].cos()).abs())
+                .fold(0.0, f64::max)
+        };
+        let (coarse, fine) = (error(0.02), error(0.01));
+        let order = (coarse / fine).log2();
+        assert!((order - 2.0).abs() < 0.2, "observed order {order}");
+        assert!(log_slopes(&[1.0], &[2.0])[0].is_none());
+    }
+
+    #[test]
+    fn the_limit_of_a_straight_line_is_its_intercept() {
+        let points: Vec<(f64, f64)> = (0..5)
+            .map(|i| (0.1 * i as f64, 2.1 + 3.0 * 0.1 * i as f64))
+            .collect();
+        assert!((line_intercept(&points).unwrap() - 2.1).abs() < 1e-14);
+        assert!(line_intercept(&points[..2]).is_none());
     }
 }

@@ -8,9 +8,9 @@ use serde_json::json;
 
 use crate::Result;
 use crate::numerics::fit::{common_power_law, local_exponents, power_law, through_origin};
-use crate::output::{Table, io_error};
 use crate::plot::{Figure, Marker, MarkerShape, Scale, Series, Style, write_figure};
 use crate::study::Study;
+use crate::study::output::{Table, io_error};
 use crate::study::plan::{FitKind, Plan};
 use crate::study::runs::BranchTables;
 

@@ -4,9 +4,11 @@
 //! overridden from the command line with `--set key=value` (dotted path, TOML value syntax, e.g.
 //! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
 
+pub mod boundary;
 pub mod cycles;
 pub mod figures;
 pub mod orbits;
+pub mod output;
 pub mod phase;
 pub mod plan;
 pub mod run;

@@ -21,10 +21,9 @@ use crate::engine::periodic::branch::{
 };
 use crate::model::Model;
 use crate::model::observables::height;
-use crate::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
-use crate::report::Section;
 use crate::study::Study;
+use crate::study::output::{CsvWriter, Meta, create_dir, io_error};
 use crate::study::plan::OrbitPlan;
 use crate::study::runs::{run_branch, run_locate_critical};
 use crate::{Error, Result};
@@ -111,50 +110,6 @@ pub struct OrbitsReport {
     pub out: String,
 }
 
-impl Section for OrbitsReport {
-    fn show(&self, study: &str, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(
-            f,
-            "periodic orbits of `{study}` from the Hopf point at omega = {:.8} rad/s (N = {}, \
-             frequency {:.6} rad/s, l1 = {:.6e}: {})",
-            self.omega_hopf, self.nodes, self.frequency, self.l1, self.criticality
-        )?;
-        writeln!(
-            f,
-            "  {} orbits in {:.1} s, stopped: {:?}; written to {}",
-            self.orbits, self.seconds, self.stop, self.out
-        )?;
-        for (name, row) in [("first", &self.first), ("last", &self.last)] {
-            if let Some(r) = row {
-                writeln!(
-                    f,
-                    "  {name}: omega = {:.8} rad/s, period {:.6} s, amplitude {:.4e} m, hbar {:.6}, \
-                     Fpbar {:.6}, max |multiplier| - 1 = {:+.3e} ({})",
-                    r.omega,
-                    r.period,
-                    r.amplitude,
-                    r.hbar_mean,
-                    r.fpbar_mean,
-                    r.max_multiplier - 1.0,
-                    r.verdict
-                )?;
-            }
-        }
-        for e in &self.events {
-            writeln!(
-                f,
-                "  {:?} between orbits {} and {} (omega {:.8} .. {:.8} rad/s)",
-                e.kind,
-                e.after,
-                e.after + 1,
-                e.omega_from,
-                e.omega_to
-            )?;
-        }
-        Ok(())
-    }
-}
-
 /// Writes `events.csv` (rates in rad/s), returning its rows.
 fn write_events(
     events: &[OrbitEvent],
@@ -234,7 +189,7 @@ pub fn run_orbits(
     // On a resumed run the orbits and events before the checkpoint are kept as they were.
     let next = resume.as_ref().map_or(0, |c| c.next_index);
     let mut rows: Vec<OrbitRow> =
-        crate::output::read_rows(&dir.join("orbits.csv"), resume.is_some())?;
+        crate::study::output::read_rows(&dir.join("orbits.csv"), resume.is_some())?;
     rows.retain(|r| r.index < next);
     let states = dir.join("states");
     create_dir(&states)?;
@@ -261,11 +216,14 @@ pub fn run_orbits(
                 physical: physical.clone(),
                 ..start.clone()
             };
-            crate::output::write_json_atomically(&states.join(start_file_name(row.index)), &start)?;
+            crate::study::output::write_json_atomically(
+                &states.join(start_file_name(row.index)),
+                &start,
+            )?;
             match checkpoint {
                 Some(c) => {
                     write_events(&c.events, &s, &dir.join("events.csv"))?;
-                    crate::output::write_json_atomically(&checkpoint_path, c)
+                    crate::study::output::write_json_atomically(&checkpoint_path, c)
                 }
                 None => Ok(()),
             }

@@ -13,15 +13,17 @@ use serde_json::{Value, json};
 
 use super::plan::{Case, Plan, Vary};
 use super::sweep::variant;
-use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study};
+use super::{LAMBDA_OVER_L, Study};
+use crate::analysis::boundary::BoundaryPoint;
 use crate::analysis::locate::{observables_at, trace};
 use crate::analysis::solve::rest_state;
-use crate::boundary::{RodFamily, read_rows, run_family};
 use crate::engine::arclength::Silent;
 use crate::model::Model;
+use crate::model::params::Field;
 use crate::model::params::ShapeParams;
-use crate::output::{CsvWriter, Table};
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
+use crate::study::boundary::{family, run_family};
+use crate::study::output::{CsvWriter, Table};
 use crate::{Error, Result};
 
 /// A row of `phase.csv`: a point of a branch, with `y = omegabar (R/lambda)^m`.
@@ -146,7 +148,7 @@ fn exponent(m: Option<f64>, exponent_study: &str, dir: &Path) -> Result<f64> {
             own.join("fit.json")
         }
     };
-    let text = std::fs::read_to_string(&path).map_err(crate::output::io_error(&path))?;
+    let text = std::fs::read_to_string(&path).map_err(crate::study::output::io_error(&path))?;
     let v: Value = serde_json::from_str(&text)
         .map_err(|e| Error::input("study.m", format!("{}: {e}", path.display())))?;
     v["m"]
@@ -371,18 +373,17 @@ fn boundary_curve(
     let ShapeParams::Helix { l, radius, .. } = study.shape else {
         return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
     };
-    let mut family = RodFamily::new(study, LAMBDA_OVER_L)?;
+    let mut family = family(study, LAMBDA_OVER_L)?;
     if let Some(r) = r_over_lambda {
-        family = family.holding(R_OVER_LAMBDA, r);
+        family = family.holding(Field::ROverLambda, r);
     }
     let (from, to) = (values[0], values[values.len() - 1]);
-    run_family(study, &family, from, to, dir)?;
-    let rows = read_rows(&dir.join("boundary.csv"))?;
+    let (rows, outcome) = run_family(study, &family, from, to, dir)?;
+    outcome?;
     let segments = rows.last().map_or(0, |r| r.segment + 1);
     Ok((0..segments)
         .map(|k| {
-            let on: Vec<&crate::boundary::BoundaryRow> =
-                rows.iter().filter(|r| r.segment == k).collect();
+            let on: Vec<&BoundaryPoint> = rows.iter().filter(|r| r.segment == k).collect();
             let shape = |q: f64| r_over_lambda.unwrap_or(radius / (q * l)).powf(m);
             Series {
                 label: if k == 0 {

@@ -16,7 +16,7 @@ use super::{Study, sweep_figures};
 use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
-use crate::output::{Meta, create_dir};
+use crate::study::output::{Meta, create_dir};
 use crate::{Error, Result};
 
 /// A folder-friendly form of a case label.
@@ -112,7 +112,7 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
             .map_err(|e| Error::Numerical(e.to_string()))?;
             let path = dir.join("locate.json");
             std::fs::write(&path, format!("{value:#}\n"))
-                .map_err(crate::output::io_error(&path))?;
+                .map_err(crate::study::output::io_error(&path))?;
             json!({ "kind": "locate", "result": value })
         }
         Plan::Sweep { .. } => {
@@ -134,7 +134,7 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
             cases: plan_cases,
             fit,
         } => {
-            let (value, failed) = crate::boundary::run_study(
+            let (value, failed) = super::boundary::run_study(
                 study,
                 vary,
                 (*from, *to),

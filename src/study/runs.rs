@@ -14,9 +14,9 @@ use crate::engine::arclength::{Observer, Point, Stop};
 use crate::engine::events::Event;
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
-use crate::output::{CsvWriter, Meta, create_dir};
 use crate::problem::steady::SteadyState;
 use crate::study::Study;
+use crate::study::output::{CsvWriter, Meta, create_dir};
 use crate::{Error, Result};
 
 /// One row of `branch.csv`.

@@ -15,8 +15,8 @@ use crate::engine::arclength::Silent;
 use crate::engine::stability::mode;
 use crate::model::Model;
 use crate::model::dofs::Layout;
-use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_panels};
+use crate::study::output::CsvWriter;
 use crate::{Error, Result};
 
 /// One node of a shape in `shapes.csv` (SI).

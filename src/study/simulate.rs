@@ -25,11 +25,11 @@ use crate::model::Model;
 use crate::model::observables::moving_forces;
 use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
-use crate::output::CsvWriter;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
+use crate::study::output::CsvWriter;
 use crate::study::runs::BranchRow;
 use crate::{Error, Result};
 
@@ -281,7 +281,7 @@ fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_
 /// Keeps the first `keep` lines after `header` lines of the text file at `path` (rows an
 /// interrupted run wrote after its last checkpoint are dropped; they are computed again).
 fn truncate_lines(path: &Path, header: usize, keep: usize) -> Result<()> {
-    let text = std::fs::read_to_string(path).map_err(crate::output::io_error(path))?;
+    let text = std::fs::read_to_string(path).map_err(crate::study::output::io_error(path))?;
     let lines: Vec<&str> = text.lines().collect();
     if lines.len() < header + keep {
         return Err(Error::input(
@@ -297,7 +297,7 @@ fn truncate_lines(path: &Path, header: usize, keep: usize) -> Result<()> {
     if !kept.is_empty() {
         kept.push('\n');
     }
-    std::fs::write(path, kept).map_err(crate::output::io_error(path))
+    std::fs::write(path, kept).map_err(crate::study::output::io_error(path))
 }
 
 /// What a simulation reports.
@@ -395,7 +395,7 @@ pub fn run_simulate(
         }
     }
     model.check_resolution()?;
-    crate::output::create_dir(dir)?;
+    crate::study::output::create_dir(dir)?;
     let scales = model.scales;
     let omegabar = scales.omega_to_bar(opts.omega);
     let rest = rest_state(model, &opts.newton)?;
@@ -415,7 +415,7 @@ pub fn run_simulate(
     let key = checkpoint_key(opts, settings);
     let saved: Option<SimulationCheckpoint> = if opts.resume && checkpoint_path.exists() {
         let text = std::fs::read_to_string(&checkpoint_path)
-            .map_err(crate::output::io_error(&checkpoint_path))?;
+            .map_err(crate::study::output::io_error(&checkpoint_path))?;
         let saved: SimulationCheckpoint = serde_json::from_str(&text)
             .map_err(|e| Error::input("--resume", format!("{}: {e}", checkpoint_path.display())))?;
         if saved.key != key {
@@ -438,7 +438,7 @@ pub fn run_simulate(
     let (start_from, mut series, mut shapes, mut rows, mut count, mut shape_lines) = match saved {
         Some(saved) => {
             truncate_lines(&series_path, 1, saved.samples)?;
-            let rows: Vec<TimeRow> = crate::output::read_rows(&series_path, true)?;
+            let rows: Vec<TimeRow> = crate::study::output::read_rows(&series_path, true)?;
             let shapes = if opts.shape_every > 0 {
                 truncate_lines(&shapes_path, 0, saved.shape_lines)?;
                 Some(CsvWriter::append(&shapes_path)?)
@@ -537,7 +537,7 @@ pub fn run_simulate(
         } else {
             0
         };
-        crate::output::write_json_atomically(
+        crate::study::output::write_json_atomically(
             &checkpoint_path,
             &SimulationCheckpoint {
                 key: key.clone(),
@@ -770,7 +770,7 @@ pub fn run_dynamics(
             ..OrbitsOptions::of_plan(orbit_plan, omega_max)
         };
         crate::study::orbits::run_orbits(study, &model, &opts, &orbits_dir)?;
-        crate::output::read_rows(&orbits_dir.join("orbits.csv"), true)?
+        crate::study::output::read_rows(&orbits_dir.join("orbits.csv"), true)?
     } else {
         Vec::new()
     };
@@ -879,7 +879,7 @@ fn mark_time_series(
     orbits: &[OrbitRow],
 ) -> Result<()> {
     let sub = dir.join(format!("omega_{omega}"));
-    let rows: Vec<TimeRow> = crate::output::read_rows(&sub.join("timeseries.csv"), true)?;
+    let rows: Vec<TimeRow> = crate::study::output::read_rows(&sub.join("timeseries.csv"), true)?;
     let t: Vec<f64> = rows.iter().map(|r| r.t).collect();
     let t_last = t.last().copied().unwrap_or(0.0);
     let level = |label: String, (y, stable): (f64, bool)| Series {

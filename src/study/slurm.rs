@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use super::Study;
 use super::sweep::{cases, grid, shard_files, sweep_plan, write_atomic};
-use crate::output::{create_dir, io_error};
+use crate::study::output::{create_dir, io_error};
 use crate::{Error, Result};
 
 /// The variables of an array task that `--shard slurm` needs (Slurm sets them in every task of

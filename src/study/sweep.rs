@@ -27,7 +27,7 @@ use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path
 use crate::engine::arclength::Silent;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
-use crate::output::{create_dir, io_error};
+use crate::study::output::{create_dir, io_error};
 use crate::{Error, Result};
 
 /// One point of a sweep grid.

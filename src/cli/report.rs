@@ -5,15 +5,18 @@ use std::fmt::{self, Display, Formatter};
 
 use serde::Serialize;
 
-use crate::analysis::dynamics::Bisection;
-use crate::analysis::locate::Located;
-use crate::analysis::solve::SolutionSummary;
-use crate::numerics::fit::PowerLaw;
-use crate::output::LeftOut;
-use crate::study::runs::{BranchReport, Ladder, Refinement};
-use crate::study::simulate::SimulateReport;
-use crate::study::slurm::{SlurmScripts, SlurmSubmission};
-use crate::study::sweep::SweepSummary;
+use helixbif::analysis::dynamics::Bisection;
+use helixbif::analysis::locate::Located;
+use helixbif::analysis::solve::SolutionSummary;
+use helixbif::engine::curve::SpecialKind;
+use helixbif::numerics::fit::PowerLaw;
+use helixbif::study::boundary::BoundaryReport;
+use helixbif::study::orbits::OrbitsReport;
+use helixbif::study::output::LeftOut;
+use helixbif::study::runs::{BranchReport, Ladder, Refinement};
+use helixbif::study::simulate::SimulateReport;
+use helixbif::study::slurm::{SlurmScripts, SlurmSubmission};
+use helixbif::study::sweep::SweepSummary;
 
 /// A command's result, shown as text or as one JSON value.
 pub trait Report: Display {
@@ -32,6 +35,22 @@ pub struct Titled<T> {
     pub study: String,
     #[serde(flatten)]
     pub result: T,
+}
+
+/// The text of a result that stands alone, without a study's name.
+pub trait Text {
+    fn text(&self, f: &mut Formatter<'_>) -> fmt::Result;
+}
+
+/// A result shown as its own [`Text`]; its JSON is the result's own.
+#[derive(Serialize)]
+#[serde(transparent)]
+pub struct Plain<T>(pub T);
+
+impl<T: Text> Display for Plain<T> {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        self.0.text(f)
+    }
 }
 
 /// The text of a result about the study `study`.
@@ -409,8 +428,8 @@ impl Display for BisectReport {
     }
 }
 
-impl Display for SlurmScripts {
-    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+impl Text for SlurmScripts {
+    fn text(&self, f: &mut Formatter<'_>) -> fmt::Result {
         write!(
             f,
             "wrote {} ({} tasks over {} points) and {}; submit with",
@@ -426,8 +445,8 @@ impl Display for SlurmScripts {
     }
 }
 
-impl Display for SlurmSubmission {
-    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+impl Text for SlurmSubmission {
+    fn text(&self, f: &mut Formatter<'_>) -> fmt::Result {
         write!(
             f,
             "submitted array job {} ({} tasks over {} points) and merge job {} ({}); ids in {}",
@@ -440,6 +459,119 @@ impl Display for SlurmSubmission {
                 .array_script
                 .with_file_name("slurm.json")
                 .display()
+        )
+    }
+}
+
+impl Section for OrbitsReport {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "periodic orbits of `{study}` from the Hopf point at omega = {:.8} rad/s (N = {}, \
+             frequency {:.6} rad/s, l1 = {:.6e}: {})",
+            self.omega_hopf, self.nodes, self.frequency, self.l1, self.criticality
+        )?;
+        writeln!(
+            f,
+            "  {} orbits in {:.1} s, stopped: {:?}; written to {}",
+            self.orbits, self.seconds, self.stop, self.out
+        )?;
+        for (name, row) in [("first", &self.first), ("last", &self.last)] {
+            if let Some(r) = row {
+                writeln!(
+                    f,
+                    "  {name}: omega = {:.8} rad/s, period {:.6} s, amplitude {:.4e} m, hbar {:.6}, \
+                     Fpbar {:.6}, max |multiplier| - 1 = {:+.3e} ({})",
+                    r.omega,
+                    r.period,
+                    r.amplitude,
+                    r.hbar_mean,
+                    r.fpbar_mean,
+                    r.max_multiplier - 1.0,
+                    r.verdict
+                )?;
+            }
+        }
+        for e in &self.events {
+            writeln!(
+                f,
+                "  {:?} between orbits {} and {} (omega {:.8} .. {:.8} rad/s)",
+                e.kind,
+                e.after,
+                e.after + 1,
+                e.omega_from,
+                e.omega_to
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The text of a boundary report.
+impl Text for BoundaryReport {
+    fn text(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "stability boundary in {} from {} to {} at N = {}: {} points on {} curve(s), {} \
+             steady solves, {:.2} s",
+            self.key,
+            self.from,
+            self.to,
+            self.nodes,
+            self.points,
+            self.segments,
+            self.evaluations,
+            self.seconds
+        )?;
+        for p in &self.special {
+            let single = [SpecialKind::Turning, SpecialKind::GeneralizedHopf];
+            let frequencies = if single.contains(&p.kind) {
+                format!("w = {:.5} rad/s", p.w)
+            } else {
+                format!("w = {:.5}, other {:.5} rad/s", p.w, p.w_other)
+            };
+            writeln!(
+                f,
+                "  {:<12} at {} = {:.8}, omega = {:.8} rad/s ({frequencies}){}",
+                p.kind.name(),
+                self.key,
+                p.q,
+                p.omega,
+                if p.switch {
+                    ": the boundary leaves the curve here"
+                } else {
+                    ""
+                }
+            )?;
+        }
+        let c = &self.criticality;
+        writeln!(
+            f,
+            "  Hopf points: {} subcritical, {} supercritical, {} undetermined, {} without a \
+             Lyapunov coefficient",
+            c.subcritical, c.supercritical, c.undetermined, c.not_computed
+        )?;
+        match (self.check_omega_b, self.check_difference) {
+            (Some(w), Some(d)) => {
+                writeln!(
+                    f,
+                    "  check: an independent locate at the end finds omega_b = {w:.8} rad/s \
+                     (relative difference {d:.2e})"
+                )?;
+                if d > 1e-6 {
+                    writeln!(
+                        f,
+                        "  WARNING: they disagree: another mode loses stability first at the \
+                         end, away from the curve followed"
+                    )?;
+                }
+            }
+            _ => writeln!(f, "  check: the independent locate at the end failed")?,
+        }
+        write!(
+            f,
+            "  boundary.csv, points.csv, boundary.svg, m_loc.svg in {}",
+            self.out
         )
     }
 }

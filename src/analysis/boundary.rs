@@ -1,0 +1,502 @@
+//! The stability boundary `omega_b(q)` as a curve in a second model field `q` (a [`Field`] of
+//! the physical model: any number of it, or the helix ratios), by two-parameter continuation of
+//! the first loss of stability ([`crate::engine::curve`], docs/model.md section 11).
+//!
+//! The curve starts from `locate` at the first value of `q`. It is the first loss of stability
+//! of the branch from rest as long as no other mode becomes unstable below it; the rest of the
+//! spectrum is watched at every point, so where a second pair reaches the axis on the curve (a
+//! double Hopf point) past which it is unstable, the boundary moves to that pair's Hopf curve
+//! and says where it switched. Where the curve turns back in `q` (the mode's loss and regain of
+//! stability meet and vanish), the boundary jumps: it is located afresh just past the turning
+//! point and followed from there. An instability that opens below the curve away from it
+//! (neither on it nor at a turning point) is not seen by the curve; the end of the range is
+//! therefore checked against an independent `locate` ([`check_end`]).
+
+use std::rc::Rc;
+
+use serde::{Serialize, Serializer};
+
+use crate::analysis::locate::{locate, observables_at};
+use crate::analysis::solve::rest_state;
+use crate::engine::ContinuationSettings;
+use crate::engine::arclength::Silent;
+use crate::engine::criticality::Verdict;
+use crate::engine::curve::{
+    CurveObserver, CurvePoint, CurveSettings, CurveStop, Family, Special, SpecialKind, follow_curve,
+};
+use crate::engine::event_curve::{EventPoint, follow_event_curve};
+use crate::engine::events::EventKind;
+use crate::engine::newton::NewtonSettings;
+use crate::model::Model;
+use crate::numerics::fit::log_slopes;
+use crate::problem::family::RodFamily;
+use crate::problem::rod::RodProblem;
+use crate::{Error, Result};
+
+/// What a boundary needs besides its family: the steady solves' and the continuation's
+/// settings, and the rate (rad/s, signed) up to which a first loss of stability is looked for.
+#[derive(Clone, Copy, Debug)]
+pub struct BoundarySettings<'a> {
+    pub newton: &'a NewtonSettings,
+    pub continuation: &'a ContinuationSettings,
+    pub omega_max: f64,
+}
+
+/// One point of the boundary (a row of `boundary.csv`).
+#[derive(Clone, Debug, Serialize)]
+pub struct BoundaryPoint {
+    /// The index of the curve the point lies on (a switch or a jump starts a new one).
+    pub segment: usize,
+    pub q: f64,
+    pub omega_b: f64,
+    pub omegabar_b: f64,
+    #[serde(serialize_with = "event_name")]
+    pub kind: EventKind,
+    /// Frequency of the critical mode, rad/s and normalized.
+    pub w: f64,
+    pub wbar: f64,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: f64,
+    pub hbar: f64,
+    /// `-d ln omegabar_b / d ln q` along the segment (three-point differences; empty where `q`
+    /// or `omegabar_b` is not positive or the segment has one point).
+    pub m_loc: Option<f64>,
+    /// Relative precision of the point in `omega`.
+    pub precision: f64,
+    /// At a Hopf point: the first Lyapunov coefficient (solver units, critical mode scaled to a
+    /// largest node displacement of `ell`), its estimated error and the verdict; empty where it
+    /// could not be computed (its differences displace the rod out of the fluid model's
+    /// admissible states, next to Lighthill's spacing limit).
+    pub l1: Option<f64>,
+    pub l1_precision: Option<f64>,
+    pub criticality: Option<Verdict>,
+}
+
+/// A special point of the boundary (a row of `points.csv`).
+#[derive(Clone, Debug, Serialize)]
+pub struct SpecialPoint {
+    #[serde(serialize_with = "special_name")]
+    pub kind: SpecialKind,
+    pub q: f64,
+    pub omega: f64,
+    pub omegabar: f64,
+    /// The critical mode's frequency and the other mode's (double Hopf), rad/s.
+    pub w: f64,
+    pub w_other: f64,
+    /// True where the boundary leaves the curve here (switch to the other mode, or jump).
+    pub switch: bool,
+    /// Width of the final bracket along the curve (units of the curve's arclength).
+    pub precision: f64,
+}
+
+fn event_name<S: Serializer>(kind: &EventKind, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(kind.name())
+}
+
+fn special_name<S: Serializer>(kind: &SpecialKind, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(kind.name())
+}
+
+/// The boundary found so far.
+#[derive(Clone, Debug, Default)]
+pub struct Boundary {
+    pub points: Vec<BoundaryPoint>,
+    pub special: Vec<SpecialPoint>,
+    /// The curves the boundary runs on (a switch or a jump starts a new one).
+    pub segments: usize,
+    /// Steady solves (Newton from a close guess, with a spectrum) over the whole boundary.
+    pub evaluations: usize,
+}
+
+impl Boundary {
+    /// Sets `m_loc` of every point by three-point differences of `ln omegabar_b` in `ln q` on
+    /// each segment.
+    fn local_exponents(&mut self) {
+        let mut start = 0;
+        let rows = &mut self.points;
+        while start < rows.len() {
+            let segment = rows[start].segment;
+            let end = start
+                + rows[start..]
+                    .iter()
+                    .take_while(|r| r.segment == segment)
+                    .count();
+            let (x, y): (Vec<f64>, Vec<f64>) = rows[start..end]
+                .iter()
+                .map(|r| (r.q.ln(), r.omegabar_b.ln()))
+                .unzip();
+            for (row, slope) in rows[start..end].iter_mut().zip(log_slopes(&x, &y)) {
+                row.m_loc = slope.map(|d| -d);
+            }
+            start = end;
+        }
+    }
+
+    /// How many Hopf points of the boundary are supercritical, subcritical, undetermined, and
+    /// without a coefficient.
+    pub fn criticality(&self) -> Criticality {
+        let mut count = Criticality::default();
+        for row in self.points.iter().filter(|r| r.kind == EventKind::Hopf) {
+            match row.criticality {
+                Some(Verdict::Supercritical) => count.supercritical += 1,
+                Some(Verdict::Subcritical) => count.subcritical += 1,
+                Some(Verdict::Undetermined) => count.undetermined += 1,
+                None => count.not_computed += 1,
+            }
+        }
+        count
+    }
+}
+
+/// The verdicts on the criticality of the Hopf points of a boundary.
+#[derive(Debug, Default, Serialize)]
+pub struct Criticality {
+    pub supercritical: usize,
+    pub subcritical: usize,
+    pub undetermined: usize,
+    pub not_computed: usize,
+}
+
+/// Watches a boundary as it grows: called after every new point and special point with the
+/// boundary so far; an error ends the boundary there.
+pub trait BoundaryObserver {
+    fn grown(&mut self, boundary: &Boundary) -> Result<()>;
+}
+
+/// Follows the engine's curves into a [`Boundary`], with the observables of every point.
+struct Recorder<'a, O> {
+    family: &'a RodFamily,
+    newton: &'a NewtonSettings,
+    boundary: Boundary,
+    /// The kind of the curve being followed.
+    kind: EventKind,
+    observer: &'a mut O,
+    error: Option<Error>,
+}
+
+impl<O: BoundaryObserver> Recorder<'_, O> {
+    fn row(&self, point: &CurvePoint) -> Result<BoundaryPoint> {
+        let member = self.family.member(point.q)?;
+        let model = &member.model;
+        let rest = rest_state(model, self.newton)?;
+        let o = observables_at(model, &rest, &point.u, point.p)?;
+        let wbar = point.eigenvalue.im;
+        Ok(BoundaryPoint {
+            segment: self.boundary.segments - 1,
+            q: point.q,
+            omega_b: o.omega,
+            omegabar_b: point.p,
+            kind: self.kind,
+            w: model.scales.omega_from_bar(wbar),
+            wbar,
+            fpbar: o.fpbar,
+            hbar: o.hbar,
+            m_loc: None,
+            precision: point.precision,
+            l1: point.lyapunov.as_ref().map(|l| l.l1),
+            l1_precision: point.lyapunov.as_ref().map(|l| l.precision),
+            criticality: point.lyapunov.as_ref().map(|l| l.verdict),
+        })
+    }
+
+    fn special_point(&self, special: &Special, switch: bool) -> Result<SpecialPoint> {
+        let scales = self.family.member(special.point.q)?.model.scales;
+        Ok(SpecialPoint {
+            kind: special.kind,
+            q: special.point.q,
+            omega: scales.omega_from_bar(special.point.p),
+            omegabar: special.point.p,
+            w: scales.omega_from_bar(special.point.eigenvalue.im),
+            w_other: scales.omega_from_bar(special.other.im),
+            switch,
+            precision: special.precision,
+        })
+    }
+
+    /// Keeps the first error.
+    fn record(&mut self, result: Result<()>) {
+        if let (Err(e), None) = (result, &self.error) {
+            self.error = Some(e);
+        }
+    }
+}
+
+impl<O: BoundaryObserver> CurveObserver for Recorder<'_, O> {
+    fn point(&mut self, point: &CurvePoint) {
+        self.boundary.evaluations += point.evaluations;
+        let result = self.row(point).and_then(|row| {
+            self.boundary.points.push(row);
+            self.boundary.local_exponents();
+            self.observer.grown(&self.boundary)
+        });
+        self.record(result);
+    }
+
+    /// The boundary leaves the curve where the other mode is unstable beyond a double Hopf or
+    /// zero-Hopf point, and at a turning point.
+    fn special(&mut self, special: &Special) -> bool {
+        let switch = special.gains || special.kind == SpecialKind::Turning;
+        let result = self.special_point(special, switch).map(|row| {
+            self.boundary.special.push(row);
+        });
+        self.record(result);
+        switch
+    }
+}
+
+/// How a boundary starts: on a Hopf curve, or on a fold or branch-point curve.
+enum Start {
+    Hopf(CurvePoint),
+    Event(EventPoint),
+}
+
+impl Start {
+    /// `omegabar` of the starting event.
+    fn omegabar(&self) -> f64 {
+        match self {
+            Start::Hopf(c) => c.p,
+            Start::Event(e) => e.event.p,
+        }
+    }
+}
+
+/// The first loss of stability of the member at `q` (looked for up to `omega_max` rad/s), as
+/// the start of a curve, and the member in the chart the branch reached it in.
+fn start_at(
+    family: &RodFamily,
+    settings: &BoundarySettings,
+    q: f64,
+    omega_max: f64,
+) -> Result<(Start, Rc<RodProblem<Model>>)> {
+    let member = family.member(q)?;
+    let model = &member.model;
+    let (located, critical) = locate(
+        model,
+        omega_max,
+        settings.newton,
+        settings.continuation,
+        &mut Silent,
+    )?;
+    let key = family.field().key();
+    let critical = critical.ok_or_else(|| {
+        Error::Numerical(format!(
+            "at {key} = {q}: no loss of stability to start the boundary from ({})",
+            located.kind
+        ))
+    })?;
+    let event = critical.event;
+    let start = match event.kind {
+        EventKind::Hopf => Start::Hopf(CurvePoint::at_event(event, q)),
+        EventKind::Fold | EventKind::BranchPoint => Start::Event(EventPoint {
+            q,
+            event,
+            lead: critical.lead,
+            iterations: 0,
+        }),
+        kind => {
+            return Err(Error::Numerical(format!(
+                "at {key} = {q} the first loss of stability is a {}: no curve to follow",
+                kind.name()
+            )));
+        }
+    };
+    member.set_chart(critical.chart);
+    Ok((start, Rc::new(member)))
+}
+
+/// Follows the fold or branch-point curve from `start` to the end of the range, its points into
+/// `recorder`.
+fn follow_events<O: BoundaryObserver>(
+    recorder: &mut Recorder<'_, O>,
+    start: EventPoint,
+    member: Rc<RodProblem<Model>>,
+    direction: f64,
+    settings: (&CurveSettings, &BoundarySettings),
+) -> Result<()> {
+    let (curve_settings, boundary) = settings;
+    let family = recorder.family;
+    let kind = start.event.kind;
+    let curve = follow_event_curve(
+        family,
+        start,
+        member,
+        boundary.omega_max.signum(),
+        direction,
+        curve_settings,
+        boundary.continuation,
+    )?;
+    recorder.kind = kind;
+    for point in &curve.points {
+        let on_curve = CurvePoint {
+            evaluations: point.iterations,
+            ..CurvePoint::at_event(point.event.clone(), point.q)
+        };
+        recorder.point(&on_curve);
+    }
+    if let Some(e) = recorder.error.take() {
+        return Err(e);
+    }
+    match curve.stop {
+        CurveStop::Range => Ok(()),
+        stop => Err(Error::Numerical(format!(
+            "the {} curve stopped at {} = {:.6e}: {stop:?}",
+            kind.name(),
+            family.field().key(),
+            curve.points.last().map_or(f64::NAN, |p| p.q)
+        ))),
+    }
+}
+
+/// Follows the boundary of `family` from `q = from` to `to`, telling `observer` of every point:
+/// what was found, and whether the boundary reached the end of the range (what was found is
+/// kept when it did not).
+pub fn follow_boundary(
+    family: &RodFamily,
+    settings: &BoundarySettings,
+    from: f64,
+    to: f64,
+    observer: &mut impl BoundaryObserver,
+) -> (Boundary, Result<()>) {
+    let mut recorder = Recorder {
+        family,
+        newton: settings.newton,
+        boundary: Boundary {
+            segments: 1,
+            ..Boundary::default()
+        },
+        kind: EventKind::Hopf,
+        observer,
+        error: None,
+    };
+    let outcome = follow_segments(&mut recorder, settings, from, to);
+    (recorder.boundary, outcome)
+}
+
+/// Refuses a range that is not two different finite values, or whose ends have no valid model.
+pub fn check_range(family: &RodFamily, from: f64, to: f64) -> Result<()> {
+    if !(from.is_finite() && to.is_finite() && from != to) {
+        return Err(Error::input(
+            "--from/--to",
+            format!("need two different finite values, got {from} and {to}"),
+        ));
+    }
+    family.physical(from)?;
+    family.physical(to)?;
+    Ok(())
+}
+
+/// The curves of [`follow_boundary`], one after the other.
+fn follow_segments<O: BoundaryObserver>(
+    recorder: &mut Recorder<'_, O>,
+    settings: &BoundarySettings,
+    from: f64,
+    to: f64,
+) -> Result<()> {
+    let family = recorder.family;
+    check_range(family, from, to)?;
+    let key = family.field().key();
+    let curve_settings = CurveSettings {
+        criticality: true,
+        ..CurveSettings::new(from.min(to), from.max(to))
+    };
+    let direction = (to - from).signum();
+    let (mut start, mut member) = start_at(family, settings, from, settings.omega_max)?;
+    loop {
+        let hopf = match start {
+            Start::Hopf(c) => c,
+            Start::Event(e) => {
+                return follow_events(recorder, e, member, direction, (&curve_settings, settings));
+            }
+        };
+        recorder.kind = EventKind::Hopf;
+        let (curve, last) = follow_curve(
+            family,
+            hopf,
+            member,
+            direction,
+            &curve_settings,
+            settings.continuation,
+            recorder,
+        )?;
+        if let Some(e) = recorder.error.take() {
+            return Err(e);
+        }
+        let at = || curve.points.last().map_or(from, |p| p.q);
+        match curve.stop {
+            CurveStop::Range => return Ok(()),
+            CurveStop::MaxPoints => {
+                return Err(Error::Numerical(format!(
+                    "the curve used all {} points",
+                    curve_settings.max_points
+                )));
+            }
+            CurveStop::StepTooSmall(reason) => {
+                return Err(Error::Numerical(format!(
+                    "the boundary curve stalled at {key} = {:.6e}: {reason}",
+                    at()
+                )));
+            }
+            CurveStop::NoMember(reason) => {
+                return Err(Error::Numerical(format!(
+                    "the boundary curve ends at {key} = {:.6e}, past which the study has no \
+                     admissible model: {reason}",
+                    at()
+                )));
+            }
+            CurveStop::Ended => {
+                return Err(Error::Numerical(format!(
+                    "the Hopf curve ends at a Bogdanov-Takens point at {key} = {:.6e}: past it \
+                     the boundary is a fold curve, which boundary does not follow",
+                    at()
+                )));
+            }
+            CurveStop::Observer => {}
+        }
+        let special = curve
+            .special
+            .last()
+            .expect("the observer stopped at a special point");
+        recorder.boundary.segments += 1;
+        start = if special.kind == SpecialKind::Turning {
+            // Past the turning point the mode is stable: the first loss of stability is
+            // elsewhere, located afresh a little beyond.
+            let q = special.point.q + direction * 1e-3 * (to - from).abs();
+            let reached = recorder.boundary.points.last().map_or(0.0, |r| r.omega_b);
+            let omega_max =
+                settings.omega_max.abs().max(2.0 * reached.abs()) * settings.omega_max.signum();
+            let (s, m) = start_at(family, settings, q, omega_max)?;
+            member = m;
+            s
+        } else if special.kind == SpecialKind::DoubleHopf {
+            let mut next = special.point.clone();
+            next.eigenvalue = special.other;
+            member = last;
+            Start::Hopf(next)
+        } else {
+            return Err(Error::Numerical(format!(
+                "at {key} = {:.6e} a real eigenvalue reaches zero on the Hopf curve (zero-Hopf \
+                 point) and is unstable beyond: the boundary becomes a fold or branch-point \
+                 curve there, which boundary does not follow",
+                special.point.q
+            )));
+        };
+    }
+}
+
+/// `omega_b` (rad/s) of an independent `locate` at the last point of a boundary, looked for up
+/// to twice that point's rate; `None` where it finds no loss of stability to start from.
+pub fn check_end(
+    family: &RodFamily,
+    settings: &BoundarySettings,
+    last: &BoundaryPoint,
+) -> Option<f64> {
+    let omega_max =
+        settings.omega_max.signum() * settings.omega_max.abs().max(2.0 * last.omega_b.abs());
+    let (start, _) = start_at(family, settings, last.q, omega_max).ok()?;
+    Some(
+        family
+            .member(last.q)
+            .map(|m| m.model.scales.omega_from_bar(start.omegabar()))
+            .unwrap_or(f64::NAN),
+    )
+}

@@ -1,0 +1,364 @@
+//! The command line's grammar: one clap `Args` struct per command, read by the command itself.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+use helixbif::study::runs::DEFAULT_MAX_NODES;
+
+pub const AFTER_HELP: &str = "\
+Every command that reads a study takes an optional study file (TOML, SI units); without one it
+uses the built-in representative helix (docs/model.md section 7). Relative paths inside a study
+resolve against the study file's folder.
+
+--set KEY=VALUE overrides any study field by its dotted path, the value in TOML syntax:
+  --set rod.E=2e6   --set discretization.nodes=80   --set shape.handedness=left
+  --set 'fluid.model=\"rpy\"'   (the RPY-regularized fluid, docs/model.md section 9)
+A whole table is replaced by a TOML inline table:
+  --set 'shape={kind=\"straight\", L=0.12, alpha_deg=15}'
+With --set and no --out, results go to output/<name>.set-<overrides>/, never over the
+study's own output/<name>/.
+
+Exit codes: 0 success; 2 bad input (one line on stderr naming the field and the allowed
+range); 1 numerical failure (one line saying where and why; results computed before it are
+kept on disk).";
+
+/// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
+/// (Discrete Elastic Rods + Lighthill slender-body theory).
+#[derive(Parser, Debug)]
+#[command(name = "helixbif", version, about, after_help = AFTER_HELP)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Options shared by every command that reads a study.
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    /// Study file (TOML); without one, the built-in representative helix.
+    pub study: Option<PathBuf>,
+    /// Override a study field: dotted key, TOML value (see the end of `helixbif --help`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Print one JSON object on stdout and nothing else there.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// One rigidly rotating steady state: observables and Newton convergence.
+    #[command(after_help = AFTER_HELP)]
+    Solve(SolveArgs),
+    /// Follow the steady branch from rest in omega: branch.csv, events.csv, meta.json, figures.
+    #[command(after_help = AFTER_HELP)]
+    Branch(BranchArgs),
+    /// The critical buckling rate omega_b: first loss of stability of the branch from rest
+    /// (kind hopf, fold or branch_point; unstable_at_rest when the rest state is already
+    /// unstable; none when the branch stays stable up to branch.omega_max); at a Hopf point its
+    /// first Lyapunov coefficient: supercritical or subcritical.
+    #[command(after_help = AFTER_HELP)]
+    Locate(LocateArgs),
+    /// The stability boundary omega_b against a second study field (e.g. shape.R_over_lambda)
+    /// as a curve, by two-parameter continuation of the first loss of stability that `locate`
+    /// finds at --from (a Hopf point; a fold or branch point); double Hopf points (where the
+    /// boundary switches mode), turning points (where it jumps), zero-Hopf, Bogdanov-Takens and
+    /// generalized Hopf points located, the first Lyapunov coefficient (super- or subcritical)
+    /// at every Hopf point: boundary.csv, points.csv, boundary.svg, m_loc.svg.
+    #[command(after_help = AFTER_HELP)]
+    Boundary(BoundaryArgs),
+    /// Do what the study's [study] table declares and write `output/<study name>/`. Kinds:
+    /// `locate` (the default without a [study] table: omega_b, or a ladder of node counts),
+    /// `branch` (branches from rest, one per case, drawn together), `sweep` (omega_b over a
+    /// parameter grid, fits), `boundary` (omega_b as curves in one field, one per case, the
+    /// local exponent m_loc along them), `phase` (propulsive force over lambda/l and omegabar
+    /// (R/lambda)^m with the stability boundary and natural flagella), `shapes` (steady
+    /// shapes and the critical mode), `dynamics` (simulations from rest: time averages over
+    /// the branch), `orbits` (periodic orbits from the Hopf point, as `helixbif orbits`).
+    #[command(after_help = AFTER_HELP)]
+    Run(RunArgs),
+    /// omega_b over the parameter grid of a study of kind "sweep" (any other study is refused),
+    /// in parallel and resumable; `--shard K/N` runs every N-th point (from the K-th) for
+    /// array jobs.
+    #[command(after_help = AFTER_HELP)]
+    Sweep(SweepArgs),
+    /// A sweep as a Slurm array job (one shard per task) and a merge job after it (afterok):
+    /// writes the two sbatch scripts into the output folder and prints the sbatch commands, or
+    /// submits them and records both job ids in slurm.json.
+    #[command(after_help = AFTER_HELP)]
+    Slurm(SlurmArgs),
+    /// Join the shard files of a study of kind "sweep" (any other study is refused) into
+    /// sweep.csv.
+    #[command(after_help = AFTER_HELP)]
+    Merge(MergeArgs),
+    /// Periodic orbits born at the Hopf point that `locate` finds (first Lyapunov coefficient,
+    /// shooting on equal BDF2 steps, Floquet multipliers, secant continuation in omega past
+    /// folds): orbits.csv (period, amplitude, time averages of hbar, Fpbar, Tp over a period,
+    /// multipliers, stability), events.csv (folds, stability changes), amplitude.svg, hbar.svg,
+    /// Fpbar.svg, meta.json. Rows are written as each orbit converges.
+    #[command(after_help = AFTER_HELP)]
+    Orbits(OrbitsArgs),
+    /// Step the rod through time at a rate (BDF2, adaptive): time series of hbar, Fp, Tp, eta,
+    /// shapes, figures, and late-time mean and standard deviation. Uses the study's [newton]
+    /// table for the rest and steady states.
+    #[command(after_help = AFTER_HELP)]
+    Simulate(SimulateArgs),
+    /// omega_b the way simulation studies found it: bisection on runs from rest, each judged by
+    /// whether the rod settles on the steady state. Uses the study's [newton] table.
+    #[command(after_help = AFTER_HELP)]
+    Bisect(BisectArgs),
+    /// Least-squares power law y = C x^p with 95% confidence intervals; rows without
+    /// positive numbers in both columns (or whose `status` is not ok) are left out and listed.
+    Fit(FitArgs),
+}
+
+/// The options of `helixbif solve`.
+#[derive(Args, Debug)]
+pub struct SolveArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Rotation rate of the motor (rad/s; positive counter-clockwise seen from above).
+    #[arg(long, allow_negative_numbers = true)]
+    pub omega: f64,
+    /// Write the node positions and twist angles (SI) to this CSV file.
+    #[arg(long, value_name = "FILE.csv")]
+    pub shape: Option<PathBuf>,
+}
+
+/// The options of `helixbif branch`.
+#[derive(Args, Debug)]
+pub struct BranchArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Rate to follow the branch to (rad/s; negative: towards clockwise rotation); default
+    /// the study's `branch.omega_max`.
+    #[arg(long, allow_negative_numbers = true)]
+    pub omega_max: Option<f64>,
+    /// Output folder; default `output/<study name>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The options of `helixbif locate`.
+#[derive(Args, Debug)]
+pub struct LocateArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Relative precision of omega_b, |d omega| <= TOL |omega| (default 1e-8; the study's
+    /// continuation.event_tol).
+    #[arg(long)]
+    pub tol: Option<f64>,
+    /// Relative accuracy EPS of omega_b: N is refined from the study's (spacing halved
+    /// each time) until the estimated discretization error is below EPS or the model can
+    /// go no further (Lighthill's admissible range, --max-nodes), and the error, the N used
+    /// and how the error was estimated are reported (docs/model.md section 10).
+    #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"])]
+    pub accuracy: f64,
+    /// Largest node count of the refinement.
+    #[arg(long, default_value_t = DEFAULT_MAX_NODES, conflicts_with_all = ["single", "extrapolate"])]
+    pub max_nodes: usize,
+    /// Locate at the study's N only, without an error estimate.
+    #[arg(long, conflicts_with = "extrapolate")]
+    pub single: bool,
+    /// Run a ladder of node counts and extrapolate omega_b to infinite resolution.
+    #[arg(long)]
+    pub extrapolate: bool,
+    /// Node counts of the ladder (comma separated); default five inside the admissible range.
+    #[arg(long, value_delimiter = ',', requires = "extrapolate")]
+    pub nodes: Vec<usize>,
+}
+
+/// The options of `helixbif boundary`.
+#[derive(Args, Debug)]
+pub struct BoundaryArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// The study field to vary: a dotted key of a number, or shape.R_over_lambda,
+    /// shape.lambda_over_l.
+    #[arg(long, value_name = "KEY")]
+    pub vary: String,
+    /// First value of the field (the curve starts from locate there).
+    #[arg(long, allow_negative_numbers = true)]
+    pub from: f64,
+    /// Last value of the field.
+    #[arg(long, allow_negative_numbers = true)]
+    pub to: f64,
+    /// Output folder; default `output/<study name>.boundary-<KEY>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The options of `helixbif run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Output folder; default `output/<study name>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Kinds `dynamics` and `orbits`: continue from the checkpoints an interrupted run left
+    /// in the output folder (finished simulations are read back, not run again).
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// The options of `helixbif sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Run only the points with index = K-1 modulo N; `slurm`: K and N of the Slurm array
+    /// task (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_MIN, SLURM_ARRAY_TASK_COUNT).
+    #[arg(long, value_name = "K/N|slurm")]
+    pub shard: Option<String>,
+    /// Output folder; default `output/<study name>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The options of `helixbif slurm`.
+#[derive(Args, Debug)]
+pub struct SlurmArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Number of array tasks (shards), 1 to the number of points.
+    #[arg(long)]
+    pub tasks: usize,
+    /// Wall-time limit of each task and of the merge, HH:MM:SS or D-HH:MM:SS.
+    #[arg(long, value_name = "HH:MM:SS")]
+    pub time: Option<String>,
+    /// Partition of the jobs (default: the cluster's).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Output folder; default `output/<study name>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Submit both jobs with sbatch instead of printing the commands.
+    #[arg(long)]
+    pub submit: bool,
+}
+
+/// The options of `helixbif merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Folder holding the shards; default `output/<study name>/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// The options of `helixbif orbits`.
+#[derive(Args, Debug)]
+pub struct OrbitsArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Largest number of orbits.
+    #[arg(long, default_value_t = 40)]
+    pub max_orbits: usize,
+    /// Equal time steps per period (BDF2; the period error falls as steps^-2).
+    #[arg(long, default_value_t = 100)]
+    pub steps: usize,
+    /// Normal-form radius of the first orbit, in reference lengths ell (the second has
+    /// twice it).
+    #[arg(long, default_value_t = 1e-3)]
+    pub amplitude: f64,
+    /// The branch ends when omega leaves [omega_min, omega_max] (rad/s); default
+    /// [0, branch.omega_max].
+    #[arg(long, allow_negative_numbers = true)]
+    pub omega_min: Option<f64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub omega_max: Option<f64>,
+    /// Output folder; default `output/<study name>/orbits/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Take an interrupted branch up again from `checkpoint.json` in the output folder
+    /// (written after every orbit): the orbits before it are kept, the next ones appended.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// The options of `helixbif simulate`.
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Rotation rate (rad/s; negative: clockwise seen from above); with --from-orbit, the
+    /// orbit's by default.
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "from_orbit"
+    )]
+    pub omega: Option<f64>,
+    /// Duration (s).
+    #[arg(long)]
+    pub t_end: f64,
+    /// Start on the steady state at --omega (default: from rest, the motor spinning up).
+    #[arg(long, conflicts_with = "from_orbit")]
+    pub from_steady: bool,
+    /// Start on a periodic orbit: a `states/orbit_<index>.json` written by `helixbif orbits`
+    /// for the same study; the run is compared with the orbit period by period
+    /// (`cycles.csv`: period averages, largest distance of `hbar` from the orbit's, the
+    /// simulated period).
+    #[arg(long, value_name = "FILE")]
+    pub from_orbit: Option<PathBuf>,
+    /// With --from-steady: displace along the least stable mode by this fraction of the
+    /// reference length.
+    #[arg(long, allow_negative_numbers = true, requires = "from_steady")]
+    pub perturb: Option<f64>,
+    /// Spin-up time (s) of a run from rest.
+    #[arg(long, default_value_t = 20.0)]
+    pub ramp_time: f64,
+    /// Statistics over t >= this (s).
+    #[arg(long, default_value_t = 0.0)]
+    pub transient: f64,
+    /// Write the shape every this many time steps (0: never).
+    #[arg(long, default_value_t = 50)]
+    pub shape_every: usize,
+    /// Output folder; default `output/<study name>/simulate/`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Continue from the checkpoint.json an interrupted run left in the output folder
+    /// (saved every 25 steps; a larger --t-end extends a finished run).
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// The options of `helixbif bisect`.
+#[derive(Args, Debug)]
+pub struct BisectArgs {
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// A stable rate (rad/s), nearer zero than --hi (both of one sign).
+    #[arg(long, allow_negative_numbers = true)]
+    pub lo: f64,
+    /// An unstable rate (rad/s).
+    #[arg(long, allow_negative_numbers = true)]
+    pub hi: f64,
+    /// Relative width of the final bracket.
+    #[arg(long, default_value_t = 1e-2)]
+    pub precision: f64,
+    /// Spin-up time of each trial (s); default 0.2 time units mu ell^4/EI.
+    #[arg(long)]
+    pub ramp_time: Option<f64>,
+    /// Time held at the trial rate after the spin-up (s); default 1.0 time unit
+    /// mu ell^4/EI.
+    #[arg(long)]
+    pub hold_time: Option<f64>,
+}
+
+/// The options of `helixbif fit`.
+#[derive(Args, Debug)]
+pub struct FitArgs {
+    /// CSV file with a header row.
+    pub csv: PathBuf,
+    /// Column of x.
+    #[arg(long)]
+    pub x: String,
+    /// Column of y.
+    #[arg(long)]
+    pub y: String,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}

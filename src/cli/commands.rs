@@ -1,0 +1,449 @@
+//! The commands: each reads its options, loads the study, calls the library and returns its
+//! report (printed by [`super::print`]).
+
+use std::path::{Path, PathBuf};
+
+use helixbif::Error;
+use helixbif::analysis::dynamics::{BisectSettings, bisect as bisect_omega};
+use helixbif::analysis::solve::{Solution, solve_at};
+use helixbif::engine::periodic::branch::OrbitStop;
+use helixbif::model::Model;
+use helixbif::model::params::ShapeParams;
+use helixbif::numerics::fit::power_law;
+use helixbif::study::boundary::run_boundary;
+use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
+use helixbif::study::output::Table;
+use helixbif::study::plan::{check_accuracy, check_max_nodes};
+use helixbif::study::run::run as run_study;
+use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate, run_refinement};
+use helixbif::study::simulate::{
+    OrbitOrigin, SimulateOptions, run_simulate, simulation_provenance,
+};
+use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
+use helixbif::study::sweep::{merge as merge_shards, run_sweep};
+use helixbif::study::{Study, default_output, figures, sweep_figures};
+
+use super::args::{
+    BisectArgs, BoundaryArgs, BranchArgs, FitArgs, LocateArgs, MergeArgs, OrbitsArgs, RunArgs,
+    SimulateArgs, SlurmArgs, SolveArgs, StudyArgs, SweepArgs,
+};
+use super::report::{BisectReport, FitReport, MergeReport, Plain, Report, RunReport, Titled};
+
+/// What a command returns: its report, and whether it asks for JSON.
+pub type Outcome = anyhow::Result<Box<dyn Report>>;
+
+fn load(args: &StudyArgs) -> Result<(Study, Model), Error> {
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let model = Model::new(&study.physical())?;
+    Ok((study, model))
+}
+
+/// `--out`, or the study's default folder (which depends on the `--set` overrides).
+fn output_dir(args: &StudyArgs, study: &Study, out: Option<&Path>) -> PathBuf {
+    out.map_or_else(|| default_output(&study.name, &args.set), Path::to_path_buf)
+}
+
+fn titled<T>(study: &Study, result: T) -> Titled<T> {
+    Titled {
+        study: study.name.clone(),
+        result,
+    }
+}
+
+fn write_shape(path: &Path, model: &Model, solution: &Solution) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_path(path)?;
+    w.write_record(["i", "x", "y", "z", "theta"])?;
+    let ell = model.scales.length;
+    let config = &solution.state.config;
+    for (i, p) in config.x.iter().enumerate() {
+        let theta = config
+            .theta
+            .get(i)
+            .map(|t| t.to_string())
+            .unwrap_or_default();
+        w.write_record([
+            i.to_string(),
+            (p.x * ell).to_string(),
+            (p.y * ell).to_string(),
+            (p.z * ell).to_string(),
+            theta,
+        ])?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+fn finite(field: &str, value: f64) -> Result<(), Error> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::input(
+            field,
+            format!("must be a finite number, got {value}"),
+        ))
+    }
+}
+
+pub fn solve(args: &SolveArgs) -> Outcome {
+    let (omega, shape) = (args.omega, args.shape.as_deref());
+    finite("--omega", omega)?;
+    let (study_file, model) = load(&args.study)?;
+    let omegabar = model.scales.omega_to_bar(omega);
+    let solution = solve_at(&model, omegabar, &study_file.newton)?;
+    if let Some(path) = shape {
+        write_shape(path, &model, &solution)?;
+    }
+    Ok(Box::new(titled(&study_file, solution.summary(&model))))
+}
+
+pub fn branch(args: &BranchArgs) -> Outcome {
+    let (study, out) = (&args.study, args.out.as_deref());
+    let (study_file, model) = load(study)?;
+    let omega_max = args.omega_max.unwrap_or(study_file.branch.omega_max);
+    if !(omega_max.is_finite() && omega_max != 0.0) {
+        return Err(Error::input(
+            "--omega-max",
+            format!("must be a finite nonzero number (rad/s), got {omega_max}"),
+        )
+        .into());
+    }
+    let dir = output_dir(study, &study_file, out);
+    let (report, tables) = run_branch(&study_file, &model, omega_max, &dir)?;
+    let case = figures::Case {
+        label: &study_file.name,
+        tables: &tables,
+        rigid: matches!(study_file.shape, ShapeParams::Helix { .. }),
+    };
+    figures::branch_figures(&dir, &study_file.name, &[case])?;
+    if report.stalled {
+        return Err(Error::Numerical(format!(
+            "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
+            report.omega_reached, report.stop, report.points, report.out
+        ))
+        .into());
+    }
+    Ok(Box::new(titled(&study_file, report)))
+}
+
+/// How `locate` treats the node count.
+enum Resolution<'a> {
+    /// The study's `N` only.
+    Single,
+    /// Refined until the estimated error is below `accuracy` (relative).
+    Refine { accuracy: f64, max_nodes: usize },
+    /// Over a ladder (empty: the default one), extrapolated.
+    Ladder(&'a [usize]),
+}
+
+pub fn locate(args: &LocateArgs) -> Outcome {
+    let study = &args.study;
+    let how = if args.extrapolate {
+        Resolution::Ladder(&args.nodes)
+    } else if args.single {
+        Resolution::Single
+    } else {
+        Resolution::Refine {
+            accuracy: args.accuracy,
+            max_nodes: args.max_nodes,
+        }
+    };
+    let mut overrides = study.set.clone();
+    if let Some(t) = args.tol {
+        if !(t > 0.0 && t < 1e-2) {
+            return Err(Error::input("--tol", format!("must lie in (0, 0.01), got {t}")).into());
+        }
+        overrides.push(format!("continuation.event_tol={t:e}"));
+    }
+    let study_file = Study::from_path(study.study.as_deref(), &overrides)?;
+    match how {
+        Resolution::Ladder(nodes) => {
+            let ladder = if nodes.is_empty() {
+                default_ladder(&study_file)
+            } else {
+                nodes.to_vec()
+            };
+            let result = run_ladder(&study_file, &ladder)?;
+            Ok(Box::new(titled(&study_file, result)))
+        }
+        Resolution::Refine {
+            accuracy,
+            max_nodes,
+        } => {
+            check_accuracy("--accuracy", accuracy)?;
+            check_max_nodes("--max-nodes", max_nodes)?;
+            let result = run_refinement(&study_file, accuracy, max_nodes)?;
+            Ok(Box::new(titled(&study_file, result)))
+        }
+        Resolution::Single => {
+            let model = Model::new(&study_file.physical())?;
+            let located = run_locate(&study_file, &model)?;
+            Ok(Box::new(titled(&study_file, located)))
+        }
+    }
+}
+
+pub fn boundary(b: &BoundaryArgs) -> Outcome {
+    let (args, key, out) = (&b.study, b.vary.as_str(), b.out.as_deref());
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = out.map_or_else(
+        || {
+            let mut dir = default_output(&study.name, &args.set).into_os_string();
+            dir.push(format!(".boundary-{key}"));
+            PathBuf::from(dir)
+        },
+        Path::to_path_buf,
+    );
+    let (_, report) = run_boundary(&study, key, b.from, b.to, &dir)?;
+    Ok(Box::new(Plain(report?)))
+}
+
+pub fn run(r: &RunArgs) -> Outcome {
+    let (args, out, resume) = (&r.study, r.out.as_deref(), r.resume);
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(args, &study, out);
+    let started = std::time::Instant::now();
+    let result = run_study(&study, &dir, resume)?;
+    Ok(Box::new(RunReport {
+        study: study.name.clone(),
+        kind: study.study.as_ref().map_or("locate", |p| p.kind()).into(),
+        seconds: started.elapsed().as_secs_f64(),
+        out: dir.display().to_string(),
+        result,
+    }))
+}
+
+fn parse_shard(text: &str) -> Result<(usize, usize), Error> {
+    let bad = || {
+        Error::input(
+            "--shard",
+            format!("expected K/N with 1 <= K <= N, got `{text}`"),
+        )
+    };
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+pub fn sweep(s: &SweepArgs) -> Outcome {
+    let (args, out) = (&s.study, s.out.as_deref());
+    let shard = s
+        .shard
+        .as_deref()
+        .map(|s| match s {
+            "slurm" => shard_from_env(|name| std::env::var(name).ok()),
+            _ => parse_shard(s),
+        })
+        .transpose()?;
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(args, &study, out);
+    let summary = run_sweep(&study, &dir, shard)?;
+    if summary.failed > 0 {
+        return Err(Error::Numerical(format!(
+            "{} sweep points failed; see the status column of {}",
+            summary.failed, summary.file
+        ))
+        .into());
+    }
+    if shard.is_none() {
+        sweep_figures(&study, &dir)?;
+    }
+    Ok(Box::new(titled(&study, summary)))
+}
+
+/// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
+pub fn slurm(s: &SlurmArgs) -> Outcome {
+    let (args, out, submit_jobs) = (&s.study, s.out.as_deref(), s.submit);
+    let options = SlurmOptions {
+        tasks: s.tasks,
+        time: s.time.clone(),
+        partition: s.partition.clone(),
+    };
+    let path = args.study.as_deref().ok_or_else(|| {
+        Error::input(
+            "STUDY",
+            "`slurm` needs a sweep study file (the array tasks read it)",
+        )
+    })?;
+    let study = Study::from_path(Some(path), &args.set)?;
+    let absolute = |p: &Path| -> Result<PathBuf, Error> {
+        std::path::absolute(p).map_err(helixbif::study::output::io_error(p))
+    };
+    let job = SlurmJob {
+        binary: std::env::current_exe()?,
+        study: std::fs::canonicalize(path).map_err(helixbif::study::output::io_error(path))?,
+        set: args.set.clone(),
+        out: absolute(&output_dir(args, &study, out))?,
+        workdir: std::env::current_dir()?,
+    };
+    let scripts = write_scripts(&study, &job, &options)?;
+    if submit_jobs {
+        Ok(Box::new(Plain(submit(scripts, &job.out)?)))
+    } else {
+        Ok(Box::new(Plain(scripts)))
+    }
+}
+
+pub fn merge(m: &MergeArgs) -> Outcome {
+    let (args, out) = (&m.study, m.out.as_deref());
+    let study = Study::from_path(args.study.as_deref(), &args.set)?;
+    let dir = output_dir(args, &study, out);
+    let (points, shards) = merge_shards(&study, &dir)?;
+    sweep_figures(&study, &dir)?;
+    Ok(Box::new(MergeReport {
+        study: study.name.clone(),
+        points,
+        shards,
+        file: dir.join("sweep.csv").display().to_string(),
+    }))
+}
+
+pub fn fit(f: &FitArgs) -> Outcome {
+    let (csv, x, y) = (f.csv.as_path(), f.x.as_str(), f.y.as_str());
+    let table = Table::read(csv)?;
+    let (xc, yc) = (table.index(x)?, table.index(y)?);
+    let (kept, left_out) = table.usable(xc, yc, true);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = kept.iter().map(|&(_, x, y)| (x, y)).unzip();
+    let fit = power_law(&xs, &ys)?;
+    Ok(Box::new(FitReport {
+        csv: csv.display().to_string(),
+        x: x.into(),
+        y: y.into(),
+        fit,
+        left_out,
+    }))
+}
+
+pub fn orbits(o: &OrbitsArgs) -> Outcome {
+    let (args, out) = (&o.study, o.out.as_deref());
+    let (study, model) = load(args)?;
+    let opts = OrbitsOptions {
+        settings: branch_settings(o.max_orbits, o.steps, o.amplitude),
+        omega_range: (
+            o.omega_min.unwrap_or(0.0),
+            o.omega_max.unwrap_or(study.branch.omega_max),
+        ),
+        resume: o.resume,
+    };
+    // The options name their fields as in a study; on the command line they are flags.
+    opts.validate().map_err(|e| match e {
+        Error::Input { field, message } => Error::Input {
+            field: format!(
+                "--{}",
+                field.trim_start_matches("orbits.").replace('_', "-")
+            ),
+            message,
+        },
+        other => other,
+    })?;
+    let dir = out.map_or_else(
+        || default_output(&study.name, &args.set).join("orbits"),
+        Path::to_path_buf,
+    );
+    let report = run_orbits(&study, &model, &opts, &dir)?;
+    if let OrbitStop::StepTooSmall(reason) = &report.stop {
+        let reached = report.last.as_ref().map_or(f64::NAN, |r| r.omega);
+        return Err(Error::Numerical(format!(
+            "the orbit branch stalled at omega = {reached:.6e} rad/s after {} orbits ({reason}); \
+             the orbits found are in {}",
+            report.orbits, report.out
+        ))
+        .into());
+    }
+    Ok(Box::new(titled(&study, report)))
+}
+
+/// `helixbif simulate`; `omega` and `from_orbit` as given on the command line (`opts` holds the
+/// rest).
+pub fn simulate(s: &SimulateArgs) -> Outcome {
+    let (args, omega, from_orbit, out) =
+        (&s.study, s.omega, s.from_orbit.as_deref(), s.out.as_deref());
+    let mut opts = SimulateOptions {
+        omega: omega.unwrap_or(f64::NAN),
+        t_end: s.t_end,
+        from_steady: s.from_steady,
+        perturb: s.perturb,
+        from_orbit: None,
+        ramp_time: s.ramp_time,
+        transient: s.transient,
+        shape_every: s.shape_every,
+        newton: Default::default(),
+        resume: s.resume,
+        provenance: serde_json::Value::Null,
+    };
+    let (study, model) = load(args)?;
+    if let Some(path) = from_orbit {
+        let origin = OrbitOrigin::read(path)?;
+        opts.omega = omega.unwrap_or(origin.start.omega);
+        opts.from_orbit = Some(origin);
+    }
+    opts.newton = study.newton.clone();
+    opts.provenance = simulation_provenance(&study);
+    let dir = out.map_or_else(
+        || default_output(&study.name, &args.set).join("simulate"),
+        Path::to_path_buf,
+    );
+    let bar = indicatif::ProgressBar::new(1000).with_style(
+        indicatif::ProgressStyle::with_template("simulate [{elapsed_precise}] {bar:30} {msg}")
+            .expect("a valid template"),
+    );
+    let settings = study.integrator.settings(&model.scales);
+    let report = run_simulate(&model, &settings, &opts, &dir, &bar)?;
+    Ok(Box::new(titled(&study, report)))
+}
+
+pub fn bisect(o: &BisectArgs) -> Outcome {
+    let args = &o.study;
+    let (study, model) = load(args)?;
+    for (field, v) in [("--lo", o.lo), ("--hi", o.hi)] {
+        finite(field, v)?;
+    }
+    if !(o.precision > 0.0 && o.precision < 1.0) {
+        return Err(Error::input(
+            "--precision",
+            format!("must lie in (0, 1), got {}", o.precision),
+        )
+        .into());
+    }
+    model.check_resolution()?;
+    let s = model.scales;
+    let mut settings = BisectSettings {
+        precision: o.precision,
+        newton: study.newton.clone(),
+        ..BisectSettings::default()
+    };
+    for (field, seconds, target) in [
+        ("--ramp-time", o.ramp_time, &mut settings.ramp_time),
+        ("--hold-time", o.hold_time, &mut settings.hold_time),
+    ] {
+        if let Some(t) = seconds {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(Error::input(
+                    field,
+                    format!("must be a finite number > 0 (s), got {t}"),
+                )
+                .into());
+            }
+            *target = t / s.time;
+        }
+    }
+    let started = std::time::Instant::now();
+    let result = bisect_omega(
+        &model,
+        s.omega_to_bar(o.lo),
+        s.omega_to_bar(o.hi),
+        &settings,
+    )?;
+    Ok(Box::new(BisectReport::new(
+        &study.name,
+        model.nodes(),
+        &result,
+        |w| s.omega_from_bar(w),
+        started.elapsed().as_secs_f64(),
+    )))
+}

@@ -1,0 +1,67 @@
+//! The command line of helixbif: parse, run the command, and print its one report (text, or
+//! JSON with `--json`) in one place, with the exit code of the outcome (0 success, 2 bad input,
+//! 1 numerical failure).
+
+mod args;
+mod commands;
+mod report;
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::Parser;
+use helixbif::Error;
+
+use args::{Cli, Command};
+use report::Report;
+
+/// Prints a report on stdout. A closed pipe (`helixbif ... | head -1`) ends the output quietly.
+fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
+    let text = if json {
+        report.to_json().to_string()
+    } else {
+        report.to_string()
+    };
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{text}")?;
+    out.flush()
+}
+
+/// Parses the command line, runs the command and prints its report; the exit code says how it
+/// went.
+pub fn main() -> ExitCode {
+    helixbif::numerics::allocator::keep_freed_pages();
+    let cli = Cli::parse();
+    // The dense matrices here are small (a few hundred rows): threading inside one factorization
+    // costs more than it gains; parallelism is over independent solves instead.
+    faer::set_global_parallelism(faer::Par::Seq);
+    let (result, json) = match &cli.command {
+        Command::Solve(a) => (commands::solve(a), a.study.json),
+        Command::Branch(a) => (commands::branch(a), a.study.json),
+        Command::Locate(a) => (commands::locate(a), a.study.json),
+        Command::Run(a) => (commands::run(a), a.study.json),
+        Command::Boundary(a) => (commands::boundary(a), a.study.json),
+        Command::Sweep(a) => (commands::sweep(a), a.study.json),
+        Command::Slurm(a) => (commands::slurm(a), a.study.json),
+        Command::Merge(a) => (commands::merge(a), a.study.json),
+        Command::Fit(a) => (commands::fit(a), a.json),
+        Command::Orbits(a) => (commands::orbits(a), a.study.json),
+        Command::Simulate(a) => (commands::simulate(a), a.study.json),
+        Command::Bisect(a) => (commands::bisect(a), a.study.json),
+    };
+    match result {
+        Ok(report) => match print(report.as_ref(), json) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("helixbif: error: writing the report: {e}");
+                ExitCode::from(1)
+            }
+        },
+        Err(e) => {
+            let input = e.downcast_ref::<Error>().is_some_and(Error::is_input);
+            eprintln!("helixbif: error: {e}");
+            ExitCode::from(if input { 2 } else { 1 })
+        }
+    }
+}
