@@ -1,4 +1,7 @@
-//! Error values of the library.
+//! Error values of the library, layered as the library is: the engine's failures
+//! ([`EngineError`]) and the physical model's ([`ModelError`]) are variants of their own, wrapped
+//! into the crate's [`Error`], so that a caller can tell what failed by its type, never by its
+//! message.
 //!
 //! Bad input (exit code 2 at the command line) is kept apart from numerical failure (exit code 1):
 //! [`Error::is_input`] tells which is which.
@@ -12,12 +15,30 @@ pub enum Error {
     #[error("invalid input: {field}: {message}")]
     Input { field: String, message: String },
 
-    /// The mobility matrix is not symmetric positive definite (Cholesky failed): `context` says
-    /// where (which state), `geometry` why (the smallest node spacing and the closest approach
-    /// of two parts of the rod, against the cut-off).
-    #[error("mobility matrix not positive definite ({context}): {geometry}")]
-    NotPositiveDefinite { context: String, geometry: String },
+    /// A failure of the generic engine (Newton, continuation, spectra, curves, orbits).
+    #[error(transparent)]
+    Engine(#[from] EngineError),
 
+    /// A failure of the physical model (the fluid's operator).
+    #[error(transparent)]
+    Model(#[from] ModelError),
+
+    /// A numerical failure of an analysis (what it was doing, where and why).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// A failure of the generic engine.
+#[derive(Debug, Error)]
+pub enum EngineError {
     /// Newton's method did not converge.
     #[error(
         "Newton failed {context}: {reason} after {iterations} iterations (residual {residual:.3e})"
@@ -29,17 +50,20 @@ pub enum Error {
         residual: f64,
     },
 
-    /// A numerical failure that is not a Newton stall (singular matrix, NaN, ...).
-    #[error("numerical failure: {0}")]
-    Numerical(String),
+    /// One of the engine's own settings is out of range; `setting` is the engine's name for it
+    /// (the front ends say where it comes from: a study key, an option).
+    #[error("invalid input: {setting}: {message}")]
+    Setting { setting: String, message: String },
+}
 
-    /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+/// A failure of the physical model.
+#[derive(Debug, Error)]
+pub enum ModelError {
+    /// The mobility matrix is not symmetric positive definite (Cholesky failed): `context` says
+    /// where (which state), `geometry` why (the smallest node spacing and the closest approach
+    /// of two parts of the rod, against the cut-off).
+    #[error("mobility matrix not positive definite ({context}): {geometry}")]
+    NotPositiveDefinite { context: String, geometry: String },
 }
 
 impl Error {
@@ -54,7 +78,22 @@ impl Error {
     /// True for errors caused by bad user input (exit code 2), false for numerical or I/O
     /// failures (exit code 1).
     pub fn is_input(&self) -> bool {
-        matches!(self, Error::Input { .. })
+        matches!(
+            self,
+            Error::Input { .. } | Error::Engine(EngineError::Setting { .. })
+        )
+    }
+
+    /// An input error about an engine setting, its name given by `name(setting)` (the study key
+    /// or the command-line option it came from); any other error unchanged.
+    pub fn naming_setting(self, name: impl FnOnce(&str) -> String) -> Self {
+        match self {
+            Error::Engine(EngineError::Setting { setting, message }) => Error::Input {
+                field: name(&setting),
+                message,
+            },
+            other => other,
+        }
     }
 }
 

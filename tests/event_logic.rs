@@ -9,6 +9,7 @@ use helixbif::engine::events::EventKind;
 use helixbif::engine::newton::{self, NewtonSettings, System};
 use helixbif::engine::reference::{Analytic, Jacobian, Reference, Residual};
 use helixbif::engine::{ContinuationSettings, Linearization, Problem};
+use helixbif::error::ModelError;
 use helixbif::{Error, Result};
 
 fn settings() -> ContinuationSettings {
@@ -305,10 +306,11 @@ struct Indefinite;
 
 fn indefinite(p: f64) -> Result<()> {
     if p > 0.5 {
-        Err(Error::NotPositiveDefinite {
+        Err(ModelError::NotPositiveDefinite {
             context: format!("p = {p}"),
             geometry: "closest approach 0.5 delta".into(),
-        })
+        }
+        .into())
     } else {
         Ok(())
     }
@@ -373,10 +375,11 @@ struct Cornered;
 impl System for Cornered {
     fn residual(&self, u: &[f64]) -> Result<Vec<f64>> {
         if u[0] > 1e-4 {
-            return Err(Error::NotPositiveDefinite {
+            return Err(ModelError::NotPositiveDefinite {
                 context: format!("u = {}", u[0]),
                 geometry: "smallest node spacing 3.1 delta".into(),
-            });
+            }
+            .into());
         }
         Ok(vec![u[0] - 10.0])
     }
@@ -389,7 +392,7 @@ impl System for Cornered {
 fn newton_reports_the_indefinite_mobility_not_a_bare_line_search_failure() {
     let result = newton::solve(&Cornered, vec![0.0], &NewtonSettings::default(), "test");
     match result {
-        Err(Error::NotPositiveDefinite { geometry, .. }) => {
+        Err(Error::Model(ModelError::NotPositiveDefinite { geometry, .. })) => {
             assert!(geometry.contains("node spacing"), "{geometry}")
         }
         other => panic!("expected the mobility's error, got {other:?}"),

@@ -5,6 +5,7 @@
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use helixbif::Error;
+use helixbif::error::ModelError;
 use helixbif::model::fluid::{
     Lighthill, Quadrature, Resistance, lighthill_cutoff, stack_vectors, unstack_vectors,
 };
@@ -274,7 +275,7 @@ fn helix_mobility_symmetric_and_positive_definite_up_to_spacing_four_delta() {
         Some(87)
     );
     match Resistance::new(&model.mobility(&helix(90)), "natural helix, N = 90") {
-        Err(Error::NotPositiveDefinite { context, .. }) => {
+        Err(Error::Model(ModelError::NotPositiveDefinite { context, .. })) => {
             assert_eq!(context, "natural helix, N = 90")
         }
         other => panic!("expected NotPositiveDefinite, got {other:?}"),
@@ -497,7 +498,7 @@ fn straight_rod_drag_converges_in_n_up_to_the_positive_definite_limit() {
         );
         assert!(matches!(
             Resistance::new(&too_fine, "straight rod"),
-            Err(Error::NotPositiveDefinite { .. })
+            Err(Error::Model(ModelError::NotPositiveDefinite { .. }))
         ));
     }
 }
@@ -531,7 +532,7 @@ fn original_quadrature_symmetric_indefinite_and_not_converging() {
     assert!(max_abs(&at) < 1e-14 * max_abs(&block));
     assert!(matches!(
         Resistance::new(&a, "helix, original"),
-        Err(Error::NotPositiveDefinite { .. })
+        Err(Error::Model(ModelError::NotPositiveDefinite { .. }))
     ));
 
     let l = 1.0;

@@ -60,6 +60,7 @@ use super::newton::{
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
+use crate::error::ModelError;
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -697,7 +698,9 @@ impl<'a, P: Problem> Continuation<'a, P> {
 
     /// Halves the step after a failure; ends the run below `ds_min`.
     fn refuse(&mut self, e: Error) -> Option<Result<Outcome>> {
-        if matches!(e, Error::NotPositiveDefinite { .. }) && self.indefinite.is_none() {
+        if matches!(e, Error::Model(ModelError::NotPositiveDefinite { .. }))
+            && self.indefinite.is_none()
+        {
             self.indefinite = Some(e.to_string());
         }
         self.ds *= 0.5;
@@ -850,7 +853,7 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
             Ok(events) => events,
             Err(e) => {
                 let e = match e {
-                    e @ Error::NotPositiveDefinite { .. } => e,
+                    e @ Error::Model(ModelError::NotPositiveDefinite { .. }) => e,
                     e => Error::Numerical(format!("locating an event: {e}")),
                 };
                 return self.refuse(e);

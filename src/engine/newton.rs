@@ -37,6 +37,7 @@
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
+use crate::error::{EngineError, ModelError};
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -280,11 +281,13 @@ impl Newton {
         let mut u = u0;
         let mut history: Vec<f64> = Vec::new();
         let mut previous_step = f64::INFINITY;
-        let fail = |reason: String, history: &[f64]| Error::NewtonFailed {
-            context: context.to_string(),
-            reason,
-            iterations: history.len().saturating_sub(1),
-            residual: history.last().copied().unwrap_or(f64::NAN),
+        let fail = |reason: String, history: &[f64]| {
+            Error::from(EngineError::NewtonFailed {
+                context: context.to_string(),
+                reason,
+                iterations: history.len().saturating_sub(1),
+                residual: history.last().copied().unwrap_or(f64::NAN),
+            })
         };
         let no_convergence = || {
             format!(
@@ -437,5 +440,5 @@ fn backtrack(
         }
         damping *= 0.5;
     }
-    Err(refused.filter(|e| matches!(e, Error::NotPositiveDefinite { .. })))
+    Err(refused.filter(|e| matches!(e, Error::Model(ModelError::NotPositiveDefinite { .. }))))
 }

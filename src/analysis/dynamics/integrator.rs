@@ -7,7 +7,7 @@ use faer::{Mat, Side};
 use serde::Serialize;
 
 use crate::engine::newton::{Chord, Globalization, Iterate, Jacobians, Newton, System, norm};
-use crate::error::ensure;
+use crate::error::{EngineError, ModelError, ensure};
 use crate::model::Model;
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
@@ -378,8 +378,8 @@ fn newton_step(
         let solved = newton.run(&tolerated, guess.to_vec(), jacobians, "in the time step");
         let (solution, steps) = match solved {
             Ok((u, report)) => (Some(u), report.iterations),
-            Err(Error::NewtonFailed { iterations, .. }) => (None, iterations),
-            Err(Error::NotPositiveDefinite { .. }) => (None, 0),
+            Err(Error::Engine(EngineError::NewtonFailed { iterations, .. })) => (None, iterations),
+            Err(Error::Model(ModelError::NotPositiveDefinite { .. })) => (None, 0),
             Err(e) => return Err(e),
         };
         trajectory.newton_iterations += steps;

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::ImplicitDynamics;
 use super::flow::{FlowSettings, period_map};
 use crate::engine::newton::norm;
-use crate::error::ensure;
+use crate::error::{EngineError, ensure};
 use crate::{Error, Result};
 
 /// Settings of the shooting Newton iteration.
@@ -184,11 +184,13 @@ pub fn shoot(
 ) -> Result<Orbit> {
     settings.validate()?;
     let nx = dynamics.differential();
-    let fail = |reason: String, iterations: usize, residual: f64| Error::NewtonFailed {
-        context: format!("periodic orbit near p = {p:.6e}, T = {period:.6e}"),
-        reason,
-        iterations,
-        residual,
+    let fail = |reason: String, iterations: usize, residual: f64| {
+        Error::from(EngineError::NewtonFailed {
+            context: format!("periodic orbit near p = {p:.6e}, T = {period:.6e}"),
+            reason,
+            iterations,
+            residual,
+        })
     };
     let x_ref = u0[..nx].to_vec();
     let mut u = u0.to_vec();

@@ -85,6 +85,7 @@ pub use resistance::Resistance;
 pub use rpy::{Rpy, rpy_blob_radius};
 
 use crate::Result;
+use crate::error::ModelError;
 use crate::model::params::FluidParams;
 use faer::Mat;
 use nalgebra::Vector3;
@@ -247,11 +248,12 @@ impl Lighthill {
     ) -> crate::Result<Resistance> {
         match self.quadrature {
             Quadrature::Reference => Resistance::new(a, context).map_err(|e| match e {
-                crate::Error::NotPositiveDefinite { context, .. } => {
-                    crate::Error::NotPositiveDefinite {
+                crate::Error::Model(ModelError::NotPositiveDefinite { context, .. }) => {
+                    ModelError::NotPositiveDefinite {
                         context,
                         geometry: self.diagnose(x),
                     }
+                    .into()
                 }
                 e => e,
             }),

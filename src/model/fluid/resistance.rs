@@ -3,6 +3,7 @@
 //! quadrature, whose `A` is indefinite by construction).
 
 use super::{stack_vectors, unstack_vectors};
+use crate::error::ModelError;
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Llt, PartialPivLu, Solve};
 use faer::{Mat, MatRef, Side};
@@ -49,10 +50,13 @@ impl Resistance {
     ///   (degenerate geometry such as coincident nodes), so no NaN is ever returned silently.
     pub fn new(a: &Mat<f64>, context: &str) -> Result<Self> {
         check_finite(a, context)?;
-        let llt = a.llt(Side::Lower).map_err(|_| Error::NotPositiveDefinite {
-            context: context.to_owned(),
-            geometry: "a non-positive pivot in the Cholesky factorization".to_owned(),
-        })?;
+        let llt = a
+            .llt(Side::Lower)
+            .map_err(|_| ModelError::NotPositiveDefinite {
+                context: context.to_owned(),
+                geometry: "a non-positive pivot in the Cholesky factorization".to_owned(),
+            })
+            .map_err(Error::from)?;
         Ok(Self {
             factor: Factor::Cholesky(llt),
         })

@@ -101,6 +101,7 @@
 use super::Resistance;
 use super::lanes::{LANES, Lanes};
 use super::mobility::add_block;
+use crate::error::ModelError;
 use crate::{Error, Result};
 use faer::Mat;
 use nalgebra::{Matrix3, Vector3};
@@ -757,10 +758,13 @@ impl Rpy {
     /// [`Rpy::resistance`] of the mobility `a`, already assembled.
     pub fn factorize(a: &Mat<f64>, context: &str) -> Result<Resistance> {
         Resistance::new(a, context).map_err(|e| match e {
-            Error::NotPositiveDefinite { context, .. } => Error::NotPositiveDefinite {
-                context,
-                geometry: "quadrature points coincide: the centreline intersects itself".into(),
-            },
+            Error::Model(ModelError::NotPositiveDefinite { context, .. }) => {
+                ModelError::NotPositiveDefinite {
+                    context,
+                    geometry: "quadrature points coincide: the centreline intersects itself".into(),
+                }
+                .into()
+            }
             other => other,
         })
     }
