@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use helixbif::analysis::dynamics::{BisectSettings, bisect};
-use helixbif::analysis::locate::locate;
+use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::newton::NewtonSettings;
@@ -38,9 +38,11 @@ fn main() {
         let start = Instant::now();
         let (_, event) = locate(
             &model,
-            2.0,
-            &NewtonSettings::default(),
-            &ContinuationSettings::default(),
+            &LocateSettings {
+                omega_max: 2.0,
+                newton: &NewtonSettings::default(),
+                continuation: &ContinuationSettings::default(),
+            },
             &mut Silent,
         )
         .expect("locate");

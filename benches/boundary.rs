@@ -13,7 +13,7 @@ use std::time::Instant;
 use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
-use helixbif::study::runs::run_locate;
+use helixbif::study::locate::run_locate;
 
 fn main() {
     helixbif::numerics::allocator::keep_freed_pages();

@@ -12,7 +12,7 @@
 mod common;
 
 use faer::Mat;
-use helixbif::analysis::locate::locate;
+use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::arclength::Silent;
 use helixbif::engine::krylov::shift_after;
@@ -129,7 +129,17 @@ fn main() {
             eigen,
             ..ContinuationSettings::default()
         };
-        let run = || locate(&m, 2.0, &NewtonSettings::default(), &settings, &mut Silent);
+        let run = || {
+            locate(
+                &m,
+                &LocateSettings {
+                    omega_max: 2.0,
+                    newton: &NewtonSettings::default(),
+                    continuation: &settings,
+                },
+                &mut Silent,
+            )
+        };
         let seconds = common::median_seconds(3, || {
             std::hint::black_box(run().unwrap());
         });

@@ -16,7 +16,7 @@ use helixbif::engine::periodic::orbit::{Condition, ShootingSettings, shoot};
 use helixbif::engine::periodic::{ImplicitDynamics, StepVelocity};
 use helixbif::model::Model;
 use helixbif::study::Study;
-use helixbif::study::runs::run_locate_critical;
+use helixbif::study::locate::run_locate_critical;
 
 fn main() {
     helixbif::numerics::allocator::keep_freed_pages();

@@ -4,7 +4,7 @@
 mod common;
 
 use common::straight_rod;
-use helixbif::analysis::locate::{locate, observables_at, trace};
+use helixbif::analysis::locate::{LocateSettings, locate, observables_at, trace};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
@@ -137,7 +137,16 @@ fn omega_b_does_not_depend_on_the_continuation_steps_and_sits_on_the_axis() {
             ds_max,
             ..ContinuationSettings::default()
         };
-        let (located, event) = locate(&model, 2.0, &newton, &settings, &mut Silent).unwrap();
+        let (located, event) = locate(
+            &model,
+            &LocateSettings {
+                omega_max: 2.0,
+                newton: &newton,
+                continuation: &settings,
+            },
+            &mut Silent,
+        )
+        .unwrap();
         let event = event.unwrap().event;
         assert!(
             event.eigenvalue.re.abs() < 1e-5 * event.eigenvalue.norm(),
@@ -162,9 +171,18 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
         let mut physical = Physical::representative();
         physical.discretization.nodes = nodes;
         let model = Model::new(&physical).unwrap();
-        let (located, event) = locate(&model, 2.0, &newton, &settings, &mut Silent).unwrap();
+        let (located, event) = locate(
+            &model,
+            &LocateSettings {
+                omega_max: 2.0,
+                newton: &newton,
+                continuation: &settings,
+            },
+            &mut Silent,
+        )
+        .unwrap();
         let event = event.expect("an instability below 2 rad/s").event;
-        assert_eq!(located.kind, "hopf");
+        assert_eq!(located.kind.name(), "hopf");
         assert!(located.precision.unwrap() <= 1e-8);
         // The critical mode oscillates in the co-rotating frame near the rotation rate.
         let im = located.im.unwrap();
@@ -301,13 +319,15 @@ fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
         let model = Model::new(&study.physical()).unwrap();
         let (located, _) = locate(
             &model,
-            2.0,
-            &NewtonSettings::default(),
-            &ContinuationSettings::default(),
+            &LocateSettings {
+                omega_max: 2.0,
+                newton: &NewtonSettings::default(),
+                continuation: &ContinuationSettings::default(),
+            },
             &mut Silent,
         )
         .unwrap();
-        assert_eq!(located.kind, "hopf");
+        assert_eq!(located.kind.name(), "hopf");
         located.omega_b.unwrap()
     };
     let (own, axis) = (omega_b("helix"), omega_b("axis"));

@@ -7,7 +7,7 @@ use common::helixbif;
 use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
-use helixbif::study::runs::run_locate;
+use helixbif::study::locate::run_locate;
 
 /// The representative helix at `N = 30` from `R/lambda = 0.2` to `0.24`: the branch moves the
 /// chart of its twist angles before the Hopf point there (edges turn past 60 degrees), so the
@@ -47,7 +47,7 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
         let located = run_locate(&at, &model).unwrap();
         let expected = located.omega_b.unwrap();
         let on_curve = number(row, w_col);
-        assert_eq!(located.kind, "hopf");
+        assert_eq!(located.kind.name(), "hopf");
         assert!(
             (on_curve - expected).abs() <= 1e-7 * expected,
             "R/lambda = {q}: curve {on_curve}, locate {expected}"

@@ -20,7 +20,7 @@ use helixbif::analysis::dynamics::{
     BisectSettings, Checkpoints, DynamicsSettings, IntegratorState, Rate, Start, bisect, integrate,
     integrate_from, least_stable_mode, perturb,
 };
-use helixbif::analysis::locate::{locate, observables_at};
+use helixbif::analysis::locate::{LocateSettings, locate, observables_at};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
@@ -51,9 +51,11 @@ fn helix(nodes: usize) -> Model {
 fn hopf(model: &Model) -> f64 {
     let (located, event) = locate(
         model,
-        2.0,
-        &NewtonSettings::default(),
-        &ContinuationSettings::default(),
+        &LocateSettings {
+            omega_max: 2.0,
+            newton: &NewtonSettings::default(),
+            continuation: &ContinuationSettings::default(),
+        },
         &mut Silent,
     )
     .unwrap();

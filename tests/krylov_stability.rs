@@ -10,7 +10,7 @@ use std::cell::RefCell;
 
 use helixbif::problem::rod::{Parameter, RodProblem, omega_scale};
 
-use helixbif::analysis::locate::locate;
+use helixbif::analysis::locate::{LocateSettings, locate};
 
 use helixbif::analysis::solve::rest_state;
 use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
@@ -333,9 +333,11 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
             reset_eigen_counts();
             let (located, _) = locate(
                 &model,
-                2.0,
-                &NewtonSettings::default(),
-                &settings,
+                &LocateSettings {
+                    omega_max: 2.0,
+                    newton: &NewtonSettings::default(),
+                    continuation: &settings,
+                },
                 &mut Silent,
             )
             .unwrap();

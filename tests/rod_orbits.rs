@@ -22,7 +22,7 @@ use helixbif::model::steady::Steady;
 use helixbif::problem::orbit::{RodDynamics, amplitude_factor};
 use helixbif::problem::twist::natural_chart_unknowns;
 use helixbif::study::Study;
-use helixbif::study::runs::run_locate_critical;
+use helixbif::study::locate::run_locate_critical;
 
 fn located(
     nodes: usize,
@@ -34,7 +34,7 @@ fn located(
     let study = Study::from_path(None, &[format!("discretization.nodes={nodes}")]).unwrap();
     let model = Model::new(&study.physical()).unwrap();
     let (located, critical) = run_locate_critical(&study, &model).unwrap();
-    assert_eq!(located.kind, "hopf");
+    assert_eq!(located.kind.name(), "hopf");
     let critical = critical.unwrap();
     let lyapunov = hopf_criticality(&model, &critical.event, &critical.chart).unwrap();
     (model, critical, lyapunov)

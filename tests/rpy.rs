@@ -4,6 +4,7 @@
 
 use faer::{Mat, Side};
 use helixbif::Error;
+use helixbif::analysis::refine::default_ladder;
 use helixbif::model::fluid::{
     Fluid, FluidModel, Lighthill, Quadrature, Resistance, Rpy, rpy::POINTS_PER_BLOB,
     rpy_blob_radius, stack_vectors,
@@ -12,7 +13,6 @@ use helixbif::model::params::Physical;
 use helixbif::model::shape::natural_nodes;
 use helixbif::model::{Model, admissible_max_nodes};
 use helixbif::study::Study;
-use helixbif::study::runs::default_ladder;
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
@@ -433,7 +433,7 @@ fn study_file_selects_the_fluid_model() {
         .nodes
     };
     assert_eq!((per_turn("rpy"), per_turn("lighthill")), (121, 85));
-    assert_eq!(default_ladder(&study), vec![400, 799, 1597]);
+    assert_eq!(default_ladder(&study.physical()), vec![400, 799, 1597]);
 
     let lighthill = Study::load(None, &set(&["discretization.nodes=90"])).unwrap();
     assert!(matches!(

@@ -8,8 +8,9 @@ mod common;
 
 use common::{helixbif, small_sweep, temp_dir};
 use helixbif::study::Study;
+use helixbif::study::output::Provenance;
 use helixbif::study::plan::Plan;
-use helixbif::study::run::run;
+use helixbif::study::run::{StudyResult, run};
 
 /// A reduced version of a study: few nodes, the first two values of every list, a short range.
 fn reduced(mut study: Study) -> Study {
@@ -90,7 +91,8 @@ fn every_study_parses_and_a_reduced_version_runs() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let small = reduced(study);
         let dir = temp_dir(&format!("study-{}", small.name));
-        let report = run(&small, &dir, false).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let report = run(&small, &dir, false, &Provenance::default())
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(dir.join("meta.json").exists(), "{}", path.display());
         // Every SVG written is valid XML with labelled axes.
         let svgs: Vec<PathBuf> = std::fs::read_dir(&dir)
@@ -99,7 +101,12 @@ fn every_study_parses_and_a_reduced_version_runs() {
             .filter(|p| p.extension().is_some_and(|e| e == "svg"))
             .collect();
         if small.study.as_ref().is_some_and(|p| p.kind() != "locate") {
-            assert!(!svgs.is_empty(), "{}: no figure ({report})", path.display());
+            assert!(
+                !svgs.is_empty(),
+                "{}: no figure ({})",
+                path.display(),
+                serde_json::to_string(&report).unwrap()
+            );
         }
         for svg in &svgs {
             let texts = svg_texts(svg);
@@ -141,8 +148,11 @@ fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_th
     if let Some(Plan::Phase { m, .. }) = &mut small.study {
         *m = None;
     }
-    let report = run(&small, &dir.join("phase"), false).unwrap();
-    assert_eq!(report["m"], 2.5, "{report}");
+    let report = run(&small, &dir.join("phase"), false, &Provenance::default()).unwrap();
+    let StudyResult::Phase(phase) = report else {
+        panic!("a phase study reports a phase result")
+    };
+    assert_eq!(phase.m, 2.5);
     std::fs::remove_dir_all(&dir).ok();
 }
 

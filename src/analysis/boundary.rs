@@ -16,9 +16,8 @@ use std::rc::Rc;
 
 use serde::{Serialize, Serializer};
 
-use crate::analysis::locate::{locate, observables_at};
+use crate::analysis::locate::{LocateSettings, locate, observables_at};
 use crate::analysis::solve::rest_state;
-use crate::engine::ContinuationSettings;
 use crate::engine::arclength::Silent;
 use crate::engine::criticality::Verdict;
 use crate::engine::curve::{
@@ -32,15 +31,6 @@ use crate::numerics::fit::log_slopes;
 use crate::problem::family::RodFamily;
 use crate::problem::rod::RodProblem;
 use crate::{Error, Result};
-
-/// What a boundary needs besides its family: the steady solves' and the continuation's
-/// settings, and the rate (rad/s, signed) up to which a first loss of stability is looked for.
-#[derive(Clone, Copy, Debug)]
-pub struct BoundarySettings<'a> {
-    pub newton: &'a NewtonSettings,
-    pub continuation: &'a ContinuationSettings,
-    pub omega_max: f64,
-}
 
 /// One point of the boundary (a row of `boundary.csv`).
 #[derive(Clone, Debug, Serialize)]
@@ -264,19 +254,17 @@ impl Start {
 /// the start of a curve, and the member in the chart the branch reached it in.
 fn start_at(
     family: &RodFamily,
-    settings: &BoundarySettings,
+    settings: &LocateSettings,
     q: f64,
     omega_max: f64,
 ) -> Result<(Start, Rc<RodProblem<Model>>)> {
     let member = family.member(q)?;
     let model = &member.model;
-    let (located, critical) = locate(
-        model,
+    let at = LocateSettings {
         omega_max,
-        settings.newton,
-        settings.continuation,
-        &mut Silent,
-    )?;
+        ..*settings
+    };
+    let (located, critical) = locate(model, &at, &mut Silent)?;
     let key = family.field().key();
     let critical = critical.ok_or_else(|| {
         Error::Numerical(format!(
@@ -311,7 +299,7 @@ fn follow_events<O: BoundaryObserver>(
     start: EventPoint,
     member: Rc<RodProblem<Model>>,
     direction: f64,
-    settings: (&CurveSettings, &BoundarySettings),
+    settings: (&CurveSettings, &LocateSettings),
 ) -> Result<()> {
     let (curve_settings, boundary) = settings;
     let family = recorder.family;
@@ -352,7 +340,7 @@ fn follow_events<O: BoundaryObserver>(
 /// kept when it did not).
 pub fn follow_boundary(
     family: &RodFamily,
-    settings: &BoundarySettings,
+    settings: &LocateSettings,
     from: f64,
     to: f64,
     observer: &mut impl BoundaryObserver,
@@ -388,7 +376,7 @@ pub fn check_range(family: &RodFamily, from: f64, to: f64) -> Result<()> {
 /// The curves of [`follow_boundary`], one after the other.
 fn follow_segments<O: BoundaryObserver>(
     recorder: &mut Recorder<'_, O>,
-    settings: &BoundarySettings,
+    settings: &LocateSettings,
     from: f64,
     to: f64,
 ) -> Result<()> {
@@ -487,7 +475,7 @@ fn follow_segments<O: BoundaryObserver>(
 /// to twice that point's rate; `None` where it finds no loss of stability to start from.
 pub fn check_end(
     family: &RodFamily,
-    settings: &BoundarySettings,
+    settings: &LocateSettings,
     last: &BoundaryPoint,
 ) -> Option<f64> {
     let omega_max =

@@ -86,13 +86,56 @@ pub fn observables_at(
     Ok(model.observables(omegabar, &config.x, &forces, height(&rest.config.x)))
 }
 
+/// What locating the first loss of stability needs besides the model: the rate (rad/s, signed)
+/// up to which the branch from rest is followed, and the settings of the steady solves and of
+/// the continuation.
+#[derive(Clone, Copy, Debug)]
+pub struct LocateSettings<'a> {
+    pub omega_max: f64,
+    pub newton: &'a NewtonSettings,
+    pub continuation: &'a ContinuationSettings,
+}
+
+/// What ends the stability of the branch from rest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Loss {
+    /// The first loss of stability: a Hopf point, a fold or a branch point.
+    Event(EventKind),
+    /// The state at `omega = 0` is already unstable: there is nothing to locate.
+    UnstableAtRest,
+    /// The branch stays stable up to `omega_max`.
+    None,
+}
+
+impl Loss {
+    /// The name used in files and reports: the event's (`hopf`, `fold`, `branch_point`),
+    /// `unstable_at_rest` or `none`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Loss::Event(kind) => kind.name(),
+            Loss::UnstableAtRest => "unstable_at_rest",
+            Loss::None => "none",
+        }
+    }
+}
+
+impl std::fmt::Display for Loss {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for Loss {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
 /// What `helixbif locate` reports.
 #[derive(Clone, Debug, Serialize)]
 pub struct Located {
-    /// `hopf`, `fold`, `branch_point` (the first loss of stability), `unstable_at_rest` (the
-    /// state at `omega = 0` is already unstable: nothing to locate), or `none` when the branch
-    /// stays stable up to `omega_max`.
-    pub kind: String,
+    /// What ends stability ([`Loss`]).
+    pub kind: Loss,
     pub omega_b: Option<f64>,
     pub omegabar_b: Option<f64>,
     /// Critical frequency `Im(s)` of the mode (rad/s) and normalized (`Im(s) mu ell^4/EI`).
@@ -139,8 +182,8 @@ impl Located {
     /// The status of a located result in a table: `ok` for a loss of stability or a branch
     /// stable throughout, else what prevents an `omega_b`.
     pub fn status(&self) -> String {
-        match self.kind.as_str() {
-            "unstable_at_rest" => format!(
+        match self.kind {
+            Loss::UnstableAtRest => format!(
                 "unstable_at_rest ({} unstable eigenvalues at omega = 0)",
                 self.unstable_at_rest
             ),
@@ -172,19 +215,25 @@ impl Critical {
 /// Follows the branch from rest to its first loss of stability and pins it down.
 pub fn locate(
     model: &Model,
-    omega_max: f64,
-    newton: &NewtonSettings,
-    settings: &ContinuationSettings,
+    settings: &LocateSettings,
     observer: &mut impl Observer,
 ) -> Result<(Located, Option<Critical>)> {
+    let omega_max = settings.omega_max;
     model.check_resolution()?;
-    let rest = rest_state(model, newton)?;
+    let rest = rest_state(model, settings.newton)?;
     let omegabar_max = model.scales.omega_to_bar(omega_max);
-    let (branch, chart) = trace_in_chart(model, &rest, omegabar_max, settings, true, observer)?;
+    let (branch, chart) = trace_in_chart(
+        model,
+        &rest,
+        omegabar_max,
+        settings.continuation,
+        true,
+        observer,
+    )?;
     let points = branch.points.len();
     let corrector_iterations = branch.points.iter().map(|p| p.iterations).sum();
     let none = Located {
-        kind: "none".into(),
+        kind: Loss::None,
         omega_b: None,
         omegabar_b: None,
         im: None,
@@ -210,7 +259,7 @@ pub fn locate(
         Stop::UnstableAtStart => {
             let count = branch.points[0].spectrum.unstable;
             let located = Located {
-                kind: "unstable_at_rest".into(),
+                kind: Loss::UnstableAtRest,
                 unstable_at_rest: count,
                 ..none
             };
@@ -264,7 +313,7 @@ pub fn locate(
         _ => (None, None),
     };
     let located = Located {
-        kind: event.kind.name().into(),
+        kind: Loss::Event(event.kind),
         omega_b: Some(o.omega),
         omegabar_b: Some(event.p),
         im: (event.kind == EventKind::Hopf).then(|| s.omega_from_bar(imbar)),

@@ -6,4 +6,5 @@ pub mod boundary;
 pub mod dynamics;
 pub mod locate;
 pub mod orbits;
+pub mod refine;
 pub mod solve;

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
-use helixbif::study::runs::DEFAULT_MAX_NODES;
+use helixbif::analysis::refine::DEFAULT_MAX_NODES;
 
 pub const AFTER_HELP: &str = "\
 Every command that reads a study takes an optional study file (TOML, SI units); without one it

@@ -8,20 +8,21 @@ use helixbif::analysis::dynamics::{BisectSettings, bisect as bisect_omega};
 use helixbif::analysis::solve::{Solution, solve_at};
 use helixbif::engine::periodic::branch::OrbitStop;
 use helixbif::model::Model;
-use helixbif::model::params::ShapeParams;
 use helixbif::numerics::fit::power_law;
 use helixbif::study::boundary::run_boundary;
+use helixbif::study::branch::branch as study_branch;
+use helixbif::study::locate::{Resolution, locate_study};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
+use helixbif::study::output::Provenance;
 use helixbif::study::output::Table;
 use helixbif::study::plan::{check_accuracy, check_max_nodes};
 use helixbif::study::run::run as run_study;
-use helixbif::study::runs::{default_ladder, run_branch, run_ladder, run_locate, run_refinement};
 use helixbif::study::simulate::{
     OrbitOrigin, SimulateOptions, run_simulate, simulation_provenance,
 };
 use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge as merge_shards, run_sweep};
-use helixbif::study::{Study, default_output, figures, sweep_figures};
+use helixbif::study::{Study, default_output, sweep_figures};
 
 use super::args::{
     BisectArgs, BoundaryArgs, BranchArgs, FitArgs, LocateArgs, MergeArgs, OrbitsArgs, RunArgs,
@@ -108,37 +109,20 @@ pub fn branch(args: &BranchArgs) -> Outcome {
         .into());
     }
     let dir = output_dir(study, &study_file, out);
-    let (report, tables) = run_branch(&study_file, &model, omega_max, &dir)?;
-    let case = figures::Case {
-        label: &study_file.name,
-        tables: &tables,
-        rigid: matches!(study_file.shape, ShapeParams::Helix { .. }),
-    };
-    figures::branch_figures(&dir, &study_file.name, &[case])?;
-    if report.stalled {
-        return Err(Error::Numerical(format!(
-            "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
-            report.omega_reached, report.stop, report.points, report.out
-        ))
-        .into());
-    }
+    let report = study_branch(
+        &study_file,
+        &model,
+        omega_max,
+        &dir,
+        &Provenance::of_process(),
+    )?;
     Ok(Box::new(titled(&study_file, report)))
-}
-
-/// How `locate` treats the node count.
-enum Resolution<'a> {
-    /// The study's `N` only.
-    Single,
-    /// Refined until the estimated error is below `accuracy` (relative).
-    Refine { accuracy: f64, max_nodes: usize },
-    /// Over a ladder (empty: the default one), extrapolated.
-    Ladder(&'a [usize]),
 }
 
 pub fn locate(args: &LocateArgs) -> Outcome {
     let study = &args.study;
     let how = if args.extrapolate {
-        Resolution::Ladder(&args.nodes)
+        Resolution::Ladder(args.nodes.clone())
     } else if args.single {
         Resolution::Single
     } else {
@@ -155,31 +139,16 @@ pub fn locate(args: &LocateArgs) -> Outcome {
         overrides.push(format!("continuation.event_tol={t:e}"));
     }
     let study_file = Study::from_path(study.study.as_deref(), &overrides)?;
-    match how {
-        Resolution::Ladder(nodes) => {
-            let ladder = if nodes.is_empty() {
-                default_ladder(&study_file)
-            } else {
-                nodes.to_vec()
-            };
-            let result = run_ladder(&study_file, &ladder)?;
-            Ok(Box::new(titled(&study_file, result)))
-        }
-        Resolution::Refine {
-            accuracy,
-            max_nodes,
-        } => {
-            check_accuracy("--accuracy", accuracy)?;
-            check_max_nodes("--max-nodes", max_nodes)?;
-            let result = run_refinement(&study_file, accuracy, max_nodes)?;
-            Ok(Box::new(titled(&study_file, result)))
-        }
-        Resolution::Single => {
-            let model = Model::new(&study_file.physical())?;
-            let located = run_locate(&study_file, &model)?;
-            Ok(Box::new(titled(&study_file, located)))
-        }
+    if let Resolution::Refine {
+        accuracy,
+        max_nodes,
+    } = how
+    {
+        check_accuracy("--accuracy", accuracy)?;
+        check_max_nodes("--max-nodes", max_nodes)?;
     }
+    let result = locate_study(&study_file, &how)?;
+    Ok(Box::new(titled(&study_file, result)))
 }
 
 pub fn boundary(b: &BoundaryArgs) -> Outcome {
@@ -202,7 +171,7 @@ pub fn run(r: &RunArgs) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out);
     let started = std::time::Instant::now();
-    let result = run_study(&study, &dir, resume)?;
+    let result = run_study(&study, &dir, resume, &Provenance::of_process())?;
     Ok(Box::new(RunReport {
         study: study.name.clone(),
         kind: study.study.as_ref().map_or("locate", |p| p.kind()).into(),
@@ -345,7 +314,7 @@ pub fn orbits(o: &OrbitsArgs) -> Outcome {
         || default_output(&study.name, &args.set).join("orbits"),
         Path::to_path_buf,
     );
-    let report = run_orbits(&study, &model, &opts, &dir)?;
+    let report = run_orbits(&study, &model, &opts, &dir, &Provenance::of_process())?;
     if let OrbitStop::StepTooSmall(reason) = &report.stop {
         let reached = report.last.as_ref().map_or(f64::NAN, |r| r.omega);
         return Err(Error::Numerical(format!(

@@ -6,14 +6,17 @@ use std::fmt::{self, Display, Formatter};
 use serde::Serialize;
 
 use helixbif::analysis::dynamics::Bisection;
-use helixbif::analysis::locate::Located;
+use helixbif::analysis::locate::{Located, Loss};
+use helixbif::analysis::refine::{Ladder, Refinement};
 use helixbif::analysis::solve::SolutionSummary;
 use helixbif::engine::curve::SpecialKind;
 use helixbif::numerics::fit::PowerLaw;
 use helixbif::study::boundary::BoundaryReport;
+use helixbif::study::branch::BranchReport;
+use helixbif::study::locate::LocateResult;
 use helixbif::study::orbits::OrbitsReport;
 use helixbif::study::output::LeftOut;
-use helixbif::study::runs::{BranchReport, Ladder, Refinement};
+use helixbif::study::run::StudyResult;
 use helixbif::study::simulate::SimulateReport;
 use helixbif::study::slurm::{SlurmScripts, SlurmSubmission};
 use helixbif::study::sweep::SweepSummary;
@@ -134,8 +137,8 @@ impl Section for BranchReport {
 
 impl Section for Located {
     fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
-        match (self.kind.as_str(), self.omega_b, self.omegabar_b) {
-            ("unstable_at_rest", _, _) => write!(
+        match (self.kind, self.omega_b, self.omegabar_b) {
+            (Loss::UnstableAtRest, _, _) => write!(
                 f,
                 "the rest state of `{study}` at N = {} is already unstable ({} eigenvalues with \
                  Re s > 0 at omega = 0): there is no loss of stability to locate \
@@ -189,6 +192,16 @@ impl Section for Located {
                  (kind: none)",
                 self.nodes, self.omega_max
             ),
+        }
+    }
+}
+
+impl Section for LocateResult {
+    fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        match self {
+            LocateResult::Single(located) => located.show(study, f),
+            LocateResult::Refined(refinement) => refinement.show(study, f),
+            LocateResult::Ladder(ladder) => ladder.show(study, f),
         }
     }
 }
@@ -306,7 +319,7 @@ pub struct RunReport {
     pub kind: String,
     pub seconds: f64,
     pub out: String,
-    pub result: serde_json::Value,
+    pub result: StudyResult,
 }
 
 impl Display for RunReport {
@@ -316,7 +329,8 @@ impl Display for RunReport {
             "study `{}` ({}) done in {:.1} s; results in {}",
             self.study, self.kind, self.seconds, self.out
         )?;
-        write!(f, "{:#}", self.result)
+        let record = serde_json::to_value(&self.result).map_err(|_| fmt::Error)?;
+        write!(f, "{record:#}")
     }
 }
 

@@ -6,21 +6,21 @@
 use std::path::Path;
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use serde::Serialize;
-use serde_json::{Value, json};
 
 use crate::analysis::boundary::{
-    Boundary, BoundaryObserver, BoundaryPoint, BoundarySettings, Criticality, SpecialPoint,
-    check_end, follow_boundary,
+    Boundary, BoundaryObserver, BoundaryPoint, Criticality, SpecialPoint, check_end,
+    follow_boundary,
 };
 use crate::model::params::Field;
-use crate::numerics::fit::{PowerLaw, common_power_law, line_intercept, power_law};
+use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_intercept, power_law};
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
-use crate::study::output::{CsvWriter, create_dir, io_error};
+use crate::study::output::{CsvWriter, create_dir, write_json};
 use crate::study::plan::Case;
+use crate::study::progress;
 use crate::study::run::slug;
 use crate::study::sweep::variant;
 use crate::{Error, Result};
@@ -75,9 +75,7 @@ impl BoundaryObserver for BoundaryWriter<'_> {
         let Some(point) = boundary.points.last() else {
             return Ok(());
         };
-        let (a, b) = self.range;
-        let fraction = ((point.q - a) / (b - a)).clamp(0.0, 1.0);
-        self.bar.set_position((fraction * 1000.0) as u64);
+        progress::set_fraction(&self.bar, point.q, self.range);
         self.bar.set_message(format!(
             "q = {:.5}, omega_b = {:.5} rad/s",
             point.q, point.omega_b
@@ -127,22 +125,13 @@ pub fn run_family(
     crate::analysis::boundary::check_range(family, from, to)?;
     let started = Instant::now();
     create_dir(dir)?;
-    let bar = ProgressBar::new(1000);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} {msg}")
-            .expect("a valid template"),
-    );
-    bar.set_prefix(format!("boundary in {key}"));
+    let bar = progress::bar(&format!("boundary in {key}"));
     let mut writer = BoundaryWriter {
         dir,
         bar,
         range: (from, to),
     };
-    let settings = BoundarySettings {
-        newton: &study.newton,
-        continuation: &study.continuation,
-        omega_max: study.branch.omega_max,
-    };
+    let settings = study.locate_settings();
     let (boundary, outcome) = follow_boundary(family, &settings, from, to, &mut writer);
     writer.bar.finish_and_clear();
     // What was found is kept (tables and figures) even when the curve could not be finished.
@@ -179,6 +168,23 @@ pub fn run_family(
         }
     });
     Ok((boundary.points, report))
+}
+
+/// What a boundary study reports: each curve, and the power law they share over the fit range.
+#[derive(Debug, Serialize)]
+pub struct BoundaryStudy {
+    pub curves: Vec<CurveSummary>,
+    pub common_fit: Option<CommonPowerLaw>,
+}
+
+/// The exponent `m` of `omegabar_b ~ q^(-m)` shared by a study's curves over `range`
+/// (`fit.json`, the exponent a phase study reads).
+#[derive(Serialize)]
+struct ExponentFit {
+    m: f64,
+    m_ci: [f64; 2],
+    range: [f64; 2],
+    source: &'static str,
 }
 
 /// What a boundary study says of one curve: where it ran, its local exponent near the small end
@@ -241,7 +247,7 @@ pub fn run_study(
     cases: &[Case],
     fit: Option<[f64; 2]>,
     dir: &Path,
-) -> Result<(Value, Vec<String>)> {
+) -> Result<(BoundaryStudy, Vec<String>)> {
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
     let mut all_rows = Vec::new();
@@ -292,18 +298,20 @@ pub fn run_study(
         common_power_law(&groups).ok()
     });
     if let (Some(c), Some(range)) = (&common, fit) {
-        let value = json!({
-            "m": -c.p,
-            "m_ci": [-c.p_ci[1], -c.p_ci[0]],
-            "range": range,
-            "source": "boundary curves (one power law shared by the curves over the range)",
-        });
-        let path = dir.join("fit.json");
-        std::fs::write(&path, format!("{value:#}\n")).map_err(io_error(&path))?;
+        let exponent = ExponentFit {
+            m: -c.p,
+            m_ci: [-c.p_ci[1], -c.p_ci[0]],
+            range,
+            source: "boundary curves (one power law shared by the curves over the range)",
+        };
+        write_json(&dir.join("fit.json"), &exponent)?;
     }
     curve_figures(dir, key, &all_rows, &all_special)?;
     Ok((
-        json!({ "kind": "boundary", "curves": summaries, "common_fit": common }),
+        BoundaryStudy {
+            curves: summaries,
+            common_fit: common,
+        },
         failures,
     ))
 }

@@ -4,15 +4,18 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::json;
+use serde::Serialize;
 
 use crate::Result;
-use crate::numerics::fit::{common_power_law, local_exponents, power_law, through_origin};
+use crate::numerics::fit::{
+    PowerLaw, Slope, common_power_law, local_exponents, power_law, through_origin,
+};
 use crate::plot::{Figure, Marker, MarkerShape, Scale, Series, Style, write_figure};
 use crate::study::Study;
-use crate::study::output::{Table, io_error};
+use crate::study::branch::BranchTables;
+use crate::study::output::{LeftOut, Table, write_json};
 use crate::study::plan::{FitKind, Plan};
-use crate::study::runs::BranchTables;
+use crate::study::progress;
 
 /// One branch and its legend label.
 pub struct Case<'a> {
@@ -25,7 +28,7 @@ pub struct Case<'a> {
 fn line(
     label: &str,
     t: &BranchTables,
-    y: impl Fn(&crate::study::runs::BranchRow) -> f64,
+    y: impl Fn(&crate::study::branch::BranchRow) -> f64,
 ) -> Series {
     Series {
         label: label.to_string(),
@@ -37,7 +40,7 @@ fn line(
     }
 }
 
-fn events(cases: &[Case], y: impl Fn(&crate::study::runs::EventRow) -> f64) -> Vec<Marker> {
+fn events(cases: &[Case], y: impl Fn(&crate::study::branch::EventRow) -> f64) -> Vec<Marker> {
     cases
         .iter()
         .flat_map(|c| c.tables.events.iter())
@@ -130,12 +133,73 @@ pub fn branch_figures(dir: &Path, title: &str, cases: &[Case]) -> Result<Vec<Pat
     Ok(written)
 }
 
+/// The fit of one sweep figure, with the rows it left out.
+#[derive(Serialize)]
+pub struct SweepFit {
+    pub figure: usize,
+    #[serde(flatten)]
+    pub fit: Fitted,
+    pub left_out: Vec<LeftOut>,
+}
+
+/// A fit of a sweep figure, by its kind.
+#[derive(Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Fitted {
+    ThroughOrigin(Slope),
+    PowerLaw(PowerLaw),
+    CommonPowerLaw(CommonExponent),
+}
+
+/// One exponent `m` shared by the series, `y ~ N_k x^(-m)` (also the sweep's `fit.json`).
+#[derive(Serialize)]
+pub struct CommonExponent {
+    pub m: f64,
+    pub m_ci: [f64; 2],
+    pub x: String,
+    pub y: String,
+    pub series: Option<String>,
+    pub n: usize,
+    pub r2: f64,
+    pub prefactors: Vec<(String, f64)>,
+    pub left_out: Vec<LeftOut>,
+    /// Each series fitted alone.
+    pub per_series_m: Vec<SeriesExponent>,
+    /// The local exponent `m_loc = -d ln y / d ln x` between neighbouring points of each
+    /// series: the power law's `m` is an average of these.
+    pub local_m: Vec<LocalExponents>,
+}
+
+/// The exponent of one series fitted alone.
+#[derive(Serialize)]
+pub struct SeriesExponent {
+    pub series: String,
+    pub m: f64,
+    pub m_ci: [f64; 2],
+}
+
+/// The local exponents of one series.
+#[derive(Serialize)]
+pub struct LocalExponents {
+    pub series: String,
+    pub intervals: Vec<LocalInterval>,
+}
+
+/// `m_loc` over one interval between neighbouring samples.
+#[derive(Serialize)]
+pub struct LocalInterval {
+    pub x_lo: f64,
+    pub x_hi: f64,
+    pub x_mid: f64,
+    pub m_loc: f64,
+}
+
 /// Draws the figures of a finished sweep (`sweep.csv` in `dir`) as its plan declares, with the
 /// fits; a `common_power_law` fit also writes `fit.json` (the exponent `m = -p` of
-/// `y ~ x^(-m)` with its interval) and a collapse figure. Returns the fits as JSON.
-pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
+/// `y ~ x^(-m)` with its interval) and a collapse figure. Returns the fits.
+pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>> {
     let Some(Plan::Sweep { figures, .. }) = &study.study else {
-        return Ok(serde_json::Value::Null);
+        return Ok(None);
     };
     let table = Table::read(&dir.join("sweep.csv"))?;
     table.index("status")?;
@@ -148,10 +212,10 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
             || matches!(spec.fit, Some(FitKind::PowerLaw | FitKind::CommonPowerLaw));
         let (kept, left_out) = table.usable(xc, yc, positive);
         for l in &left_out {
-            eprintln!(
+            progress::note(&format!(
                 "helixbif: figure {k} ({} against {}) leaves out {l}",
                 spec.y, spec.x
-            );
+            ));
         }
         // Groups in order of first appearance.
         let mut groups: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
@@ -224,7 +288,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "slope = {:.4e}\n95% CI [{:.4e}, {:.4e}]",
                     s.slope, s.slope_ci[0], s.slope_ci[1]
                 ));
-                fit = Some(json!({ "figure": k, "through_origin": s }));
+                fit = Some(Fitted::ThroughOrigin(s));
             }
             Some(FitKind::PowerLaw) => {
                 let f = power_law(&all_x, &all_y)?;
@@ -234,7 +298,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     "p = {:.4} [{:.4}, {:.4}] (95%)",
                     f.p, f.p_ci[0], f.p_ci[1]
                 ));
-                fit = Some(json!({ "figure": k, "power_law": f }));
+                fit = Some(Fitted::PowerLaw(f));
             }
             Some(FitKind::CommonPowerLaw) => {
                 let f = common_power_law(&groups)?;
@@ -252,26 +316,42 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     .iter()
                     .map(|(_, x, y)| local_exponents(x, y))
                     .collect();
-                let record = json!({
-                    "m": m,
-                    "m_ci": m_ci,
-                    "x": spec.x,
-                    "y": spec.y,
-                    "series": spec.series,
-                    "n": f.n,
-                    "r2": f.r2,
-                    "prefactors": f.prefactors,
-                    "left_out": left_out,
-                    "per_series_m": f.per_group.iter().map(|(g, p, ci)| json!({"series": g, "m": -p, "m_ci": [-ci[1], -ci[0]]})).collect::<Vec<_>>(),
-                    // The local exponent m_loc = -d ln y / d ln x between neighbouring points
-                    // of each series: the power law's m is an average of these.
-                    "local_m": groups.iter().zip(&local).map(|((g, _, _), l)| json!({
-                        "series": g,
-                        "intervals": l.iter().map(|l| json!({
-                            "x_lo": l.x_lo, "x_hi": l.x_hi, "x_mid": l.x_mid, "m_loc": -l.p,
-                        })).collect::<Vec<_>>(),
-                    })).collect::<Vec<_>>(),
-                });
+                let record = CommonExponent {
+                    m,
+                    m_ci,
+                    x: spec.x.clone(),
+                    y: spec.y.clone(),
+                    series: spec.series.clone(),
+                    n: f.n,
+                    r2: f.r2,
+                    prefactors: f.prefactors.clone(),
+                    left_out: left_out.clone(),
+                    per_series_m: f
+                        .per_group
+                        .iter()
+                        .map(|(g, p, ci)| SeriesExponent {
+                            series: g.clone(),
+                            m: -p,
+                            m_ci: [-ci[1], -ci[0]],
+                        })
+                        .collect(),
+                    local_m: groups
+                        .iter()
+                        .zip(&local)
+                        .map(|((g, _, _), l)| LocalExponents {
+                            series: g.clone(),
+                            intervals: l
+                                .iter()
+                                .map(|l| LocalInterval {
+                                    x_lo: l.x_lo,
+                                    x_hi: l.x_hi,
+                                    x_mid: l.x_mid,
+                                    m_loc: -l.p,
+                                })
+                                .collect(),
+                        })
+                        .collect(),
+                };
                 let local_series: Vec<Series> = groups
                     .iter()
                     .zip(&local)
@@ -306,8 +386,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     },
                     &dir.join(format!("local_m_{k}.svg")),
                 )?;
-                let path = dir.join("fit.json");
-                std::fs::write(&path, format!("{record:#}\n")).map_err(io_error(&path))?;
+                write_json(&dir.join("fit.json"), &record)?;
                 // The collapse: y / N_k against x falls on one curve if the form is separable.
                 let collapsed: Vec<Series> = groups
                     .iter()
@@ -343,13 +422,16 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
                     },
                     &dir.join(format!("collapse_{k}.svg")),
                 )?;
-                fit = Some(json!({ "figure": k, "common_power_law": record }));
+                fit = Some(Fitted::CommonPowerLaw(record));
             }
             None => {}
         }
-        if let Some(mut fit) = fit {
-            fit["left_out"] = json!(left_out);
-            fits.push(fit);
+        if let Some(fit) = fit {
+            fits.push(SweepFit {
+                figure: k,
+                fit,
+                left_out,
+            });
         }
         write_figure(
             &Figure {
@@ -370,7 +452,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<serde_json::Value> {
             &dir.join(format!("sweep_{k}.svg")),
         )?;
     }
-    Ok(json!(fits))
+    Ok(Some(fits))
 }
 
 fn dashed(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {

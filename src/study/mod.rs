@@ -5,14 +5,16 @@
 //! `--set rod.E=2e6`, `--set shape.handedness=right`). Unknown keys are refused, naming the key.
 
 pub mod boundary;
+pub mod branch;
 pub mod cycles;
 pub mod figures;
+pub mod locate;
 pub mod orbits;
 pub mod output;
 pub mod phase;
 pub mod plan;
+pub mod progress;
 pub mod run;
-pub mod runs;
 pub mod shapes;
 pub mod simulate;
 pub mod slurm;
@@ -23,6 +25,7 @@ pub use plan::Plan;
 
 use serde::{Deserialize, Serialize};
 
+use crate::analysis::locate::LocateSettings;
 use crate::engine::ContinuationSettings;
 use crate::engine::newton::NewtonSettings;
 use crate::model::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
@@ -87,6 +90,15 @@ impl Study {
             branch: BranchRange::default(),
             integrator: Default::default(),
             study: None,
+        }
+    }
+
+    /// The range and the numerical settings of `locate` on this study.
+    pub fn locate_settings(&self) -> LocateSettings<'_> {
+        LocateSettings {
+            omega_max: self.branch.omega_max,
+            newton: &self.newton,
+            continuation: &self.continuation,
         }
     }
 

@@ -8,10 +8,11 @@
 use std::path::Path;
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use crate::analysis::locate::Loss;
 use crate::analysis::locate::hopf_criticality;
+use crate::engine::events::EventKind;
 
 use crate::analysis::orbits::{OrbitRow, OrbitStart, follow_rod_orbits, hopf_start};
 use crate::analysis::solve::rest_state;
@@ -23,9 +24,11 @@ use crate::model::Model;
 use crate::model::observables::height;
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::study::Study;
-use crate::study::output::{CsvWriter, Meta, create_dir, io_error};
+use crate::study::branch::run_branch;
+use crate::study::locate::run_locate_critical;
+use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, io_error};
 use crate::study::plan::OrbitPlan;
-use crate::study::runs::{run_branch, run_locate_critical};
+use crate::study::progress;
 use crate::{Error, Result};
 
 /// What the command line sets.
@@ -142,21 +145,22 @@ pub fn start_file_name(index: usize) -> String {
 ///
 /// # Errors
 /// Bad options; [`Error::Numerical`] when the first loss of stability is not a Hopf point; the
-/// shooting's error ([`Error::NewtonFailed`] or a numerical one) when either starting orbit
+/// shooting's error ([`crate::error::EngineError::NewtonFailed`] or a numerical one) when either starting orbit
 /// fails. A later failure is the branch's stop reason, with the orbits before it on disk.
 pub fn run_orbits(
     study: &Study,
     model: &Model,
     opts: &OrbitsOptions,
     dir: &Path,
+    provenance: &Provenance,
 ) -> Result<OrbitsReport> {
     opts.validate()?;
     let (lo, hi) = opts.omega_range;
     let started = Instant::now();
     create_dir(dir)?;
     let (located, critical) = run_locate_critical(study, model)?;
-    let critical = match (located.kind.as_str(), critical) {
-        ("hopf", Some(c)) => c,
+    let critical = match (located.kind, critical) {
+        (Loss::Event(EventKind::Hopf), Some(c)) => c,
         (kind, _) => {
             return Err(Error::Numerical(format!(
                 "no Hopf point to start periodic orbits from: the first loss of stability of \
@@ -169,11 +173,7 @@ pub fn run_orbits(
     let rest = rest_state(model, &study.newton)?;
     let h0 = height(&rest.config.x);
     let s = model.scales;
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("orbits [{elapsed_precise}] {spinner} {msg}")
-            .expect("a valid template"),
-    );
+    let bar = progress::spinner("orbits");
     bar.set_message("the first orbits from the Hopf point");
     let checkpoint_path = dir.join("checkpoint.json");
     let resume: Option<Checkpoint> = if opts.resume && checkpoint_path.exists() {
@@ -235,7 +235,13 @@ pub fn run_orbits(
     let events = write_events(&branch.events, &s, &dir.join("events.csv"))?;
     let omega_hopf = s.omega_from_bar(critical.event.p);
     // The steady branch underneath, a little past the Hopf point (in `branch/`).
-    let (_, steady) = run_branch(study, model, 1.1 * omega_hopf, &dir.join("branch"))?;
+    let (_, steady) = run_branch(
+        study,
+        model,
+        1.1 * omega_hopf,
+        &dir.join("branch"),
+        provenance,
+    )?;
     let omegas: Vec<f64> = rows.iter().map(|r| r.omega).collect();
     let stable: Vec<bool> = rows.iter().map(|r| r.stable).collect();
     let orbit_series = |y: Vec<f64>| Series {
@@ -311,6 +317,6 @@ pub fn run_orbits(
         seconds: started.elapsed().as_secs_f64(),
         out: dir.display().to_string(),
     };
-    Meta::new(study, s, (&report, opts)).write(&dir.join("meta.json"))?;
+    Meta::new(study, s, (&report, opts), provenance).write(&dir.join("meta.json"))?;
     Ok(report)
 }

@@ -2,6 +2,7 @@
 //! it finished), and a `meta.json` that records everything needed to regenerate them.
 
 use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
@@ -61,6 +62,22 @@ impl CsvWriter {
     }
 }
 
+/// Who asked for a result: the command line (or the call of a front end) that `meta.json`
+/// records, so that any result can be made again.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Provenance {
+    pub command_line: Vec<String>,
+}
+
+impl Provenance {
+    /// The provenance of this process's command line.
+    pub fn of_process() -> Self {
+        Provenance {
+            command_line: std::env::args().collect(),
+        }
+    }
+}
+
 /// The provenance written beside every result as `meta.json`.
 #[derive(Serialize)]
 pub struct Meta<'a, T: Serialize> {
@@ -74,10 +91,15 @@ pub struct Meta<'a, T: Serialize> {
 }
 
 impl<'a, T: Serialize> Meta<'a, T> {
-    pub fn new(study: &'a Study, scales: crate::model::params::Scales, run: T) -> Self {
+    pub fn new(
+        study: &'a Study,
+        scales: crate::model::params::Scales,
+        run: T,
+        provenance: &Provenance,
+    ) -> Self {
         Meta {
             crate_version: env!("CARGO_PKG_VERSION"),
-            command_line: std::env::args().collect(),
+            command_line: provenance.command_line.clone(),
             study,
             nodes: study.discretization.nodes,
             scales,
@@ -220,11 +242,28 @@ pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Res
         .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))
 }
 
-/// Writes `value` as JSON to `path` through a temporary file and a rename, so that an
-/// interruption leaves the old file or the new one, never half of one (checkpoints).
+/// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
+/// file or the new one, never a mixture or a truncated file.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let mut file = File::create(&tmp).map_err(io_error(&tmp))?;
+    file.write_all(bytes).map_err(io_error(&tmp))?;
+    file.sync_all().map_err(io_error(&tmp))?;
+    drop(file);
+    std::fs::rename(&tmp, path).map_err(io_error(path))
+}
+
+/// Writes `value` as compact JSON to `path` [atomically](write_atomically) (checkpoints).
 pub fn write_json_atomically(path: &Path, value: &impl Serialize) -> Result<()> {
     let text = serde_json::to_string(value).map_err(|e| Error::Numerical(e.to_string()))?;
-    let temporary = path.with_extension("json.partial");
-    std::fs::write(&temporary, text).map_err(io_error(&temporary))?;
-    std::fs::rename(&temporary, path).map_err(io_error(path))
+    write_atomically(path, text.as_bytes())
+}
+
+/// Writes `value` as indented JSON to `path`, its keys in alphabetical order at every level
+/// (the layout of every JSON file of a run).
+pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    let value = serde_json::to_value(value).map_err(|e| Error::Numerical(e.to_string()))?;
+    std::fs::write(path, format!("{value:#}\n")).map_err(io_error(path))
 }

@@ -9,13 +9,13 @@
 use std::path::Path;
 
 use rayon::prelude::*;
-use serde_json::{Value, json};
+use serde::{Deserialize, Serialize};
 
 use super::plan::{Case, Plan, Vary};
 use super::sweep::variant;
 use super::{LAMBDA_OVER_L, Study};
 use crate::analysis::boundary::BoundaryPoint;
-use crate::analysis::locate::{observables_at, trace};
+use crate::analysis::locate::{Loss, observables_at, trace};
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Silent;
 use crate::model::Model;
@@ -23,7 +23,8 @@ use crate::model::params::Field;
 use crate::model::params::ShapeParams;
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
 use crate::study::boundary::{family, run_family};
-use crate::study::output::{CsvWriter, Table};
+use crate::study::output::{CsvWriter, Provenance, Table};
+use crate::study::progress;
 use crate::{Error, Result};
 
 /// A row of `phase.csv`: a point of a branch, with `y = omegabar (R/lambda)^m`.
@@ -39,15 +40,51 @@ struct PhaseRow {
     stable: bool,
 }
 
-/// A row of `boundary.csv`: the first loss of stability of a column.
+/// A row of the phase study's `boundary.csv`: the first loss of stability of a column.
 #[derive(serde::Serialize)]
-struct BoundaryRow {
+struct ColumnLossRow {
     lambda_over_l: f64,
     #[serde(rename = "R_over_lambda")]
     r_over_lambda: f64,
     omegabar_b: f64,
     y_b: f64,
-    kind: String,
+    kind: Loss,
+}
+
+/// What the `phase` study reports.
+#[derive(Serialize)]
+pub struct PhaseResult {
+    /// The exponent of the vertical coordinate `omegabar (R/lambda)^m`.
+    pub m: f64,
+    pub columns: Vec<ColumnSummary>,
+    /// The flagella of the data file left off the map, and why.
+    pub skipped_flagella: Vec<String>,
+    pub boundary_curve: CurveOutcome,
+}
+
+/// One column of the map: its ratios, its first loss of stability and its branch's size.
+#[derive(Serialize)]
+pub struct ColumnSummary {
+    pub lambda_over_l: f64,
+    #[serde(rename = "R_over_lambda")]
+    pub r_over_lambda: f64,
+    pub omegabar_b: Option<f64>,
+    pub kind: Option<Loss>,
+    pub points: usize,
+}
+
+/// Where the boundary curve of the map was written, or why it could not be followed.
+#[derive(Serialize)]
+#[serde(untagged)]
+pub enum CurveOutcome {
+    Written { out: String },
+    Failed { error: String },
+}
+
+/// The exponent `m` in a `fit.json` (of a boundary or a sweep study).
+#[derive(Deserialize)]
+struct ExponentFile {
+    m: f64,
 }
 
 /// The branch of one column of the map.
@@ -57,7 +94,7 @@ struct Column {
     /// `(omegabar, Fpbar, stable)` from rest up to the first fold (or the end).
     points: Vec<(f64, f64, bool)>,
     /// First loss of stability: `(omegabar_b, kind)`.
-    boundary: Option<(f64, String)>,
+    boundary: Option<(f64, Loss)>,
 }
 
 fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Result<Column> {
@@ -100,7 +137,7 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
         .events
         .iter()
         .find(|e| e.unstable_before == 0 && e.unstable_after > 0)
-        .map(|e| (e.p, e.kind.name().to_string()));
+        .map(|e| (e.p, Loss::Event(e.kind)));
     Ok(Column {
         lambda_over_l,
         r_over_lambda: radius / lambda,
@@ -123,7 +160,12 @@ fn interpolate(points: &[(f64, f64, bool)], omegabar: f64) -> f64 {
 /// The exponent `m`: from the plan, else from the `fit.json` of the exponent study beside the
 /// output folder `dir` (`dir/../<name>/fit.json`), else by running that study into
 /// `dir/<name>/` (nothing is written outside `dir`).
-fn exponent(m: Option<f64>, exponent_study: &str, dir: &Path) -> Result<f64> {
+fn exponent(
+    m: Option<f64>,
+    exponent_study: &str,
+    dir: &Path,
+    provenance: &Provenance,
+) -> Result<f64> {
     if let Some(m) = m {
         return Ok(m);
     }
@@ -138,22 +180,20 @@ fn exponent(m: Option<f64>, exponent_study: &str, dir: &Path) -> Result<f64> {
         Some(path) => path,
         None => {
             let own = dir.join(&source.name);
-            eprintln!(
+            progress::note(&format!(
                 "helixbif: no fit.json of `{}` beside {}: running {exponent_study} into {}",
                 source.name,
                 dir.display(),
                 own.display()
-            );
-            super::run::run(&source, &own, false)?;
+            ));
+            super::run::run(&source, &own, false, provenance)?;
             own.join("fit.json")
         }
     };
     let text = std::fs::read_to_string(&path).map_err(crate::study::output::io_error(&path))?;
-    let v: Value = serde_json::from_str(&text)
+    let file: ExponentFile = serde_json::from_str(&text)
         .map_err(|e| Error::input("study.m", format!("{}: {e}", path.display())))?;
-    v["m"]
-        .as_f64()
-        .ok_or_else(|| Error::input("study.m", format!("{} has no number `m`", path.display())))
+    Ok(file.m)
 }
 
 /// A flagellum placed on the map: its `lambda/l` and the range of `log10(omegabar (R/lambda)^m)`
@@ -205,7 +245,7 @@ fn flagella(path: &str, m: f64) -> Result<(Vec<Flagellum>, Vec<String>)> {
 }
 
 /// Runs the study: `phase.csv`, `boundary.csv`, `phase.svg`.
-pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
+pub fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> Result<PhaseResult> {
     let Some(Plan::Phase {
         lambda_over_l,
         r_over_lambda,
@@ -217,7 +257,7 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
     else {
         return Err(Error::input("study.kind", "expected a phase study"));
     };
-    let m = exponent(*m, exponent_study, dir)?;
+    let m = exponent(*m, exponent_study, dir, provenance)?;
     let mut values = lambda_over_l.clone();
     values.sort_by(f64::total_cmp);
     let columns = values
@@ -239,12 +279,12 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
             })?;
         }
         if let Some((omegabar_b, kind)) = &c.boundary {
-            bounds.row(&BoundaryRow {
+            bounds.row(&ColumnLossRow {
                 lambda_over_l: c.lambda_over_l,
                 r_over_lambda: c.r_over_lambda,
                 omegabar_b: *omegabar_b,
                 y_b: omegabar_b * shape,
-                kind: kind.clone(),
+                kind: *kind,
             })?;
         }
     }
@@ -349,16 +389,28 @@ pub fn run_phase(study: &Study, dir: &Path) -> Result<Value> {
         },
         &dir.join("phase.svg"),
     )?;
-    Ok(json!({
-        "kind": "phase",
-        "m": m,
-        "columns": columns.iter().map(|c| json!({"lambda_over_l": c.lambda_over_l, "R_over_lambda": c.r_over_lambda, "omegabar_b": c.boundary.as_ref().map(|b| b.0), "kind": c.boundary.as_ref().map(|b| b.1.clone()), "points": c.points.len()})).collect::<Vec<_>>(),
-        "skipped_flagella": skipped,
-        "boundary_curve": match &curve {
-            Ok(_) => json!({ "out": dir.join("boundary_curve").display().to_string() }),
-            Err(e) => json!({ "error": e.to_string() }),
+    Ok(PhaseResult {
+        m,
+        columns: columns
+            .iter()
+            .map(|c| ColumnSummary {
+                lambda_over_l: c.lambda_over_l,
+                r_over_lambda: c.r_over_lambda,
+                omegabar_b: c.boundary.map(|b| b.0),
+                kind: c.boundary.map(|b| b.1),
+                points: c.points.len(),
+            })
+            .collect(),
+        skipped_flagella: skipped,
+        boundary_curve: match &curve {
+            Ok(_) => CurveOutcome::Written {
+                out: dir.join("boundary_curve").display().to_string(),
+            },
+            Err(e) => CurveOutcome::Failed {
+                error: e.to_string(),
+            },
         },
-    }))
+    })
 }
 
 /// The boundary curve from the smallest to the largest `lambda/l` of the columns, as lines of

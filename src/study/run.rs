@@ -3,21 +3,59 @@
 
 use std::path::Path;
 
-use serde_json::{Value, json};
+use serde::Serialize;
 
-use super::figures::{self, Case as FigureCase};
-use super::orbits::OrbitsOptions;
+use super::boundary::{BoundaryStudy, run_study as run_boundaries};
+use super::branch::{BranchEvent, BranchReport, run_branch};
+use super::figures::{self, Case as FigureCase, SweepFit};
+use super::locate::{LocateResult, Resolution, locate_study};
+use super::orbits::{OrbitsOptions, OrbitsReport};
+use super::output::{Meta, Provenance, create_dir, write_json};
+use super::phase::PhaseResult;
 use super::plan::Plan;
-use super::runs::{
-    DEFAULT_MAX_NODES, default_ladder, run_branch, run_ladder, run_locate, run_refinement,
-};
-use super::sweep::{cases, run_sweep, variant};
+use super::shapes::ShapesResult;
+use super::simulate::AverageRow;
+use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
+use crate::analysis::refine::DEFAULT_MAX_NODES;
 use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
-use crate::study::output::{Meta, create_dir};
 use crate::{Error, Result};
+
+/// What a study run found, by the study's kind (its JSON: `kind` and the kind's own fields).
+#[derive(Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StudyResult {
+    Branch {
+        cases: Vec<BranchCase>,
+    },
+    Locate {
+        result: LocateResult,
+    },
+    Sweep {
+        summary: SweepSummary,
+        fits: Option<Vec<SweepFit>>,
+    },
+    Phase(PhaseResult),
+    Boundary(BoundaryStudy),
+    Shapes(ShapesResult),
+    Dynamics {
+        rows: Vec<AverageRow>,
+    },
+    Orbits {
+        report: OrbitsReport,
+        options: OrbitsOptions,
+    },
+}
+
+/// One case of a branch study: its label, its report and its events.
+#[derive(Serialize)]
+pub struct BranchCase {
+    pub case: String,
+    pub report: BranchReport,
+    pub events: Vec<BranchEvent>,
+}
 
 /// A folder-friendly form of a case label.
 pub fn slug(label: &str) -> String {
@@ -37,11 +75,36 @@ pub fn slug(label: &str) -> String {
         .join("_")
 }
 
-/// Runs the study into `dir`; returns a summary for the terminal. A branch that stalls or a sweep
-/// point that fails makes it a numerical failure, after every result and figure is written.
-/// With `resume`, the long kinds (`dynamics`, `orbits`) continue from their checkpoints in
-/// `dir` (finished simulations are read back, not run again); the others run afresh.
-pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
+/// The [`Resolution`] a `locate` plan asks for.
+fn resolution(plan: &Plan) -> Resolution {
+    match plan {
+        Plan::Locate {
+            extrapolate: true,
+            nodes,
+            ..
+        } => Resolution::Ladder(nodes.clone()),
+        Plan::Locate {
+            accuracy: Some(eps),
+            max_nodes,
+            ..
+        } => Resolution::Refine {
+            accuracy: *eps,
+            max_nodes: max_nodes.unwrap_or(DEFAULT_MAX_NODES),
+        },
+        _ => Resolution::Single,
+    }
+}
+
+/// Runs the study into `dir`. A branch that stalls or a sweep point that fails makes it a
+/// numerical failure, after every result and figure is written. With `resume`, the long kinds
+/// (`dynamics`, `orbits`) continue from their checkpoints in `dir` (finished simulations are
+/// read back, not run again); the others run afresh. `provenance` goes into `meta.json`.
+pub fn run(
+    study: &Study,
+    dir: &Path,
+    resume: bool,
+    provenance: &Provenance,
+) -> Result<StudyResult> {
     create_dir(dir)?;
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
@@ -51,7 +114,7 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
     });
     // What did not complete; reported as a numerical failure once everything is written.
     let mut failures: Vec<String> = Vec::new();
-    let report = match &plan {
+    let result = match &plan {
         Plan::Branch { cases: plan_cases } => {
             let cases = cases(plan_cases);
             let mut tables = Vec::new();
@@ -64,8 +127,15 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
                 } else {
                     dir.join(slug(&case.label))
                 };
-                let (report, t) = run_branch(&s, &model, s.branch.omega_max, &sub)?;
-                summaries.push(json!({ "case": case.label, "report": report, "events": t.events.iter().map(|e| json!({"kind": e.kind, "omega": e.omega, "im": e.im})).collect::<Vec<_>>() }));
+                let (report, t) = run_branch(&s, &model, s.branch.omega_max, &sub, provenance)?;
+                if report.stalled {
+                    failures.push(format!("{}: {}", case.label, report.stop));
+                }
+                summaries.push(BranchCase {
+                    case: case.label.clone(),
+                    events: t.events.iter().map(BranchEvent::of).collect(),
+                    report,
+                });
                 tables.push((
                     case.label.clone(),
                     matches!(s.shape, ShapeParams::Helix { .. }),
@@ -81,39 +151,12 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
                 })
                 .collect();
             figures::branch_figures(dir, &study.name, &fig_cases)?;
-            let stalled: Vec<String> = summaries
-                .iter()
-                .filter(|c| c["report"]["stalled"] == true)
-                .map(|c| format!("{}: {}", c["case"], c["report"]["stop"]))
-                .collect();
-            failures.extend(stalled);
-            json!({ "kind": "branch", "cases": summaries })
+            StudyResult::Branch { cases: summaries }
         }
-        Plan::Locate {
-            extrapolate,
-            nodes,
-            accuracy,
-            max_nodes,
-        } => {
-            let value = if *extrapolate {
-                let ladder = if nodes.is_empty() {
-                    default_ladder(study)
-                } else {
-                    nodes.clone()
-                };
-                serde_json::to_value(run_ladder(study, &ladder)?)
-            } else if let Some(eps) = accuracy {
-                let max = max_nodes.unwrap_or(DEFAULT_MAX_NODES);
-                serde_json::to_value(run_refinement(study, *eps, max)?)
-            } else {
-                let model = Model::new(&study.physical())?;
-                serde_json::to_value(run_locate(study, &model)?)
-            }
-            .map_err(|e| Error::Numerical(e.to_string()))?;
-            let path = dir.join("locate.json");
-            std::fs::write(&path, format!("{value:#}\n"))
-                .map_err(crate::study::output::io_error(&path))?;
-            json!({ "kind": "locate", "result": value })
+        Plan::Locate { .. } => {
+            let result = locate_study(study, &resolution(&plan))?;
+            write_json(&dir.join("locate.json"), &result)?;
+            StudyResult::Locate { result }
         }
         Plan::Sweep { .. } => {
             let summary = run_sweep(study, dir, None)?;
@@ -124,9 +167,9 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
                 ));
             }
             let fits = sweep_figures(study, dir)?;
-            json!({ "kind": "sweep", "summary": summary, "fits": fits })
+            StudyResult::Sweep { summary, fits }
         }
-        Plan::Phase { .. } => super::phase::run_phase(study, dir)?,
+        Plan::Phase { .. } => StudyResult::Phase(super::phase::run_phase(study, dir, provenance)?),
         Plan::Boundary {
             vary,
             from,
@@ -134,42 +177,38 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
             cases: plan_cases,
             fit,
         } => {
-            let (value, failed) = super::boundary::run_study(
-                study,
-                vary,
-                (*from, *to),
-                &cases(plan_cases),
-                *fit,
-                dir,
-            )?;
+            let (value, failed) =
+                run_boundaries(study, vary, (*from, *to), &cases(plan_cases), *fit, dir)?;
             failures.extend(failed);
-            value
+            StudyResult::Boundary(value)
         }
-        Plan::Shapes { .. } => super::shapes::run_shapes(study, dir)?,
+        Plan::Shapes { .. } => StudyResult::Shapes(super::shapes::run_shapes(study, dir)?),
         Plan::Dynamics { .. } => {
-            let (rows, failed) = super::simulate::run_dynamics(study, dir, resume)?;
+            let (rows, failed) = super::simulate::run_dynamics(study, dir, resume, provenance)?;
             if failed > 0 {
                 failures.push(format!(
                     "{failed} simulations failed (status column of dynamics.csv)"
                 ));
             }
-            json!({ "kind": "dynamics", "rows": rows })
+            StudyResult::Dynamics { rows }
         }
         Plan::Orbits(orbits) => {
             let model = Model::new(&study.physical())?;
-            let opts = OrbitsOptions {
+            let options = OrbitsOptions {
                 resume,
                 ..OrbitsOptions::of_plan(orbits, study.branch.omega_max)
             };
-            let report = super::orbits::run_orbits(study, &model, &opts, dir)?;
+            let report = super::orbits::run_orbits(study, &model, &options, dir, provenance)?;
             if let OrbitStop::StepTooSmall(reason) = &report.stop {
                 failures.push(format!("the orbit branch stalled: {reason}"));
             }
-            json!({ "kind": "orbits", "report": report, "options": opts })
+            StudyResult::Orbits { report, options }
         }
     };
     let model = Model::new(&study.physical())?;
-    Meta::new(study, model.scales, &report).write(&dir.join("meta.json"))?;
+    // The run's record in meta.json has its keys in alphabetical order, as every JSON file.
+    let record = serde_json::to_value(&result).map_err(|e| Error::Numerical(e.to_string()))?;
+    Meta::new(study, model.scales, &record, provenance).write(&dir.join("meta.json"))?;
     if !failures.is_empty() {
         return Err(Error::Numerical(format!(
             "study `{}` incomplete ({}); what was computed is in {}",
@@ -178,5 +217,5 @@ pub fn run(study: &Study, dir: &Path, resume: bool) -> Result<Value> {
             dir.display()
         )));
     }
-    Ok(report)
+    Ok(result)
 }

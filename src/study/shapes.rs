@@ -5,11 +5,11 @@ use std::path::Path;
 
 use faer::c64;
 use nalgebra::Vector3;
-use serde_json::{Value, json};
+use serde::Serialize;
 
 use super::Study;
 use super::plan::Plan;
-use super::runs::locate_study;
+use crate::analysis::locate::{Loss, locate};
 use crate::analysis::solve::solve_at;
 use crate::engine::arclength::Silent;
 use crate::engine::stability::mode;
@@ -71,7 +71,31 @@ fn side_views(title: &str, curves: &[(String, Vec<Vector3<f64>>, Style)]) -> [Fi
 }
 
 /// Runs the study: `shapes.csv`, `mode.csv`, `shapes.svg`, `mode.svg`.
-pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
+/// What the `shapes` study reports: the rates drawn and, where the branch loses stability, the
+/// critical mode's rate, event and eigenvalue (1/s).
+#[derive(Serialize)]
+pub struct ShapesResult {
+    pub omegas: Vec<f64>,
+    #[serde(flatten)]
+    pub critical: CriticalMode,
+}
+
+/// The critical mode of a shapes study, or `mode: null` where the branch stays stable.
+#[derive(Serialize)]
+#[serde(untagged)]
+pub enum CriticalMode {
+    None {
+        mode: Option<()>,
+    },
+    Found {
+        omega_b: f64,
+        event: Loss,
+        eigenvalue: [f64; 2],
+    },
+}
+
+/// Runs the study: the steady shapes at its rates and the critical mode.
+pub fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
     let Some(Plan::Shapes { omegas }) = &study.study else {
         return Err(Error::input("study.kind", "expected a shapes study"));
     };
@@ -101,9 +125,12 @@ pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
     )?;
 
     // The critical mode at omega_b.
-    let (located, critical) = locate_study(study, &model, &mut Silent)?;
+    let (located, critical) = locate(&model, &study.locate_settings(), &mut Silent)?;
     let Some(critical) = critical else {
-        return Ok(json!({ "kind": "shapes", "omegas": omegas, "mode": null }));
+        return Ok(ShapesResult {
+            omegas: omegas.clone(),
+            critical: CriticalMode::None { mode: None },
+        });
     };
     let steady = critical.steady(&model);
     let event = &critical.event;
@@ -168,11 +195,12 @@ pub fn run_shapes(study: &Study, dir: &Path) -> Result<Value> {
         &dir.join("mode.svg"),
         (1200, 600),
     )?;
-    Ok(json!({
-        "kind": "shapes",
-        "omegas": omegas,
-        "omega_b": omega_b,
-        "event": located.kind,
-        "eigenvalue": [value.re / model.scales.time, value.im / model.scales.time],
-    }))
+    Ok(ShapesResult {
+        omegas: omegas.clone(),
+        critical: CriticalMode::Found {
+            omega_b,
+            event: located.kind,
+            eigenvalue: [value.re / model.scales.time, value.im / model.scales.time],
+        },
+    })
 }

@@ -27,10 +27,11 @@ use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
+use crate::study::branch::BranchRow;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::orbits::OrbitsOptions;
 use crate::study::output::CsvWriter;
-use crate::study::runs::BranchRow;
+use crate::study::progress;
 use crate::{Error, Result};
 
 /// One row of `timeseries.csv` (SI and normalized).
@@ -656,19 +657,19 @@ mod tests {
 
 /// One row of `dynamics.csv`: the late-time statistics at one rate.
 #[derive(Clone, Debug, Serialize)]
-struct AverageRow {
-    omega: f64,
-    hbar_mean: Option<f64>,
-    hbar_std: Option<f64>,
+pub struct AverageRow {
+    pub omega: f64,
+    pub hbar_mean: Option<f64>,
+    pub hbar_std: Option<f64>,
     #[serde(rename = "Fpbar_mean")]
-    fpbar_mean: Option<f64>,
+    pub fpbar_mean: Option<f64>,
     #[serde(rename = "Fpbar_std")]
-    fpbar_std: Option<f64>,
-    eta_mean: Option<f64>,
-    eta_std: Option<f64>,
-    steps: usize,
-    seconds: f64,
-    status: String,
+    pub fpbar_std: Option<f64>,
+    pub eta_mean: Option<f64>,
+    pub eta_std: Option<f64>,
+    pub steps: usize,
+    pub seconds: f64,
+    pub status: String,
 }
 
 /// The `dynamics` study: a simulation from rest per rate (in parallel, each in its own folder
@@ -682,7 +683,8 @@ pub fn run_dynamics(
     study: &crate::study::Study,
     dir: &Path,
     resume: bool,
-) -> Result<(serde_json::Value, usize)> {
+    provenance: &crate::study::output::Provenance,
+) -> Result<(Vec<AverageRow>, usize)> {
     use rayon::prelude::*;
     let Some(crate::study::Plan::Dynamics {
         omegas,
@@ -699,9 +701,6 @@ pub fn run_dynamics(
     model.check_resolution()?;
     let settings = study.integrator.settings(&model.scales);
     let bars = indicatif::MultiProgress::new();
-    let style =
-        indicatif::ProgressStyle::with_template("{prefix} [{elapsed_precise}] {bar:30} {msg}")
-            .expect("a valid template");
     let rows: Vec<AverageRow> = omegas
         .par_iter()
         .map(|&omega| {
@@ -719,11 +718,7 @@ pub fn run_dynamics(
                 provenance: simulation_provenance(study),
             };
             let sub = dir.join(format!("omega_{omega}"));
-            let bar = bars.add(
-                ProgressBar::new(1000)
-                    .with_style(style.clone())
-                    .with_prefix(format!("omega = {omega} rad/s")),
-            );
+            let bar = bars.add(progress::bar(&format!("omega = {omega} rad/s")));
             let outcome = run_simulate(&model, &settings, &opts, &sub, &bar);
             bars.remove(&bar);
             match outcome {
@@ -761,15 +756,20 @@ pub fn run_dynamics(
     let failed = rows.iter().filter(|r| r.status != "ok").count();
     // The continuation branch underneath, and the orbits born at its Hopf point.
     let omega_max = omegas.iter().copied().fold(0.0, f64::max) * 1.05;
-    let (_, branch) =
-        crate::study::runs::run_branch(study, &model, omega_max, &dir.join("branch"))?;
+    let (_, branch) = crate::study::branch::run_branch(
+        study,
+        &model,
+        omega_max,
+        &dir.join("branch"),
+        provenance,
+    )?;
     let orbits: Vec<OrbitRow> = if *orbit_branch {
         let orbits_dir = dir.join("orbits");
         let opts = OrbitsOptions {
             resume,
             ..OrbitsOptions::of_plan(orbit_plan, omega_max)
         };
-        crate::study::orbits::run_orbits(study, &model, &opts, &orbits_dir)?;
+        crate::study::orbits::run_orbits(study, &model, &opts, &orbits_dir, provenance)?;
         crate::study::output::read_rows(&orbits_dir.join("orbits.csv"), true)?
     } else {
         Vec::new()
@@ -849,10 +849,7 @@ pub fn run_dynamics(
             &dir.join(name),
         )?;
     }
-    Ok((
-        serde_json::to_value(&rows).map_err(|e| Error::Numerical(e.to_string()))?,
-        failed,
-    ))
+    Ok((rows, failed))
 }
 
 /// The value of `y` at `omega` by linear interpolation along `points` (`(omega, y, stable)` in

@@ -16,8 +16,8 @@ use std::process::Command;
 use serde::Serialize;
 
 use super::Study;
-use super::sweep::{cases, grid, shard_files, sweep_plan, write_atomic};
-use crate::study::output::{create_dir, io_error};
+use super::sweep::{cases, grid, shard_files, sweep_plan};
+use crate::study::output::{create_dir, io_error, write_atomically};
 use crate::{Error, Result};
 
 /// The variables of an array task that `--shard slurm` needs (Slurm sets them in every task of
@@ -380,8 +380,8 @@ pub fn write_scripts(
     }
     let array_script = job.out.join("slurm-sweep.sbatch");
     let merge_script = job.out.join("slurm-merge.sbatch");
-    write_atomic(&array_script, array.as_bytes())?;
-    write_atomic(&merge_script, merge.as_bytes())?;
+    write_atomically(&array_script, array.as_bytes())?;
+    write_atomically(&merge_script, merge.as_bytes())?;
     let commands = [
         format!(
             "array=$(sbatch --parsable {})",
@@ -445,7 +445,7 @@ pub fn submit(scripts: SlurmScripts, out: &Path) -> Result<SlurmSubmission> {
     );
     let write = |value: &serde_json::Value| -> Result<()> {
         let text = serde_json::to_string_pretty(value).map_err(io_json(&record))?;
-        write_atomic(&record, format!("{text}\n").as_bytes())
+        write_atomically(&record, format!("{text}\n").as_bytes())
     };
     match merge {
         Ok(merge_job) => {

@@ -17,17 +17,17 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::plan::{Case, Plan, Vary};
-use super::runs::locate_study;
+use super::progress;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
+use crate::analysis::locate::locate;
 use crate::engine::arclength::Silent;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
-use crate::study::output::{create_dir, io_error};
+use crate::study::output::{create_dir, io_error, write_atomically};
 use crate::{Error, Result};
 
 /// One point of a sweep grid.
@@ -191,7 +191,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
     row.extend(point.values.iter().map(|x| format!("{x:e}")));
     let outcome = variant(base, case, vary, &point.values).and_then(|study| {
         let model = Model::new(&study.physical())?;
-        let (located, _) = locate_study(&study, &model, &mut Silent)?;
+        let (located, _) = locate(&model, &study.locate_settings(), &mut Silent)?;
         Ok((study, located))
     });
     match outcome {
@@ -215,7 +215,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
                 number(Some(
                     p.rod.youngs_modulus * p.rod.r0.powi(4) / (p.fluid.mu * ell.powi(4)),
                 )),
-                located.kind.clone(),
+                located.kind.to_string(),
                 number(located.omega_b),
                 number(located.omegabar_b),
                 number(located.im),
@@ -307,25 +307,12 @@ fn record_bytes(path: &Path, row: &[String]) -> Result<Vec<u8>> {
     w.into_inner().map_err(|e| io(e.to_string()))
 }
 
-/// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
-/// file or the new one, never a mixture or a truncated file.
-pub(super) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    let tmp = path.with_file_name(name);
-    let mut file = std::fs::File::create(&tmp).map_err(io_error(&tmp))?;
-    file.write_all(bytes).map_err(io_error(&tmp))?;
-    file.sync_all().map_err(io_error(&tmp))?;
-    drop(file);
-    std::fs::rename(&tmp, path).map_err(io_error(path))
-}
-
 fn write_rows(path: &Path, header: &[String], rows: &BTreeMap<usize, Vec<String>>) -> Result<()> {
     let mut bytes = record_bytes(path, header)?;
     for row in rows.values() {
         bytes.extend(record_bytes(path, row)?);
     }
-    write_atomic(path, &bytes)
+    write_atomically(path, &bytes)
 }
 
 /// Checks (or writes) the fingerprint beside a sweep CSV.
@@ -349,7 +336,7 @@ fn check_plan(csv: &Path, study: &Study) -> Result<()> {
                 path.display()
             ),
         )),
-        Err(_) => write_atomic(&path, mine.as_bytes()),
+        Err(_) => write_atomically(&path, mine.as_bytes()),
     }
 }
 
@@ -420,13 +407,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .open(&path)
         .map_err(io_error(&path))?;
     let writer = Mutex::new(file);
-    let bar = ProgressBar::new(todo.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "sweep [{elapsed_precise}] {bar:30} {pos}/{len} points, eta {eta}",
-        )
-        .expect("a valid template"),
-    );
+    let bar = progress::points(todo.len());
     let failures = Mutex::new(0usize);
     let results: Vec<Result<()>> = todo
         .par_iter()
@@ -537,6 +518,6 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
     }
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
-    write_atomic(&plan_path(&path), mine.as_bytes())?;
+    write_atomically(&plan_path(&path), mine.as_bytes())?;
     Ok((rows.len(), n))
 }

@@ -1,0 +1,148 @@
+//! `helixbif locate` and the `locate` study kind: `omega_b` of a study at its node count, refined
+//! in `N` to an accuracy, or over a ladder of node counts, with progress on stderr.
+
+use indicatif::ProgressBar;
+use serde::Serialize;
+
+use crate::Result;
+use crate::analysis::locate::{Critical, Located, locate};
+use crate::analysis::refine::{Ladder, Refinement, RungObserver, default_ladder, ladder, refine};
+use crate::engine::arclength::{Observer, Point};
+use crate::model::Model;
+use crate::numerics::fit::DiscretizationError;
+use crate::study::Study;
+use crate::study::progress::{self, progress};
+
+/// How `locate` treats the node count.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Resolution {
+    /// The study's `N` only.
+    Single,
+    /// Refined until the estimated error is below `accuracy` (relative), at most `max_nodes`.
+    Refine { accuracy: f64, max_nodes: usize },
+    /// Over a ladder of node counts (empty: the default one), extrapolated.
+    Ladder(Vec<usize>),
+}
+
+/// What `locate` finds, by [`Resolution`]; the JSON is the result's own.
+#[derive(Serialize)]
+#[serde(untagged)]
+pub enum LocateResult {
+    Single(Located),
+    Refined(Refinement),
+    Ladder(Ladder),
+}
+
+/// A progress bar over the branch of each rung, and a note on stderr for each rung's result.
+struct LocateProgress {
+    bar: ProgressBar,
+    /// The scale of the rate of the rung running, and its range `omegabar_max`.
+    time: f64,
+    omegabar_max: f64,
+}
+
+impl LocateProgress {
+    fn new() -> Self {
+        LocateProgress {
+            bar: ProgressBar::hidden(),
+            time: 1.0,
+            omegabar_max: 1.0,
+        }
+    }
+
+    /// A bar for a rung on `model` with the study's range.
+    fn start(&mut self, study: &Study, model: &Model) {
+        self.time = model.scales.time;
+        self.omegabar_max = model.scales.omega_to_bar(study.branch.omega_max);
+        self.bar = progress(self.omegabar_max, &format!("locate N = {}", model.nodes()));
+    }
+}
+
+impl Observer for LocateProgress {
+    fn point(&mut self, point: &Point) {
+        progress::set_fraction(&self.bar, point.p, (0.0, self.omegabar_max));
+        self.bar
+            .set_message(format!("omega = {:.5} rad/s", point.p / self.time));
+    }
+}
+
+/// The rungs of a refinement or a ladder: a bar each, then a note of what it found.
+struct RungProgress<'a> {
+    study: &'a Study,
+    progress: LocateProgress,
+}
+
+impl Observer for RungProgress<'_> {
+    fn point(&mut self, point: &Point) {
+        self.progress.point(point);
+    }
+}
+
+impl RungObserver for RungProgress<'_> {
+    fn rung(&mut self, model: &Model) {
+        self.progress.start(self.study, model);
+    }
+
+    fn located(&mut self, nodes: usize, located: &Located) {
+        self.progress.bar.finish_and_clear();
+        progress::note(&format!(
+            "locate N = {nodes}: {} ({})",
+            located
+                .omega_b
+                .map_or("no omega_b".into(), |w| format!("omega_b = {w:.10} rad/s")),
+            located.kind
+        ));
+    }
+
+    fn estimated(&mut self, relative: f64, estimate: &DiscretizationError) {
+        progress::note(&format!(
+            "  estimated relative error {relative:.2e} ({})",
+            estimate.method
+        ));
+    }
+}
+
+/// `locate` on one model of the study, with a progress bar.
+pub fn run_locate(study: &Study, model: &Model) -> Result<Located> {
+    Ok(run_locate_critical(study, model)?.0)
+}
+
+/// [`run_locate`], with the located event.
+pub fn run_locate_critical(study: &Study, model: &Model) -> Result<(Located, Option<Critical>)> {
+    let mut observer = LocateProgress::new();
+    observer.start(study, model);
+    let result = locate(model, &study.locate_settings(), &mut observer);
+    observer.bar.finish_and_clear();
+    result
+}
+
+/// `omega_b` of `study` by `resolution`.
+pub fn locate_study(study: &Study, resolution: &Resolution) -> Result<LocateResult> {
+    let physical = study.physical();
+    let settings = study.locate_settings();
+    let mut observer = RungProgress {
+        study,
+        progress: LocateProgress::new(),
+    };
+    Ok(match resolution {
+        Resolution::Single => LocateResult::Single(run_locate(study, &Model::new(&physical)?)?),
+        Resolution::Refine {
+            accuracy,
+            max_nodes,
+        } => LocateResult::Refined(refine(
+            &physical,
+            *accuracy,
+            *max_nodes,
+            &settings,
+            &mut observer,
+        )?),
+        Resolution::Ladder(nodes) => {
+            let nodes = if nodes.is_empty() {
+                default_ladder(&physical)
+            } else {
+                nodes.clone()
+            };
+            LocateResult::Ladder(ladder(&physical, &nodes, &settings, &mut observer)?)
+        }
+    })
+}
