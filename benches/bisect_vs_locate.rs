@@ -19,8 +19,7 @@ use helixbif::model::Model;
 use helixbif::model::params::Physical;
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     let args: Vec<usize> = std::env::args()
         .skip(1)
         .filter_map(|a| a.parse().ok())

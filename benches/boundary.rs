@@ -16,8 +16,7 @@ use helixbif::study::boundary::run_boundary;
 use helixbif::study::locate::run_locate;
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     println!(
         "boundary curve against locate at the same points, {}",
         common::machine()

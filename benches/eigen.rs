@@ -51,8 +51,7 @@ fn pair(nodes: usize, omega: f64) -> (Mat<f64>, Mat<f64>) {
 }
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     println!("stability spectrum, {}", common::machine());
     println!(
         "{:>5} {:>5} {:>6} {:>10} {:>10} {:>10} {:>8} {:>8} {:>8} {:>9} {:>9}",

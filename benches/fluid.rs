@@ -51,7 +51,7 @@ fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 3] {
 }
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
+    helixbif::numerics::process::configure();
     println!(
         "hydrodynamics on the representative helix, {}",
         common::machine()

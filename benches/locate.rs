@@ -150,8 +150,7 @@ fn run(label: &str, physical: &Physical) {
 }
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     // `cargo bench --bench locate -- rpy` runs only the rows whose label contains "rpy".
     let filter = std::env::args()
         .skip(1)

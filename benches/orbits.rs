@@ -19,8 +19,7 @@ use helixbif::study::Study;
 use helixbif::study::locate::run_locate_critical;
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     println!("periodic orbits, {}", common::machine());
     println!(
         "{:>10} {:>4} {:>11} {:>11} {:>11} {:>11} {:>8} {:>10} {:>8}",

@@ -22,8 +22,7 @@ fn model(r0: f64, nodes: usize) -> Model {
 }
 
 fn main() {
-    helixbif::numerics::allocator::keep_freed_pages();
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     println!("steady solver, {}", common::machine());
     println!(
         "{:>10} {:>5} {:>12} {:>12} {:>12} {:>10}",

@@ -38,10 +38,10 @@ use helixbif::problem::step::ImplicitStep;
 use helixbif::problem::twist::{natural_chart_unknowns, slave_twist_in};
 use helixbif::study::simulate::IntegratorTable;
 
-/// The representative helix with `nodes` nodes. Dense matrices are small here: no threads
-/// inside a factorization (as in the command-line tool).
+/// The representative helix with `nodes` nodes, in the process configuration of the command-line
+/// tool (no threads inside a small factorization).
 fn helix(nodes: usize) -> Model {
-    faer::set_global_parallelism(faer::Par::Seq);
+    helixbif::numerics::process::configure();
     let mut physical = Physical::representative();
     physical.discretization.nodes = nodes;
     Model::new(&physical).unwrap()

@@ -30,11 +30,8 @@ fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
 /// Parses the command line, runs the command and prints its report; the exit code says how it
 /// went.
 pub fn main() -> ExitCode {
-    helixbif::numerics::allocator::keep_freed_pages();
+    helixbif::numerics::process::configure();
     let cli = Cli::parse();
-    // The dense matrices here are small (a few hundred rows): threading inside one factorization
-    // costs more than it gains; parallelism is over independent solves instead.
-    faer::set_global_parallelism(faer::Par::Seq);
     let (result, json) = match &cli.command {
         Command::Solve(a) => (commands::solve(a), a.study.json),
         Command::Branch(a) => (commands::branch(a), a.study.json),

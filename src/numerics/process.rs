@@ -1,5 +1,14 @@
-//! Allocator settings for the solver's access pattern.
+//! Process-wide settings for the solver's access pattern, made once by a front end
+//! ([`configure`]): the allocator's thresholds, and faer's default parallelism.
 //!
+//! **Parallelism.** faer's operations that take no explicit parallelism (products written
+//! with `*`, its decompositions called as methods) use a process-wide default. The dense
+//! matrices here have a few hundred to a few thousand rows: threading inside one small
+//! product costs more than it gains, so the default is sequential, and the places that pay
+//! for two threads ask for them explicitly ([`crate::numerics::lu`],
+//! [`crate::numerics::parallel`]); sweeps run in parallel over their points instead.
+//!
+//! **Allocator.**
 //! Every Newton iteration and eigenvalue solve allocates and drops dense matrices of 0.1-25 MB
 //! (`3N x 3N` at `N = 60..400`, real and complex). glibc serves blocks above its mmap threshold
 //! (128 KiB to start) with fresh mappings and trims freed memory at the top of the heap above
@@ -16,12 +25,20 @@ const MMAP_THRESHOLD: libc::c_int = 32 << 20;
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 const TRIM_THRESHOLD: libc::c_int = 1 << 30;
 
+/// The settings of this module: sequential faer by default, large blocks kept in the heap and
+/// freed pages in the process. A front end (the command line, the Python module, a benchmark)
+/// calls it at its start; calling it again changes nothing.
+pub fn configure() {
+    faer::set_global_parallelism(faer::Par::Seq);
+    keep_freed_pages();
+}
+
 /// Keeps large blocks in the heap and freed pages in the process (glibc on Linux; elsewhere the
-/// system allocator's own policy stays). Call once, at the start of `main`, before threads start.
-pub fn keep_freed_pages() {
+/// system allocator's own policy stays).
+fn keep_freed_pages() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only changes two tuning parameters of glibc's allocator; it is called
-    // before any other thread exists.
+    // SAFETY: mallopt only changes two tuning parameters of glibc's allocator, under the
+    // allocator's own lock.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD);
         libc::mallopt(libc::M_TRIM_THRESHOLD, TRIM_THRESHOLD);
