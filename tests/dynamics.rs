@@ -36,7 +36,7 @@ use helixbif::model::rod::frame::rechart;
 use helixbif::model::steady::Steady;
 use helixbif::problem::step::ImplicitStep;
 use helixbif::problem::twist::{natural_chart_unknowns, slave_twist_in};
-use helixbif::study::simulate::IntegratorTable;
+use helixbif::study::IntegratorTable;
 
 /// The representative helix with `nodes` nodes, in the process configuration of the command-line
 /// tool (no threads inside a small factorization).

@@ -235,17 +235,17 @@ impl<O: BoundaryObserver> CurveObserver for Recorder<'_, O> {
 }
 
 /// How a boundary starts: on a Hopf curve, or on a fold or branch-point curve.
-enum Start {
+enum CurveStart {
     Hopf(CurvePoint),
     Event(EventPoint),
 }
 
-impl Start {
+impl CurveStart {
     /// `omegabar` of the starting event.
     fn omegabar(&self) -> f64 {
         match self {
-            Start::Hopf(c) => c.p,
-            Start::Event(e) => e.event.p,
+            CurveStart::Hopf(c) => c.p,
+            CurveStart::Event(e) => e.event.p,
         }
     }
 }
@@ -257,7 +257,7 @@ fn start_at(
     settings: &LocateSettings,
     q: f64,
     omega_max: f64,
-) -> Result<(Start, Rc<RodProblem<Model>>)> {
+) -> Result<(CurveStart, Rc<RodProblem<Model>>)> {
     let member = family.member(q)?;
     let model = &member.model;
     let at = LocateSettings {
@@ -274,8 +274,8 @@ fn start_at(
     })?;
     let event = critical.event;
     let start = match event.kind {
-        EventKind::Hopf => Start::Hopf(CurvePoint::at_event(event, q)),
-        EventKind::Fold | EventKind::BranchPoint => Start::Event(EventPoint {
+        EventKind::Hopf => CurveStart::Hopf(CurvePoint::at_event(event, q)),
+        EventKind::Fold | EventKind::BranchPoint => CurveStart::Event(EventPoint {
             q,
             event,
             lead: critical.lead,
@@ -391,8 +391,8 @@ fn follow_segments<O: BoundaryObserver>(
     let (mut start, mut member) = start_at(family, settings, from, settings.omega_max)?;
     loop {
         let hopf = match start {
-            Start::Hopf(c) => c,
-            Start::Event(e) => {
+            CurveStart::Hopf(c) => c,
+            CurveStart::Event(e) => {
                 return follow_events(recorder, e, member, direction, (&curve_settings, settings));
             }
         };
@@ -459,7 +459,7 @@ fn follow_segments<O: BoundaryObserver>(
             let mut next = special.point.clone();
             next.eigenvalue = special.other;
             member = last;
-            Start::Hopf(next)
+            CurveStart::Hopf(next)
         } else {
             return Err(Error::Numerical(format!(
                 "at {key} = {:.6e} a real eigenvalue reaches zero on the Hopf curve (zero-Hopf \

@@ -77,13 +77,8 @@ pub fn observables_at(
     u: &[f64],
     omegabar: f64,
 ) -> Result<Observables> {
-    let steady = Steady::new(model, omegabar);
-    let config = steady.config(u);
-    let forces = match steady.drag(&config.x)? {
-        Some(d) => d.forces,
-        None => vec![nalgebra::Vector3::zeros(); model.nodes()],
-    };
-    Ok(model.observables(omegabar, &config.x, &forces, height(&rest.config.x)))
+    let x = Steady::new(model, omegabar).config(u).x;
+    model.steady_observables(omegabar, &x, height(&rest.config.x))
 }
 
 /// What locating the first loss of stability needs besides the model: the rate (rad/s, signed)

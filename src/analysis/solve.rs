@@ -8,6 +8,7 @@ use crate::model::Model;
 use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
 use crate::problem;
+use crate::problem::rod::Parameter;
 use crate::problem::steady::SteadyState;
 
 /// A steady state with everything `helixbif solve` reports.
@@ -42,29 +43,19 @@ const RAMP_ITERATIONS: usize = 8;
 /// Smallest ramp step, relative to the target rate, before giving up.
 const RAMP_MIN_FRACTION: f64 = 1e-4;
 
-/// The load a ramp increases.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Load {
-    /// The rotation rate `omegabar` (weight at the model's value).
-    Omega,
-    /// The weight per length (no rotation).
-    Weight,
+/// `(omegabar, weight)` of `model` with the ramp's parameter at `v`.
+fn loads(model: &Model, parameter: Parameter, v: f64) -> (f64, f64) {
+    match parameter {
+        Parameter::Omega => (v, model.weight),
+        Parameter::Weight => (0.0, v),
+    }
 }
 
-impl Load {
-    /// `(omegabar, weight)` at load value `v`.
-    fn at(self, model: &Model, v: f64) -> (f64, f64) {
-        match self {
-            Load::Omega => (v, model.weight),
-            Load::Weight => (0.0, v),
-        }
-    }
-
-    fn of(self, state: &SteadyState) -> f64 {
-        match self {
-            Load::Omega => state.omega,
-            Load::Weight => state.weight,
-        }
+/// The ramp's parameter at `state`.
+fn parameter_value(parameter: Parameter, state: &SteadyState) -> f64 {
+    match parameter {
+        Parameter::Omega => state.omega,
+        Parameter::Weight => state.weight,
     }
 }
 
@@ -77,7 +68,13 @@ pub fn rest_state(model: &Model, settings: &NewtonSettings) -> Result<SteadyStat
         |_| {
             let weightless =
                 problem::steady::solve(model, 0.0, 0.0, &natural, &model.chart, settings)?;
-            ramp(model, &weightless, Load::Weight, model.weight, settings)
+            ramp(
+                model,
+                &weightless,
+                Parameter::Weight,
+                model.weight,
+                settings,
+            )
         },
     )
 }
@@ -95,13 +92,9 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
         model.check_resolution()?;
     }
     let rest = rest_state(model, settings)?;
-    let state = ramp(model, &rest, Load::Omega, omegabar, settings)?;
-    let problem = Steady::new(model, omegabar);
-    let forces = match problem.drag(&state.config.x)? {
-        Some(d) => d.forces,
-        None => vec![nalgebra::Vector3::zeros(); model.nodes()],
-    };
-    let observables = model.observables(omegabar, &state.config.x, &forces, height(&rest.config.x));
+    let state = ramp(model, &rest, Parameter::Omega, omegabar, settings)?;
+    let observables =
+        model.steady_observables(omegabar, &state.config.x, height(&rest.config.x))?;
     Ok(Solution {
         fpbar_rigid: model.rigid_thrust(omegabar)?,
         state,
@@ -122,13 +115,13 @@ fn problem_at<'a>(model: &'a Model, state: &SteadyState) -> Steady<'a> {
 
 /// The tangent of the ramp at its solution `current`: `du/dv = -G_u^{-1} dG/dv` (free unknowns,
 /// in the chart carried to `current`), or `None` where `G_u` is singular.
-fn ramp_tangent(model: &Model, load: Load, current: &SteadyState) -> Result<Option<Vec<f64>>> {
+fn ramp_tangent(model: &Model, load: Parameter, current: &SteadyState) -> Result<Option<Vec<f64>>> {
     let problem = problem_at(model, current);
     let u = problem.free_vector(&current.config);
     let lin = problem.linearize(&u)?;
     let derivative = match load {
-        Load::Omega => problem.rate_derivative(&lin)?,
-        Load::Weight => problem.weight_derivative(),
+        Parameter::Omega => problem.rate_derivative(&lin)?,
+        Parameter::Weight => problem.weight_derivative(),
     };
     let rhs = faer::Mat::from_fn(u.len(), 1, |i, _| -derivative[i]);
     let du = crate::numerics::lu::Lu::of(lin.jacobian).solve(rhs.as_ref());
@@ -161,7 +154,7 @@ fn predict(
 fn ramp(
     model: &Model,
     start: &SteadyState,
-    load: Load,
+    load: Parameter,
     target: f64,
     settings: &NewtonSettings,
 ) -> Result<SteadyState> {
@@ -173,24 +166,24 @@ fn ramp(
     // The ramp's tangent at `current`, made once per state short of the target and shared by
     // the retries from it.
     let tangent_at = |state: &SteadyState| -> Result<Option<Vec<f64>>> {
-        if load.of(state) == target {
+        if parameter_value(load, state) == target {
             Ok(None)
         } else {
             ramp_tangent(model, load, state)
         }
     };
     let mut tangent = tangent_at(&current)?;
-    let mut step = target - load.of(start);
+    let mut step = target - parameter_value(load, start);
     let mut iterations = start.report.iterations;
     let mut history = start.report.history.clone();
-    while load.of(&current) != target {
-        let here = load.of(&current);
+    while parameter_value(load, &current) != target {
+        let here = parameter_value(load, &current);
         let value = if (target - here).abs() <= step.abs() {
             target
         } else {
             here + step
         };
-        let (omega, weight) = load.at(model, value);
+        let (omega, weight) = loads(model, load, value);
         let guess = predict(model, &current, tangent.as_deref(), value - here);
         match problem::steady::solve(model, omega, weight, &guess, &current.chart, &step_settings) {
             Ok(next) => {

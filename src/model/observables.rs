@@ -72,6 +72,21 @@ impl Model {
         }
     }
 
+    /// Observables of the steady state with nodes `x` at `omegabar` (the forces on the fluid
+    /// those of the rigid rotation, [`Steady::drag`]), with `h0` the height at rest.
+    pub fn steady_observables(
+        &self,
+        omegabar: f64,
+        x: &[Vector3<f64>],
+        h0: f64,
+    ) -> Result<Observables> {
+        let forces = match Steady::new(self, omegabar).drag(x)? {
+            Some(d) => d.forces,
+            None => vec![Vector3::zeros(); self.nodes()],
+        };
+        Ok(self.observables(omegabar, x, &forces, h0))
+    }
+
     /// `F_p ell^2 / EI` of the natural shape held rigid and turned at `omegabar` (linear in it).
     pub fn rigid_thrust(&self, omegabar: f64) -> Result<f64> {
         let problem = Steady::new(self, omegabar);

@@ -5,3 +5,4 @@ pub mod fit;
 pub mod lu;
 pub mod parallel;
 pub mod process;
+pub mod statistics;

@@ -188,7 +188,7 @@ pub fn branch(
     provenance: &Provenance,
 ) -> Result<BranchReport> {
     let (report, tables) = run_branch(study, model, omega_max, dir, provenance)?;
-    let case = figures::Case {
+    let case = figures::DrawnBranch {
         label: &study.name,
         tables: &tables,
         rigid: matches!(study.shape, ShapeParams::Helix { .. }),

@@ -19,7 +19,7 @@
 use serde::Serialize;
 
 use crate::analysis::orbits::OrbitStart;
-use crate::study::simulate::trapezoid_mean;
+use crate::numerics::statistics::trapezoid_mean;
 
 /// One row of `cycles.csv` (times in s).
 #[derive(Clone, Debug, PartialEq, Serialize)]

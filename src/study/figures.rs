@@ -18,7 +18,7 @@ use crate::study::plan::{FitKind, Plan};
 use crate::study::progress;
 
 /// One branch and its legend label.
-pub struct Case<'a> {
+pub struct DrawnBranch<'a> {
     pub label: &'a str,
     pub tables: &'a BranchTables,
     /// Draw the rigid-helix thrust line (helices only).
@@ -40,7 +40,10 @@ fn line(
     }
 }
 
-fn events(cases: &[Case], y: impl Fn(&crate::study::branch::EventRow) -> f64) -> Vec<Marker> {
+fn events(
+    cases: &[DrawnBranch],
+    y: impl Fn(&crate::study::branch::EventRow) -> f64,
+) -> Vec<Marker> {
     cases
         .iter()
         .flat_map(|c| c.tables.events.iter())
@@ -53,8 +56,8 @@ fn events(cases: &[Case], y: impl Fn(&crate::study::branch::EventRow) -> f64) ->
 }
 
 /// Writes `hbar.svg`, `Fpbar.svg`, `eta.svg` and `max_re.svg` into `dir`; returns their paths.
-pub fn branch_figures(dir: &Path, title: &str, cases: &[Case]) -> Result<Vec<PathBuf>> {
-    let label = |c: &Case| {
+pub fn branch_figures(dir: &Path, title: &str, cases: &[DrawnBranch]) -> Result<Vec<PathBuf>> {
+    let label = |c: &DrawnBranch| {
         if cases.len() == 1 {
             String::from("steady branch")
         } else {

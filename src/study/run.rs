@@ -7,14 +7,14 @@ use serde::Serialize;
 
 use super::boundary::{BoundaryStudy, run_study as run_boundaries};
 use super::branch::{BranchEvent, BranchReport, run_branch};
-use super::figures::{self, Case as FigureCase, SweepFit};
+use super::dynamics::AverageRow;
+use super::figures::{self, DrawnBranch, SweepFit};
 use super::locate::{LocateResult, Resolution, locate_study};
 use super::orbits::{OrbitsOptions, OrbitsReport};
 use super::output::{Meta, Provenance, create_dir, write_json};
 use super::phase::PhaseResult;
 use super::plan::Plan;
 use super::shapes::ShapesResult;
-use super::simulate::AverageRow;
 use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
 use crate::analysis::refine::DEFAULT_MAX_NODES;
@@ -142,9 +142,9 @@ pub fn run(
                     t,
                 ));
             }
-            let fig_cases: Vec<FigureCase> = tables
+            let fig_cases: Vec<DrawnBranch> = tables
                 .iter()
-                .map(|(label, rigid, t)| FigureCase {
+                .map(|(label, rigid, t)| DrawnBranch {
                     label,
                     tables: t,
                     rigid: *rigid,
@@ -184,7 +184,7 @@ pub fn run(
         }
         Plan::Shapes { .. } => StudyResult::Shapes(super::shapes::run_shapes(study, dir)?),
         Plan::Dynamics { .. } => {
-            let (rows, failed) = super::simulate::run_dynamics(study, dir, resume, provenance)?;
+            let (rows, failed) = super::dynamics::run_dynamics(study, dir, resume, provenance)?;
             if failed > 0 {
                 failures.push(format!(
                     "{failed} simulations failed (status column of dynamics.csv)"

@@ -266,7 +266,7 @@ fn plan_path(csv: &Path) -> PathBuf {
 }
 
 /// Reads the rows of a sweep CSV, keyed by point index; checks its header.
-fn read_rows(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<String>>> {
+fn read_points(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<String>>> {
     let mut reader = csv::Reader::from_path(path)
         .map_err(|e| Error::input("sweep", format!("{}: {e}", path.display())))?;
     let found: Vec<String> = reader
@@ -390,7 +390,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     check_plan(&path, study)?;
     // Finished points are kept; failed ones run again.
     let mut done = if path.exists() {
-        read_rows(&path, &header)?
+        read_points(&path, &header)?
     } else {
         BTreeMap::new()
     };
@@ -429,7 +429,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     results.into_iter().collect::<Result<Vec<()>>>()?;
     drop(writer);
     // Sort the finished file by point.
-    let rows = read_rows(&path, &header)?;
+    let rows = read_points(&path, &header)?;
     write_rows(&path, &header, &rows)?;
     Ok(SweepSummary {
         file: path.display().to_string(),
@@ -500,7 +500,7 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
                 format!("{} was produced by a different study", path.display()),
             ));
         }
-        for (i, row) in read_rows(path, &header)? {
+        for (i, row) in read_points(path, &header)? {
             if rows.insert(i, row).is_some() {
                 return Err(Error::input(
                     "merge",
