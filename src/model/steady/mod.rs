@@ -26,7 +26,6 @@ mod velocity;
 pub use velocity::{MobilityBlocks, VelocityLinearized};
 
 use faer::Mat;
-use faer::prelude::Solve;
 use nalgebra::Vector3;
 
 use crate::Result;

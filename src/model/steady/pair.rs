@@ -4,7 +4,6 @@
 
 use faer::Mat;
 use faer::prelude::Solve;
-use faer::reborrow::ReborrowMut;
 
 use crate::Result;
 use crate::model::fluid::Resistance;
