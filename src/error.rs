@@ -98,7 +98,7 @@ impl Error {
 }
 
 /// `Ok` when `condition` holds, else an input error naming `field` with `message`.
-pub fn ensure(condition: bool, field: &str, message: String) -> Result<()> {
+pub(crate) fn ensure(condition: bool, field: &str, message: String) -> Result<()> {
     if condition {
         Ok(())
     } else {

@@ -149,7 +149,7 @@ pub struct Criticality {
 
 /// Watches a boundary as it grows: called after every new point and special point with the
 /// boundary so far; an error ends the boundary there.
-pub trait BoundaryObserver {
+pub(crate) trait BoundaryObserver {
     fn grown(&mut self, boundary: &Boundary) -> Result<()>;
 }
 
@@ -338,7 +338,7 @@ fn follow_events<O: BoundaryObserver>(
 /// Follows the boundary of `family` from `q = from` to `to`, telling `observer` of every point:
 /// what was found, and whether the boundary reached the end of the range (what was found is
 /// kept when it did not).
-pub fn follow_boundary(
+pub(crate) fn follow_boundary(
     family: &RodFamily,
     settings: &LocateSettings,
     from: f64,
@@ -361,7 +361,7 @@ pub fn follow_boundary(
 }
 
 /// Refuses a range that is not two different finite values, or whose ends have no valid model.
-pub fn check_range(family: &RodFamily, from: f64, to: f64) -> Result<()> {
+pub(crate) fn check_range(family: &RodFamily, from: f64, to: f64) -> Result<()> {
     if !(from.is_finite() && to.is_finite() && from != to) {
         return Err(Error::input(
             "--from/--to",
@@ -473,7 +473,7 @@ fn follow_segments<O: BoundaryObserver>(
 
 /// `omega_b` (rad/s) of an independent `locate` at the last point of a boundary, looked for up
 /// to twice that point's rate; `None` where it finds no loss of stability to start from.
-pub fn check_end(
+pub(crate) fn check_end(
     family: &RodFamily,
     settings: &LocateSettings,
     last: &BoundaryPoint,

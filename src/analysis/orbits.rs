@@ -119,7 +119,7 @@ impl OrbitStart {
 }
 
 /// The row of `orbit` and its start ([`OrbitStart::physical`] left null).
-pub fn orbit_row(
+fn orbit_row(
     dynamics: &RodDynamics,
     index: usize,
     orbit: &Orbit,
@@ -205,7 +205,7 @@ pub fn hopf_start<'a>(
 /// Follows the orbits from a Hopf point, or from `resume` (a checkpoint of an earlier run of the
 /// same branch), with `rows` called for every accepted orbit's row, its start and the
 /// checkpoint after it.
-pub fn follow_rod_orbits(
+pub(crate) fn follow_rod_orbits(
     dynamics: &RodDynamics,
     start: &HopfStart,
     resume: Option<&Checkpoint>,

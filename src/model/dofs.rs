@@ -13,7 +13,7 @@ pub struct Layout {
 
 impl Layout {
     /// Number of clamped nodes (`x_0`, `x_1`).
-    pub const CLAMPED_NODES: usize = 2;
+    pub(crate) const CLAMPED_NODES: usize = 2;
 
     pub fn new(nodes: usize) -> Self {
         assert!(nodes >= 3, "a rod needs at least three nodes");
@@ -51,12 +51,12 @@ impl Layout {
     }
 
     /// Number of free unknowns, `4 N - 8`.
-    pub fn free_len(&self) -> usize {
+    pub(crate) fn free_len(&self) -> usize {
         self.free_positions() + self.nodes - 2
     }
 
     /// Full index of each free unknown, in the order of `u`.
-    pub fn free_indices(&self) -> Vec<usize> {
+    pub(crate) fn free_indices(&self) -> Vec<usize> {
         (self.x(Self::CLAMPED_NODES, 0)..3 * self.nodes)
             .chain(self.theta(1)..self.full_len())
             .collect()

@@ -70,7 +70,7 @@ impl Model {
 
     /// Gravity on node `i`: `-q wbar_i e_z` with the natural Voronoi length `wbar_i` (the mass
     /// does not change when the rod stretches).
-    pub fn gravity(&self, weight: f64) -> Vec<Vector3<f64>> {
+    pub(crate) fn gravity(&self, weight: f64) -> Vec<Vector3<f64>> {
         self.rod
             .weights
             .iter()

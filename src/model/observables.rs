@@ -41,7 +41,7 @@ pub fn height(x: &[Vector3<f64>]) -> f64 {
 }
 
 /// Propulsive force and motor torque (solver units) of the nodal forces `forces` at `x`.
-pub fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> (f64, f64) {
+pub(crate) fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> (f64, f64) {
     let fp = -forces.iter().map(|f| f.z).sum::<f64>();
     let tp = x.iter().zip(forces).map(|(p, f)| p.cross(f).z).sum();
     (fp, tp)
@@ -74,7 +74,7 @@ impl Model {
 
     /// Observables of the steady state with nodes `x` at `omegabar` (the forces on the fluid
     /// those of the rigid rotation, [`Steady::drag`]), with `h0` the height at rest.
-    pub fn steady_observables(
+    pub(crate) fn steady_observables(
         &self,
         omegabar: f64,
         x: &[Vector3<f64>],

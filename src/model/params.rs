@@ -77,7 +77,7 @@ pub enum Handedness {
 
 impl Handedness {
     /// `h = +1` (right) or `-1` (left), as in `X(phi) = (R cos phi, -h R sin phi, -lambda phi / 2 pi)`.
-    pub fn sign(self) -> f64 {
+    pub(crate) fn sign(self) -> f64 {
         match self {
             Handedness::Right => 1.0,
             Handedness::Left => -1.0,
@@ -421,7 +421,7 @@ impl Physical {
     }
 
     /// Stretching stiffness `EA = E pi r0^2` (N).
-    pub fn stretching_stiffness(&self) -> f64 {
+    pub(crate) fn stretching_stiffness(&self) -> f64 {
         self.rod.youngs_modulus * std::f64::consts::PI * self.rod.r0.powi(2)
     }
 
@@ -464,7 +464,7 @@ impl Scales {
         omegabar / self.time
     }
     /// Torque unit `EI / ell` (N m).
-    pub fn torque(&self) -> f64 {
+    pub(crate) fn torque(&self) -> f64 {
         self.force * self.length
     }
 }
@@ -497,7 +497,7 @@ pub enum Field {
 
 impl Field {
     /// Every field, in the order of the study file.
-    pub const ALL: [Field; 16] = [
+    const ALL: [Field; 16] = [
         Field::YoungsModulus,
         Field::RodRadius,
         Field::RodDensity,
@@ -539,7 +539,7 @@ impl Field {
     }
 
     /// The field of a study key, if it is one.
-    pub fn of_key(key: &str) -> Option<Field> {
+    pub(crate) fn of_key(key: &str) -> Option<Field> {
         Field::ALL.into_iter().find(|f| f.key() == key)
     }
 

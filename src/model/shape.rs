@@ -60,7 +60,7 @@ pub fn natural_nodes(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
 /// clamped first edge on the axis, pointing down, one helix chord long), a straight radial
 /// connector from the origin to the helix's end `X(0) = (R, 0, 0)` in edges of about that chord,
 /// then the helix at equal steps of `phi` with the remaining nodes.
-pub fn axis_clamped_helix(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
+fn axis_clamped_helix(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
     let ShapeParams::Helix {
         l,
         lambda,
@@ -89,7 +89,7 @@ pub fn axis_clamped_helix(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>
 }
 
 /// Voronoi lengths of the nodes of a polygon: half the adjacent edges (one half-edge at each end).
-pub fn voronoi_lengths(x: &[Vector3<f64>]) -> Vec<f64> {
+pub(crate) fn voronoi_lengths(x: &[Vector3<f64>]) -> Vec<f64> {
     let n = x.len();
     let mut w = vec![0.0; n];
     for i in 0..n - 1 {

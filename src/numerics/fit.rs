@@ -112,7 +112,7 @@ pub struct DiscretizationError {
 ///   when the rungs carry more than the two orders (pre-asymptotic rungs, quadrature noise);
 /// * otherwise the rungs are not in the range where the known orders hold, and the estimate is
 ///   the conservative `e1`, and says so.
-pub fn discretization_error(nodes: &[usize], values: &[f64]) -> Result<DiscretizationError> {
+pub(crate) fn discretization_error(nodes: &[usize], values: &[f64]) -> Result<DiscretizationError> {
     if nodes.len() != values.len() || nodes.len() < 2 || nodes.windows(2).any(|w| w[1] <= w[0]) {
         return Err(Error::input(
             "nodes",
@@ -333,7 +333,7 @@ pub struct Slope {
 
 /// Least squares `y = k x`: `k = sum(x y)/sum(x^2)`, `sigma_k = s/sqrt(sum x^2)`,
 /// `s^2 = SSE/(n-1)`.
-pub fn through_origin(x: &[f64], y: &[f64]) -> Result<Slope> {
+pub(crate) fn through_origin(x: &[f64], y: &[f64]) -> Result<Slope> {
     let n = x.len();
     if n < 2 || y.len() != n {
         return Err(Error::input(
@@ -367,7 +367,7 @@ pub struct LocalExponent {
 }
 
 /// The local exponents of the samples `(x, y)` (positive), taken in increasing `x`.
-pub fn local_exponents(x: &[f64], y: &[f64]) -> Vec<LocalExponent> {
+pub(crate) fn local_exponents(x: &[f64], y: &[f64]) -> Vec<LocalExponent> {
     let mut points: Vec<(f64, f64)> = x
         .iter()
         .zip(y)
@@ -391,7 +391,7 @@ pub fn local_exponents(x: &[f64], y: &[f64]) -> Vec<LocalExponent> {
 /// uneven grid inside, two points at the ends; `None` for a lone sample or a non-finite value
 /// (`x`, `y` logarithms of non-positive numbers). For densely sampled curves, where the
 /// derivative at the samples is wanted; [`local_exponents`] gives chords between coarse samples.
-pub fn log_slopes(x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
+pub(crate) fn log_slopes(x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
     let n = x.len();
     let d = |a: usize, b: usize| (y[b] - y[a]) / (x[b] - x[a]);
     (0..n)
@@ -412,7 +412,7 @@ pub fn log_slopes(x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
 
 /// The intercept `a` of the least-squares line `y = a + b x` through `points`; `None` with
 /// fewer than three points.
-pub fn line_intercept(points: &[(f64, f64)]) -> Option<f64> {
+pub(crate) fn line_intercept(points: &[(f64, f64)]) -> Option<f64> {
     let n = points.len() as f64;
     if points.len() < 3 {
         return None;
@@ -448,7 +448,7 @@ pub struct CommonPowerLaw {
 /// Fits [`CommonPowerLaw`] by least squares in logarithms (multiplicative errors):
 /// `ln y = ln N_k + p ln x`; `p` is the pooled within-group slope, its 95% interval uses
 /// `t(0.975, n - K - 1)`.
-pub fn common_power_law(groups: &[(String, Vec<f64>, Vec<f64>)]) -> Result<CommonPowerLaw> {
+pub(crate) fn common_power_law(groups: &[(String, Vec<f64>, Vec<f64>)]) -> Result<CommonPowerLaw> {
     let logs: Vec<(&String, Vec<f64>, Vec<f64>)> = groups
         .iter()
         .map(|(g, x, y)| {

@@ -31,7 +31,7 @@ use crate::numerics::parallel::FROM;
 /// complex Cholesky factorization. On the 2-core machine an LU of order 1593 (the bordered matrix
 /// at RPY `N = 400`) took 76-96 ms on two threads against 88-113 ms on one (eight alternated runs
 /// in one process, a noisy phase of the machine).
-pub fn parallelism(n: usize) -> Par {
+pub(crate) fn parallelism(n: usize) -> Par {
     if n >= FROM { Par::rayon(2) } else { Par::Seq }
 }
 
@@ -87,7 +87,7 @@ impl<T: ComplexField> Lu<T> {
     }
 
     /// `rhs <- A^{-1} rhs`.
-    pub fn solve_in_place(&self, rhs: MatMut<'_, T>) {
+    pub(crate) fn solve_in_place(&self, rhs: MatMut<'_, T>) {
         let mut scratch = MemBuffer::new(solve::solve_in_place_scratch::<usize, T>(
             self.dim(),
             rhs.ncols(),
@@ -113,7 +113,7 @@ impl<T: ComplexField> Lu<T> {
     }
 
     /// `A^{-H} rhs` (the conjugate transpose; the transpose for a real matrix).
-    pub fn solve_adjoint(&self, rhs: MatRef<'_, T>) -> Mat<T> {
+    pub(crate) fn solve_adjoint(&self, rhs: MatRef<'_, T>) -> Mat<T> {
         let mut x = rhs.to_owned();
         let lu = self.factors.as_ref();
         // A = P^T L U, so A^H = U^H L^H P: solve with U^H (lower), L^H (unit upper), then P^T.

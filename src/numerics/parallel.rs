@@ -6,11 +6,11 @@
 /// the linearization's and the stability pair's pieces joined at every size, `locate` on the
 /// default (`N = 60`, 233 unknowns) took 0.256 s against 0.217 s (medians of 8 alternated runs),
 /// with 4568 context switches against 101.
-pub const FROM: usize = 600;
+pub(crate) const FROM: usize = 600;
 
 /// `(a(), b())`, on two threads when `parallel` (rayon's `join`). The arithmetic of each is the
 /// same either way.
-pub fn join_if<A: Send, B: Send>(
+pub(crate) fn join_if<A: Send, B: Send>(
     parallel: bool,
     a: impl FnOnce() -> A + Send,
     b: impl FnOnce() -> B + Send,

@@ -2,7 +2,7 @@
 //! and standard deviation of a time series.
 
 /// Time-weighted mean and standard deviation (trapezoidal rule) of `y(t)` for `t >= from`.
-pub fn late_statistics(t: &[f64], y: &[f64], from: f64) -> Option<(f64, f64)> {
+pub(crate) fn late_statistics(t: &[f64], y: &[f64], from: f64) -> Option<(f64, f64)> {
     let pairs: Vec<(f64, f64)> = t
         .iter()
         .zip(y)
@@ -23,7 +23,7 @@ pub fn late_statistics(t: &[f64], y: &[f64], from: f64) -> Option<(f64, f64)> {
 
 /// The time average of `f(y)` over the samples `(t, y)` (sorted in `t`, spanning a positive
 /// time) by the trapezoidal rule.
-pub fn trapezoid_mean(points: &[(f64, f64)], f: impl Fn(f64) -> f64) -> f64 {
+pub(crate) fn trapezoid_mean(points: &[(f64, f64)], f: impl Fn(f64) -> f64) -> f64 {
     let span = points[points.len() - 1].0 - points[0].0;
     points
         .windows(2)

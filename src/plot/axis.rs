@@ -14,11 +14,11 @@ use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, Value
 use super::Scale;
 
 /// Relative padding added on each side of a data range (multiplicative on a log axis).
-pub const PADDING: f64 = 0.05;
+pub(crate) const PADDING: f64 = 0.05;
 
 /// One axis of a chart: scale, visible range and labelled ticks.
 #[derive(Clone, Debug)]
-pub struct Axis {
+pub(crate) struct Axis {
     scale: Scale,
     lo: f64,
     hi: f64,
@@ -63,7 +63,7 @@ impl Axis {
     }
 
     /// An axis without tick labels (used across a colour bar).
-    pub fn bare(lo: f64, hi: f64) -> Self {
+    pub(crate) fn bare(lo: f64, hi: f64) -> Self {
         Axis {
             scale: Scale::Linear,
             lo,
@@ -73,13 +73,13 @@ impl Axis {
     }
 
     /// Whether `v` can be drawn on this axis: finite, and positive on a log axis.
-    pub fn shows(&self, v: f64) -> bool {
+    pub(crate) fn shows(&self, v: f64) -> bool {
         shows(self.scale, v)
     }
 
     /// `v` if it can be drawn, else the lower end of the axis: where a band or error bar that
     /// reaches below zero on a log axis is cut.
-    pub fn or_bottom(&self, v: f64) -> f64 {
+    pub(crate) fn or_bottom(&self, v: f64) -> f64 {
         if self.shows(v) { v } else { self.lo }
     }
 
@@ -92,7 +92,7 @@ impl Axis {
     }
 
     /// Visible range.
-    pub fn bounds(&self) -> (f64, f64) {
+    pub(crate) fn bounds(&self) -> (f64, f64) {
         (self.lo, self.hi)
     }
 
@@ -102,7 +102,7 @@ impl Axis {
     }
 
     /// Number of characters of the longest tick label, for sizing the label area.
-    pub fn widest_label(&self) -> usize {
+    pub(crate) fn widest_label(&self) -> usize {
         self.ticks
             .iter()
             .map(|(_, label)| label.chars().count())

@@ -20,13 +20,13 @@ use crate::Result;
 type Pixel = (i32, i32);
 
 /// Text of the single legend entry that explains dashed (unstable) runs.
-pub const UNSTABLE_LABEL: &str = "unstable (dashed)";
+const UNSTABLE_LABEL: &str = "unstable (dashed)";
 
 /// Length of the tick marks `plotters` draws; tick labels sit twice this far from the axis.
-pub const TICK_MARK_PX: i32 = 5;
+pub(crate) const TICK_MARK_PX: i32 = 5;
 
 /// Draws `fig` filling `area`.
-pub fn draw(area: &Area, fig: &Figure) -> Result<()> {
+pub(crate) fn draw(area: &Area, fig: &Figure) -> Result<()> {
     let (xs, ys) = fig.series.iter().map(geometry::extent).fold(
         (Vec::new(), Vec::new()),
         |(mut xs, mut ys), (x, y)| {
@@ -67,7 +67,7 @@ pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
 }
 
 /// How many labelled ticks fit along each axis of `area` at the figure's font sizes.
-pub fn tick_budget(area: &Area) -> (usize, usize) {
+pub(crate) fn tick_budget(area: &Area) -> (usize, usize) {
     let (w, h) = area.dim_in_pixel();
     let fit = |len: u32, reserved: f64, per_tick: f64| {
         ((f64::from(len) - reserved) / per_tick).clamp(3.0, 8.0) as usize
@@ -77,7 +77,7 @@ pub fn tick_budget(area: &Area) -> (usize, usize) {
 
 /// The x axis with the most ticks (up to `max_ticks`) whose labels do not overlap across the
 /// width of `area`, built by `make(max_ticks)`.
-pub fn fit_x(make: impl Fn(usize) -> Axis, max_ticks: usize, area: &Area) -> Axis {
+pub(crate) fn fit_x(make: impl Fn(usize) -> Axis, max_ticks: usize, area: &Area) -> Axis {
     let width = f64::from(area.dim_in_pixel().0) - 150.0;
     let mut axis = make(max_ticks);
     for n in (2..max_ticks).rev() {
@@ -91,7 +91,7 @@ pub fn fit_x(make: impl Fn(usize) -> Axis, max_ticks: usize, area: &Area) -> Axi
 }
 
 /// Height of the area below a plot holding the x tick labels and, if not empty, `x_label`.
-pub fn x_label_area(x_label: &str) -> u32 {
+pub(crate) fn x_label_area(x_label: &str) -> u32 {
     let desc = if x_label.is_empty() {
         0.0
     } else {
@@ -130,7 +130,7 @@ struct LegendEntry {
 
 /// A chart being drawn: the axes, the legend entries collected so far, and the pixels covered by
 /// data (sampled along curves) so the legend can go where it covers the least.
-pub struct Plot<'a, 'b> {
+pub(crate) struct Plot<'a, 'b> {
     chart: ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>,
     x: Axis,
     y: Axis,
@@ -218,7 +218,7 @@ impl<'a, 'b> Plot<'a, 'b> {
     }
 
     /// Draws one series in `color` (see [`Series`] for the rules) and notes its legend entry.
-    pub fn draw_series(&mut self, s: &Series, color: RGBColor) -> Result<()> {
+    pub(crate) fn draw_series(&mut self, s: &Series, color: RGBColor) -> Result<()> {
         let stroke = color.stroke_width(LINE_WIDTH);
         let sample = match s.style {
             Style::Line | Style::Dashed => {
@@ -310,7 +310,7 @@ impl<'a, 'b> Plot<'a, 'b> {
 
     /// Draws the special points in black, one glyph per distinct label (in order of first
     /// appearance), each label once in the legend.
-    pub fn draw_special_points(&mut self, markers: &[Marker]) -> Result<()> {
+    fn draw_special_points(&mut self, markers: &[Marker]) -> Result<()> {
         let mut groups: Vec<(&str, Vec<Point>)> = Vec::new();
         for m in markers {
             let i = match groups.iter().position(|(label, _)| *label == m.label) {
@@ -339,7 +339,7 @@ impl<'a, 'b> Plot<'a, 'b> {
 
     /// Writes `text` (one line per `\n`) in the upper-left corner of the plot area, on a
     /// translucent white box so it stays legible over data.
-    pub fn annotate(&mut self, text: &str) -> Result<()> {
+    fn annotate(&mut self, text: &str) -> Result<()> {
         let lines: Vec<&str> = text.lines().collect();
         if lines.iter().all(|l| l.trim().is_empty()) {
             return Ok(());
@@ -388,7 +388,7 @@ impl<'a, 'b> Plot<'a, 'b> {
     ///
     /// The legend is laid out here rather than by `plotters`' series labels, so its box is the
     /// one [`Plot::legend_corner`] placed, and samples can be any element.
-    pub fn finish(mut self, min_entries: usize) -> Result<()> {
+    pub(crate) fn finish(mut self, min_entries: usize) -> Result<()> {
         if self.any_unstable {
             self.entries.push(LegendEntry {
                 label: UNSTABLE_LABEL.to_owned(),

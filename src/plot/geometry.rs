@@ -19,7 +19,7 @@ pub struct Run {
 
 /// A vertical error bar.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ErrorBar {
+pub(crate) struct ErrorBar {
     pub x: f64,
     pub lo: f64,
     pub hi: f64,
@@ -73,7 +73,7 @@ pub fn points(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Point> {
 /// runs meet at the midpoint between them (as seen on the axes), so the curve stays connected.
 /// A run of a single point is returned as such; the caller draws it (like any run that stays on
 /// one point) as a dot, so it is not lost.
-pub fn line_runs(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Run> {
+pub(crate) fn line_runs(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Run> {
     let dashed = |i: usize| match s.style {
         Style::Dashed => true,
         _ => s.stable.as_ref().is_some_and(|stable| !stable[i]),
@@ -127,7 +127,7 @@ pub fn bands(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Vec<Point>> {
 
 /// Vertical error bars of a Markers series, for the drawable points with a drawable error.
 /// On a log axis the lower end is cut at the bottom of the axis where y − err ≤ 0.
-pub fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
+pub(crate) fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
     (0..s.x.len())
         .filter(|&i| shown(s, i, xa, ya))
         .filter_map(|i| {
@@ -145,7 +145,7 @@ pub fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
 
 /// Every x and y value of `s` that the axes must cover: the points, and where there are errors,
 /// y ± err. Values the axis cannot show are filtered out by [`Axis::fit`].
-pub fn extent(s: &Series) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn extent(s: &Series) -> (Vec<f64>, Vec<f64>) {
     let mut ys = s.y.clone();
     if let Some(err) = &s.err {
         for (y, e) in s.y.iter().zip(err) {

@@ -34,7 +34,7 @@ const COLORBAR_GAP_PX: u32 = 20;
 
 /// Whether `v` is finite and strictly increasing or strictly decreasing (true when it has fewer
 /// than two values).
-pub fn is_strictly_monotonic(v: &[f64]) -> bool {
+pub(crate) fn is_strictly_monotonic(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
         && (v.windows(2).all(|w| w[0] < w[1]) || v.windows(2).all(|w| w[0] > w[1]))
 }
@@ -72,7 +72,7 @@ fn viridis(t: f64) -> RGBColor {
 
 /// Draws `map` filling `area`: the map with its overlays on the left, the colour bar on the
 /// right. The colour scale spans exactly the finite values of `z`.
-pub fn draw(area: &Area, map: &Heatmap) -> Result<()> {
+pub(crate) fn draw(area: &Area, map: &Heatmap) -> Result<()> {
     let area = titled(area, &map.title)?;
     let (x_ticks, y_ticks) = tick_budget(&area);
     let z_axis = Axis::fit(Scale::Linear, map.z.iter().flatten().copied(), 0.0, y_ticks);

@@ -144,11 +144,11 @@ pub struct Heatmap {
 }
 
 /// Size of the SVG written by [`write_figure`] and [`write_heatmap`], in pixels.
-pub const DEFAULT_SIZE: (u32, u32) = (800, 600);
+const DEFAULT_SIZE: (u32, u32) = (800, 600);
 
 /// Smallest panel [`write_panels`] accepts: below this the tick labels, axis labels and title no
 /// longer fit beside a usable plot area.
-pub const MIN_PANEL_SIZE: (u32, u32) = (300, 240);
+const MIN_PANEL_SIZE: (u32, u32) = (300, 240);
 
 /// Several figures side by side in one SVG (e.g. two orthogonal camera views of a rod shape),
 /// each panel with its own axes. `size` is the size of the whole SVG, shared evenly.

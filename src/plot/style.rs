@@ -30,12 +30,12 @@ const OVERLAY_PALETTE: [RGBColor; 7] = [
 ];
 
 /// Colour of the i-th series of a figure.
-pub fn series_color(i: usize) -> RGBColor {
+pub(crate) fn series_color(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
 /// Colour of the i-th overlay of a heat map.
-pub fn overlay_color(i: usize) -> RGBColor {
+pub(crate) fn overlay_color(i: usize) -> RGBColor {
     OVERLAY_PALETTE[i % OVERLAY_PALETTE.len()]
 }
 
@@ -44,38 +44,38 @@ pub fn overlay_color(i: usize) -> RGBColor {
 pub const NEUTRAL: RGBColor = RGBColor(0x55, 0x55, 0x55);
 
 /// Font sizes in pixels, as they appear in the SVG's `font-size`.
-pub const TITLE_PX: f64 = 20.0;
-pub const AXIS_LABEL_PX: f64 = 18.0;
-pub const TICK_PX: f64 = 16.0;
-pub const LEGEND_PX: f64 = 16.0;
-pub const ANNOTATION_PX: f64 = 16.0;
+pub(crate) const TITLE_PX: f64 = 20.0;
+pub(crate) const AXIS_LABEL_PX: f64 = 18.0;
+pub(crate) const TICK_PX: f64 = 16.0;
+pub(crate) const LEGEND_PX: f64 = 16.0;
+pub(crate) const ANNOTATION_PX: f64 = 16.0;
 
 /// Width of a typical character relative to the font size, for laying out text whose rendered
 /// width the SVG backend cannot know (generous, so boxes and margins are not too tight).
-pub const CHAR_WIDTH: f64 = 0.62;
+pub(crate) const CHAR_WIDTH: f64 = 0.62;
 
-pub const LINE_WIDTH: u32 = 2;
+pub(crate) const LINE_WIDTH: u32 = 2;
 /// Radius of the markers of a Markers series.
-pub const MARKER_PX: i32 = 5;
+pub(crate) const MARKER_PX: i32 = 5;
 /// Radius of the special-point markers, larger so they stand out on the curves.
-pub const SPECIAL_PX: i32 = 7;
+pub(crate) const SPECIAL_PX: i32 = 7;
 /// Half-width of the caps of error bars.
-pub const CAP_PX: i32 = 4;
+pub(crate) const CAP_PX: i32 = 4;
 /// Opacity of the band drawn around a Line series with errors.
-pub const BAND_OPACITY: f64 = 0.2;
+pub(crate) const BAND_OPACITY: f64 = 0.2;
 /// Length of the line drawn as a legend sample: exactly three dashes when dashed.
-pub const SAMPLE_PX: i32 = 3 * DASH_PX + 2 * GAP_PX;
+pub(crate) const SAMPLE_PX: i32 = 3 * DASH_PX + 2 * GAP_PX;
 
 /// A sans-serif font whose SVG `font-size` is `px` (`plotters`' SVG backend divides the size it
 /// is given by 1.24).
-pub fn font(px: f64) -> TextStyle<'static> {
+pub(crate) fn font(px: f64) -> TextStyle<'static> {
     ("sans-serif", px * 1.24).into_font().into()
 }
 
 /// The symbol drawn at a point: the public [`MarkerShape`]s plus two shapes reserved for special
 /// points, so those never look like data.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Glyph {
+pub(crate) enum Glyph {
     Circle,
     Square,
     Triangle,
@@ -96,7 +96,7 @@ impl From<MarkerShape> for Glyph {
 }
 
 /// Glyphs of the special points, one per distinct label in turn; all drawn in black.
-pub const SPECIAL_GLYPHS: [Glyph; 4] = [
+pub(crate) const SPECIAL_GLYPHS: [Glyph; 4] = [
     Glyph::Diamond,
     Glyph::TriangleDown,
     Glyph::Square,

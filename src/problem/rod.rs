@@ -30,7 +30,7 @@ pub enum Parameter {
 /// with the parameter's scale, the units of the arclength.
 const POSITION_SCALE: f64 = 5e-2;
 /// The smallest scale of `omegabar` in the arclength, and the typical weight `q ell^3/EI`.
-pub const OMEGA_SCALE: f64 = 10.0;
+pub(crate) const OMEGA_SCALE: f64 = 10.0;
 pub const WEIGHT_SCALE: f64 = 1.0;
 
 /// The scale of `omegabar` in the arclength for a branch followed up to `omegabar_max`: a
@@ -67,7 +67,7 @@ pub struct RodProblem<M: Borrow<Model>> {
 
 /// The twist rows of the steady Jacobian at a state: `J_tt = dR_theta/dtheta` (factorized) and
 /// `J_tx = dR_theta/dx`, whose `-J_tt^{-1} J_tx` is the derivative of the slaved twist.
-pub struct TwistMap {
+struct TwistMap {
     /// The state `(u, p)`.
     u: Vec<f64>,
     p: f64,
@@ -129,7 +129,7 @@ impl<M: Borrow<Model>> RodProblem<M> {
     }
 
     /// Measures the twist angles in `chart` from now on.
-    pub fn set_chart(&self, chart: Chart) {
+    pub(crate) fn set_chart(&self, chart: Chart) {
         *self.chart.borrow_mut() = chart;
     }
 

@@ -109,7 +109,7 @@ impl ImplicitStep<'_> {
     /// The residual and Jacobian of (2) with what the sensitivities of a periodic orbit need
     /// besides ([`crate::engine::periodic`]): the mass matrix `M = Z_ff` at `u` and the
     /// derivative of (2) in `omegabar` at fixed `u` and `v`, `-[Z Omega_1 X]_free`.
-    pub fn linearize_with_mass(&self, u: &[f64]) -> Result<StepLinearization> {
+    pub(crate) fn linearize_with_mass(&self, u: &[f64]) -> Result<StepLinearization> {
         let step = self.linearized(u, true)?;
         let mass = free_block_of_resistance(&step.motion.resistance, step.motion.forces.len());
         Ok(StepLinearization {

@@ -20,7 +20,7 @@ use crate::model::rod::frame::rechart;
 /// from the twist of `u`. That start must be close: the twist of a state measured in another
 /// chart is not (convert it with [`natural_chart_unknowns`]). Converged when
 /// `|R_theta| <= 1e-11`, or below `1e-8` once the updates stop shrinking (round-off).
-pub fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
+pub(crate) fn slave_twist(model: &Model, u: &[f64]) -> Result<Vec<f64>> {
     slave_twist_in(model, &model.chart, u)
 }
 
@@ -31,7 +31,7 @@ pub fn slave_twist_in(model: &Model, chart: &Chart, u: &[f64]) -> Result<Vec<f64
 
 /// [`slave_twist_in`] converged until `|R_theta| <= tol` (or until the updates stop shrinking
 /// below `1e-8`, or reach round-off).
-pub fn slave_twist_to(model: &Model, chart: &Chart, u: &[f64], tol: f64) -> Result<Vec<f64>> {
+fn slave_twist_to(model: &Model, chart: &Chart, u: &[f64], tol: f64) -> Result<Vec<f64>> {
     slave_twist_with(model, chart, u, tol, Jacobians::Fresh)
 }
 
@@ -39,7 +39,7 @@ pub fn slave_twist_to(model: &Model, chart: &Chart, u: &[f64], tol: f64) -> Resu
 /// state (kept while the residual falls by a factor 3 per iteration): each iteration costs a
 /// gradient of the energy instead of its Hessian. For states a small displacement from the one
 /// `j_tt` was made at, started from its linear prediction.
-pub fn slave_twist_chord(
+pub(crate) fn slave_twist_chord(
     model: &Model,
     chart: &Chart,
     u: &[f64],

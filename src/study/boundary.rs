@@ -114,7 +114,7 @@ pub fn run_boundary(
 }
 
 /// [`run_boundary`] over the members of `family`.
-pub fn run_family(
+pub(crate) fn run_family(
     study: &Study,
     family: &RodFamily,
     from: f64,

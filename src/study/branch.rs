@@ -22,7 +22,7 @@ use crate::{Error, Result};
 
 /// One row of `branch.csv`.
 #[derive(Serialize)]
-pub struct BranchRow {
+pub(crate) struct BranchRow {
     pub s: f64,
     pub omega: f64,
     pub omegabar: f64,
@@ -173,7 +173,7 @@ pub struct BranchReport {
 }
 
 /// The rows of a traced branch, for figures.
-pub struct BranchTables {
+pub(crate) struct BranchTables {
     pub points: Vec<BranchRow>,
     pub events: Vec<EventRow>,
 }
@@ -206,7 +206,7 @@ pub fn branch(
 /// Follows the branch from rest to `omega_max` (rad/s), writing `branch.csv`, `events.csv` and
 /// `meta.json` into `dir` as it goes. A continuation that stalls (the step fell below its
 /// minimum) returns what it found, with the reason in `stop`.
-pub fn run_branch(
+pub(crate) fn run_branch(
     study: &Study,
     model: &Model,
     omega_max: f64,

@@ -40,7 +40,7 @@ pub struct AverageRow {
 /// orbits born at the Hopf point (`orbits/`). Each run's time series figures mark the steady
 /// value at its rate and the orbits' period averages there. Returns the rows and the number of
 /// failed runs.
-pub fn run_dynamics(
+pub(crate) fn run_dynamics(
     study: &crate::study::Study,
     dir: &Path,
     resume: bool,

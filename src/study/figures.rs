@@ -18,7 +18,7 @@ use crate::study::plan::{FitKind, Plan};
 use crate::study::progress;
 
 /// One branch and its legend label.
-pub struct DrawnBranch<'a> {
+pub(crate) struct DrawnBranch<'a> {
     pub label: &'a str,
     pub tables: &'a BranchTables,
     /// Draw the rigid-helix thrust line (helices only).
@@ -56,7 +56,11 @@ fn events(
 }
 
 /// Writes `hbar.svg`, `Fpbar.svg`, `eta.svg` and `max_re.svg` into `dir`; returns their paths.
-pub fn branch_figures(dir: &Path, title: &str, cases: &[DrawnBranch]) -> Result<Vec<PathBuf>> {
+pub(crate) fn branch_figures(
+    dir: &Path,
+    title: &str,
+    cases: &[DrawnBranch],
+) -> Result<Vec<PathBuf>> {
     let label = |c: &DrawnBranch| {
         if cases.len() == 1 {
             String::from("steady branch")
@@ -474,7 +478,7 @@ fn scale(log: bool) -> Scale {
 }
 
 /// An axis label with its unit, for the columns of `sweep.csv`.
-pub fn axis_label(column: &str) -> String {
+fn axis_label(column: &str) -> String {
     let unit = match column {
         "omega_b" | "im" => "rad/s",
         "EI" => "N m^2",

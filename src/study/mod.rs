@@ -96,7 +96,7 @@ impl Study {
     }
 
     /// The range and the numerical settings of `locate` on this study.
-    pub fn locate_settings(&self) -> LocateSettings<'_> {
+    pub(crate) fn locate_settings(&self) -> LocateSettings<'_> {
         LocateSettings {
             omega_max: self.branch.omega_max,
             newton: &self.newton,
@@ -211,7 +211,7 @@ impl Study {
 
     /// Makes the relative paths a study names (data files, other studies) relative to `base`,
     /// the folder of the study file, so that a study means the same from any working directory.
-    pub fn resolve_paths(&mut self, base: &std::path::Path) {
+    fn resolve_paths(&mut self, base: &std::path::Path) {
         if let Some(plan) = &mut self.study {
             for path in plan.paths_mut() {
                 if std::path::Path::new(path.as_str()).is_relative() {
@@ -247,8 +247,8 @@ fn apply_override(table: &mut toml::Table, item: &str) -> Result<()> {
 /// The dimensionless helix ratios that can be set or swept: `shape.lambda_over_l` sets the
 /// pitch to the value times `l` (with `l` and `R` fixed), `shape.R_over_lambda` the radius to
 /// the value times the pitch.
-pub const LAMBDA_OVER_L: &str = "shape.lambda_over_l";
-pub const R_OVER_LAMBDA: &str = "shape.R_over_lambda";
+pub(crate) const LAMBDA_OVER_L: &str = "shape.lambda_over_l";
+pub(crate) const R_OVER_LAMBDA: &str = "shape.R_over_lambda";
 
 /// Sets one of the ratios [`LAMBDA_OVER_L`], [`R_OVER_LAMBDA`] to `x` on a helix study table.
 pub fn set_ratio(table: &mut toml::Table, key: &str, x: f64) -> Result<()> {
@@ -263,7 +263,7 @@ pub fn set_ratio(table: &mut toml::Table, key: &str, x: f64) -> Result<()> {
 }
 
 /// Sets the value at a dotted path of a TOML table, creating intermediate tables.
-pub fn set_path(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
+pub(crate) fn set_path(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(Error::input("--set", format!("malformed key `{key}`")));
@@ -282,7 +282,7 @@ pub fn set_path(table: &mut toml::Table, key: &str, value: toml::Value) -> Resul
 }
 
 /// The value at a dotted path of a TOML table.
-pub fn get_value<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
+pub(crate) fn get_value<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
     let mut parts = key.split('.').peekable();
     let mut current = table;
     while let Some(part) = parts.next() {
@@ -296,7 +296,7 @@ pub fn get_value<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Valu
 }
 
 /// The number at a dotted path of a TOML table (integers read as floats).
-pub fn get_number(table: &toml::Table, key: &str) -> Option<f64> {
+pub(crate) fn get_number(table: &toml::Table, key: &str) -> Option<f64> {
     let value = get_value(table, key)?;
     value
         .as_float()

@@ -57,7 +57,7 @@ pub fn branch_settings(max_orbits: usize, steps: usize, amplitude: f64) -> Orbit
 impl OrbitsOptions {
     /// The options an orbit plan sets, the range's upper end `omega_max` unless the plan sets
     /// it.
-    pub fn of_plan(plan: &OrbitPlan, omega_max: f64) -> Self {
+    pub(crate) fn of_plan(plan: &OrbitPlan, omega_max: f64) -> Self {
         OrbitsOptions {
             settings: branch_settings(plan.max_orbits, plan.steps, plan.amplitude),
             omega_range: (
@@ -136,7 +136,7 @@ fn write_events(
 }
 
 /// The file of orbit `index`'s start in the folder `states/` (see [`OrbitStart`]).
-pub fn start_file_name(index: usize) -> String {
+fn start_file_name(index: usize) -> String {
     format!("orbit_{index:04}.json")
 }
 

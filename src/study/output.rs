@@ -19,18 +19,18 @@ pub fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
 }
 
 /// Creates `dir` (and its parents).
-pub fn create_dir(dir: &Path) -> Result<()> {
+pub(crate) fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(io_error(dir))
 }
 
 /// A CSV file written one serializable row at a time, flushed after each row.
-pub struct CsvWriter {
+pub(crate) struct CsvWriter {
     path: PathBuf,
     writer: csv::Writer<File>,
 }
 
 impl CsvWriter {
-    pub fn create(path: &Path) -> Result<Self> {
+    pub(crate) fn create(path: &Path) -> Result<Self> {
         let file = File::create(path).map_err(io_error(path))?;
         Ok(CsvWriter {
             path: path.to_path_buf(),
@@ -39,7 +39,7 @@ impl CsvWriter {
     }
 
     /// Appends rows to the table at `path`, whose header is already written (a resumed run).
-    pub fn append(path: &Path) -> Result<Self> {
+    pub(crate) fn append(path: &Path) -> Result<Self> {
         let file = std::fs::OpenOptions::new()
             .append(true)
             .open(path)
@@ -80,7 +80,7 @@ impl Provenance {
 
 /// The provenance written beside every result as `meta.json`.
 #[derive(Serialize)]
-pub struct Meta<'a, T: Serialize> {
+pub(crate) struct Meta<'a, T: Serialize> {
     pub crate_version: &'static str,
     pub command_line: Vec<String>,
     pub study: &'a Study,
@@ -230,7 +230,7 @@ impl std::fmt::Display for LeftOut {
 
 /// The rows of the CSV table at `path` (none when `read` is false or the file does not exist):
 /// the results an interrupted run had finished, read back on `--resume`.
-pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Result<Vec<T>> {
+pub(crate) fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Result<Vec<T>> {
     if !read || !path.exists() {
         return Ok(Vec::new());
     }
@@ -244,7 +244,7 @@ pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, read: bool) -> Res
 
 /// Replaces `path` by `bytes` atomically: a reader (or a run resumed after a kill) sees the old
 /// file or the new one, never a mixture or a truncated file.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     let tmp = path.with_file_name(name);
@@ -256,14 +256,14 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// Writes `value` as compact JSON to `path` [atomically](write_atomically) (checkpoints).
-pub fn write_json_atomically(path: &Path, value: &impl Serialize) -> Result<()> {
+pub(crate) fn write_json_atomically(path: &Path, value: &impl Serialize) -> Result<()> {
     let text = serde_json::to_string(value).map_err(|e| Error::Numerical(e.to_string()))?;
     write_atomically(path, text.as_bytes())
 }
 
 /// Writes `value` as indented JSON to `path`, its keys in alphabetical order at every level
 /// (the layout of every JSON file of a run).
-pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+pub(crate) fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
     let value = serde_json::to_value(value).map_err(|e| Error::Numerical(e.to_string()))?;
     std::fs::write(path, format!("{value:#}\n")).map_err(io_error(path))
 }

@@ -245,7 +245,7 @@ fn flagella(path: &str, m: f64) -> Result<(Vec<Flagellum>, Vec<String>)> {
 }
 
 /// Runs the study: `phase.csv`, `boundary.csv`, `phase.svg`.
-pub fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> Result<PhaseResult> {
+pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> Result<PhaseResult> {
     let Some(Plan::Phase {
         lambda_over_l,
         r_over_lambda,

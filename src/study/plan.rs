@@ -279,7 +279,7 @@ impl Plan {
     }
 
     /// The file paths the plan names (relative ones resolve against the study file's folder).
-    pub fn paths_mut(&mut self) -> Vec<&mut String> {
+    pub(crate) fn paths_mut(&mut self) -> Vec<&mut String> {
         match self {
             Plan::Phase {
                 exponent_study,

@@ -18,7 +18,7 @@ pub fn bar(what: &str) -> ProgressBar {
 }
 
 /// A bar over `[0, omegabar_max]` for a continuation in the rate.
-pub fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
+pub(crate) fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
     let bar = bar(what);
     bar.set_message(format!("up to omegabar = {omegabar_max:.4e}"));
     bar
@@ -35,7 +35,7 @@ pub fn points(count: usize) -> ProgressBar {
 }
 
 /// A spinner for a run of unknown length named `what`.
-pub fn spinner(what: &str) -> ProgressBar {
+pub(crate) fn spinner(what: &str) -> ProgressBar {
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template(&format!("{what} [{{elapsed_precise}}] {{spinner}} {{msg}}"))
@@ -45,12 +45,12 @@ pub fn spinner(what: &str) -> ProgressBar {
 }
 
 /// Sets `bar` to the fraction `(x - a)/(b - a)` of a range, clipped to it.
-pub fn set_fraction(bar: &ProgressBar, x: f64, (a, b): (f64, f64)) {
+pub(crate) fn set_fraction(bar: &ProgressBar, x: f64, (a, b): (f64, f64)) {
     let fraction = ((x - a) / (b - a)).clamp(0.0, 1.0);
     bar.set_position((fraction * 1000.0) as u64);
 }
 
 /// A line on stderr about a run in progress (a rung of a refinement, rows a fit left out).
-pub fn note(text: &str) {
+pub(crate) fn note(text: &str) {
     eprintln!("{text}");
 }

@@ -58,7 +58,7 @@ pub struct BranchCase {
 }
 
 /// A folder-friendly form of a case label.
-pub fn slug(label: &str) -> String {
+pub(crate) fn slug(label: &str) -> String {
     let s: String = label
         .chars()
         .map(|c| {

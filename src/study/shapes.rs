@@ -95,7 +95,7 @@ pub enum CriticalMode {
 }
 
 /// Runs the study: the steady shapes at its rates and the critical mode.
-pub fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
+pub(crate) fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
     let Some(Plan::Shapes { omegas }) = &study.study else {
         return Err(Error::input("study.kind", "expected a shapes study"));
     };

@@ -36,7 +36,7 @@ use crate::numerics::statistics::late_statistics;
 
 /// One row of `timeseries.csv` (SI and normalized).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct TimeRow {
+pub(crate) struct TimeRow {
     pub t: f64,
     pub omega: f64,
     pub hbar: f64,

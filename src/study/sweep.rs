@@ -52,7 +52,7 @@ pub fn cases(cases: &[Case]) -> Vec<Case> {
 }
 
 /// The grid: every case with every combination of the swept values, in a fixed order.
-pub fn grid(case_count: usize, vary: &[Vary]) -> Vec<SweepPoint> {
+pub(crate) fn grid(case_count: usize, vary: &[Vary]) -> Vec<SweepPoint> {
     let mut combos: Vec<Vec<f64>> = vec![Vec::new()];
     for v in vary {
         combos = combos
@@ -98,7 +98,7 @@ fn swept_value(table: &toml::Table, key: &str, x: f64) -> Result<toml::Value> {
 
 /// The study of one point: the base with the case's overrides and the swept values (plain keys
 /// first, then `lambda/l`, then `R/lambda`).
-pub fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Result<Study> {
+pub(crate) fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) -> Result<Study> {
     let mut table = base.to_table()?;
     table.remove("study");
     for (key, value) in &case.set {
@@ -243,7 +243,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
 
 /// A fingerprint of everything that determines a sweep's results (the study without its name
 /// and its figure specifications).
-pub fn fingerprint(study: &Study) -> Result<String> {
+fn fingerprint(study: &Study) -> Result<String> {
     let mut s = study.clone();
     s.name = String::new();
     // How results are drawn does not change them.
@@ -254,7 +254,7 @@ pub fn fingerprint(study: &Study) -> Result<String> {
 }
 
 /// The CSV file of a run: `sweep.csv`, or `sweep.shard-K-of-N.csv`.
-pub fn csv_name(shard: Option<(usize, usize)>) -> String {
+fn csv_name(shard: Option<(usize, usize)>) -> String {
     match shard {
         Some((k, n)) => format!("sweep.shard-{k}-of-{n}.csv"),
         None => "sweep.csv".into(),

@@ -40,7 +40,7 @@ pub(super) struct NodeGeometry {
 
 impl NodeGeometry {
     /// The nodes `w_i`, `t_i` depend on, with the derivatives.
-    pub fn dependences(&self) -> &[NodeDependence] {
+    pub(crate) fn dependences(&self) -> &[NodeDependence] {
         &self.deps[..self.ndeps]
     }
 }

@@ -13,12 +13,12 @@
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// Lanes per vector.
-pub const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 
 /// One `f64` per lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
-pub struct Lanes(pub [f64; LANES]);
+pub(crate) struct Lanes(pub [f64; LANES]);
 
 /// A lane-wise condition (see [`Lanes::select`]).
 #[derive(Clone, Copy, Debug)]
@@ -35,11 +35,11 @@ fn lanewise(f: impl Fn(usize) -> f64) -> Lanes {
 }
 
 impl Lanes {
-    pub const ZERO: Lanes = Lanes([0.0; LANES]);
+    pub(crate) const ZERO: Lanes = Lanes([0.0; LANES]);
 
     /// `v` in every lane.
     #[inline(always)]
-    pub fn splat(v: f64) -> Lanes {
+    pub(crate) fn splat(v: f64) -> Lanes {
         Lanes([v; LANES])
     }
 
@@ -60,7 +60,7 @@ impl Lanes {
 
     /// Where `self > other`.
     #[inline(always)]
-    pub fn gt(self, other: Lanes) -> Mask {
+    pub(crate) fn gt(self, other: Lanes) -> Mask {
         let mut out = [false; LANES];
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.0[i] > other.0[i];
@@ -70,7 +70,7 @@ impl Lanes {
 
     /// Where `self >= other`.
     #[inline(always)]
-    pub fn ge(self, other: Lanes) -> Mask {
+    pub(crate) fn ge(self, other: Lanes) -> Mask {
         let mut out = [false; LANES];
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.0[i] >= other.0[i];
@@ -89,7 +89,7 @@ impl Lanes {
 impl Mask {
     /// `if_true` where the condition holds, `if_false` elsewhere.
     #[inline(always)]
-    pub fn select(self, if_true: Lanes, if_false: Lanes) -> Lanes {
+    pub(crate) fn select(self, if_true: Lanes, if_false: Lanes) -> Lanes {
         lanewise(|i| {
             if self.0[i] {
                 if_true.0[i]

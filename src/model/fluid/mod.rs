@@ -125,7 +125,12 @@ impl Fluid {
     /// The dimensionless fluid (`mu = 1`, lengths in units of `ell`) of a rod of radius `r0`
     /// (SI, as `ell`) whose natural node positions (dimensionless) are `natural`: the RPY
     /// quadrature is chosen from the natural edges ([`Rpy::for_polygon`]).
-    pub fn from_params(params: &FluidParams, r0: f64, ell: f64, natural: &[Vector3<f64>]) -> Self {
+    pub(crate) fn from_params(
+        params: &FluidParams,
+        r0: f64,
+        ell: f64,
+        natural: &[Vector3<f64>],
+    ) -> Self {
         match params.model {
             FluidModel::Lighthill => Fluid::Lighthill(Lighthill {
                 mu: 1.0,
@@ -163,7 +168,12 @@ impl Fluid {
 
     /// The resistance of the mobility `a`, already assembled at `x`; errors name `context`
     /// and, where `a` is not positive definite, say why the configuration may defeat it.
-    pub fn factorize(&self, a: &Mat<f64>, x: &[Vector3<f64>], context: &str) -> Result<Resistance> {
+    pub(crate) fn factorize(
+        &self,
+        a: &Mat<f64>,
+        x: &[Vector3<f64>],
+        context: &str,
+    ) -> Result<Resistance> {
         match self {
             Fluid::Lighthill(f) => f.factorize(a, x, context),
             Fluid::Rpy(_) => Rpy::factorize(a, context),
@@ -185,7 +195,7 @@ impl Fluid {
     /// Whether `A` is symmetric positive definite for every configuration without a check (the
     /// RPY line, short of a self-intersecting centreline); Lighthill's is only within its
     /// admissible resolution and must be checked by a factorization.
-    pub fn definite_by_construction(&self) -> bool {
+    pub(crate) fn definite_by_construction(&self) -> bool {
         matches!(self, Fluid::Rpy(_))
     }
 
@@ -240,7 +250,7 @@ impl Lighthill {
     }
 
     /// [`Lighthill::resistance`] of the mobility `a`, already assembled at `x`.
-    pub fn factorize(
+    pub(crate) fn factorize(
         &self,
         a: &Mat<f64>,
         x: &[Vector3<f64>],
@@ -264,7 +274,7 @@ impl Lighthill {
     /// Why a configuration may defeat the positivity of the discrete operator (docs/model.md
     /// section 3): its smallest node spacing and the closest approach of two nodes at least
     /// three apart along the rod, both in units of the cut-off `delta`.
-    pub fn diagnose(&self, x: &[Vector3<f64>]) -> String {
+    fn diagnose(&self, x: &[Vector3<f64>]) -> String {
         let d = self.delta;
         let spacing = x
             .windows(2)

@@ -66,7 +66,7 @@ impl Resistance {
     ///
     /// # Errors
     /// [`Error::Numerical`] when `a` is not square, has a non-finite entry, or is singular.
-    pub fn general(a: &Mat<f64>, context: &str) -> Result<Self> {
+    pub(crate) fn general(a: &Mat<f64>, context: &str) -> Result<Self> {
         check_finite(a, context)?;
         let lu = a.partial_piv_lu();
         let n = a.nrows();
@@ -109,7 +109,7 @@ impl Resistance {
     /// Cholesky factor `Z = L^{-T} L^{-1}` (`L^{-1}` triangular): about `2n^3/3` operations
     /// against `2n^3` for [`Resistance::solve`] with the identity, and exactly symmetric. From
     /// an LU factorization (the original quadrature), faer's inverse of it.
-    pub fn inverse(&self) -> Mat<f64> {
+    pub(crate) fn inverse(&self) -> Mat<f64> {
         match &self.factor {
             Factor::Cholesky(llt) => llt.inverse(),
             Factor::Lu(lu) => lu.inverse(),

@@ -756,7 +756,7 @@ impl Rpy {
     }
 
     /// [`Rpy::resistance`] of the mobility `a`, already assembled.
-    pub fn factorize(a: &Mat<f64>, context: &str) -> Result<Resistance> {
+    pub(crate) fn factorize(a: &Mat<f64>, context: &str) -> Result<Resistance> {
         Resistance::new(a, context).map_err(|e| match e {
             Error::Model(ModelError::NotPositiveDefinite { context, .. }) => {
                 ModelError::NotPositiveDefinite {

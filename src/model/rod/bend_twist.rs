@@ -43,11 +43,11 @@ use num_dual::{Derivative, Dual2SVec64, DualSVec64, gradient};
 use super::frame::transport;
 
 /// Number of unknowns of a stencil: `(e0, e1, theta0, theta1)`.
-pub const STENCIL: usize = 8;
+pub(crate) const STENCIL: usize = 8;
 
 /// Everything a bend-twist stencil needs besides its unknowns.
 #[derive(Clone, Copy, Debug)]
-pub struct BendTwist {
+pub(crate) struct BendTwist {
     /// Chart tangents and directors of the two edges (the source of the parallel transport).
     pub source_t: [Vector3<f64>; 2],
     pub source_d: [Vector3<f64>; 2],
@@ -165,7 +165,7 @@ fn material_strains<T: RealField + Copy>(
 }
 
 /// The unknowns of a stencil from its two edge vectors and two angles.
-pub fn unknowns(
+pub(crate) fn unknowns(
     e0: &Vector3<f64>,
     e1: &Vector3<f64>,
     theta0: f64,
@@ -177,7 +177,7 @@ pub fn unknowns(
 }
 
 /// Material curvatures `(kappa1, kappa2)` and twist `m` of a stencil.
-pub fn strains<T: RealField + Copy>(s: &BendTwist, v: &SVector<T, STENCIL>) -> (T, T, T) {
+pub(crate) fn strains<T: RealField + Copy>(s: &BendTwist, v: &SVector<T, STENCIL>) -> (T, T, T) {
     let e0 = Vector3::new(v[0], v[1], v[2]);
     let e1 = Vector3::new(v[3], v[4], v[5]);
     let f0 = edge_frame(&s.source_t[0], &s.source_d[0], &e0);
@@ -218,7 +218,7 @@ impl BendTwist {
     /// and the reference twist, [`material_strains`]), so the frames and projections are plain
     /// numbers and only that stage carries first-order jets, in the two angles: a fraction of
     /// the cost of [`BendTwist::gradient`], for the twist balance `dE/dtheta = 0` alone.
-    pub fn twist_gradient(&self, v: &SVector<f64, STENCIL>) -> [f64; 2] {
+    pub(crate) fn twist_gradient(&self, v: &SVector<f64, STENCIL>) -> [f64; 2] {
         let edge = |k: usize| Vector3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
         let f0 = edge_frame(&self.source_t[0], &self.source_d[0], &edge(0));
         let f1 = edge_frame(&self.source_t[1], &self.source_d[1], &edge(1));

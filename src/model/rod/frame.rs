@@ -11,7 +11,7 @@ use nalgebra::{RealField, Vector3};
 /// `P w = c w + b x w + b (b.w) / (1 + c)`.
 ///
 /// Smooth in `u` and `v` except at `v = -u`.
-pub fn transport<T: RealField + Copy>(
+pub(crate) fn transport<T: RealField + Copy>(
     u: &Vector3<T>,
     v: &Vector3<T>,
     w: &Vector3<T>,
@@ -22,14 +22,14 @@ pub fn transport<T: RealField + Copy>(
 }
 
 /// Signed angle from `a` to `b` about the axis `t` (all perpendicular to `t`), in `(-pi, pi]`.
-pub fn signed_angle<T: RealField + Copy>(a: &Vector3<T>, b: &Vector3<T>, t: &Vector3<T>) -> T {
+fn signed_angle<T: RealField + Copy>(a: &Vector3<T>, b: &Vector3<T>, t: &Vector3<T>) -> T {
     a.cross(b).dot(t).atan2(a.dot(b))
 }
 
 /// Reference twist at the interior node between two edges: the signed angle about `t1` from the
 /// parallel transport of `d0` (edge `i-1`) onto edge `i` to `d1` (edge `i`), plus `offset`, a
 /// multiple of `2 pi` that keeps the value continuous along a path.
-pub fn reference_twist<T: RealField + Copy>(
+pub(crate) fn reference_twist<T: RealField + Copy>(
     t0: &Vector3<T>,
     d0: &Vector3<T>,
     t1: &Vector3<T>,
@@ -41,7 +41,7 @@ pub fn reference_twist<T: RealField + Copy>(
 }
 
 /// The multiple of `2 pi` to add to the principal `angle` to land nearest to `near`.
-pub fn unwrap_offset(angle: f64, near: f64) -> f64 {
+pub(crate) fn unwrap_offset(angle: f64, near: f64) -> f64 {
     let two_pi = 2.0 * std::f64::consts::PI;
     two_pi * ((near - angle) / two_pi).round()
 }
@@ -117,7 +117,7 @@ impl Chart {
     /// angle `theta^0 = 0`, this sets the material frame at the clamp to `clamp`'s: how a
     /// state carried to another member of a family of rods (whose clamp turns with the second
     /// parameter) is held by that member's own clamp.
-    pub fn with_clamp_of(&self, clamp: &Chart) -> Chart {
+    pub(crate) fn with_clamp_of(&self, clamp: &Chart) -> Chart {
         let mut chart = self.clone();
         chart.tangents[0] = clamp.tangents[0];
         chart.directors[0] = clamp.directors[0];
@@ -140,6 +140,30 @@ impl Chart {
             twist[i] = raw + unwrap_offset(raw, near[i]);
         }
         twist
+    }
+}
+
+/// `config` (twist measured in the chart `from`) with its twist re-expressed in the chart `to`:
+/// the same positions and the same material frames and discrete twists, hence the same energy.
+///
+/// With `mref_from`, `mref_to` the reference twists of the two charts carried to `config.x`
+/// ([`Chart::transported`], unwrapped as the energy unwraps them), the twists
+/// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped, its director the same in
+/// both) when `theta_to^j = theta^j + sum_{i <= j} (mref_from_i - mref_to_i)`; exact, including
+/// the multiples of `2 pi`, as long as no edge of `config` points opposite to its tangent in
+/// either chart (where the parallel transport is singular).
+pub fn rechart(config: &Config, from: &Chart, to: &Chart) -> Config {
+    let a = from.transported(&config.x);
+    let b = to.transported(&config.x);
+    let mut theta = config.theta.clone();
+    let mut shift = 0.0;
+    for (j, t) in theta.iter_mut().enumerate().skip(1) {
+        shift += a.ref_twist[j] - b.ref_twist[j];
+        *t += shift;
+    }
+    Config {
+        x: config.x.clone(),
+        theta,
     }
 }
 
@@ -173,29 +197,5 @@ mod tests {
             assert!(t.dot(d).abs() < 1e-14 && (d.norm() - 1.0).abs() < 1e-14);
         }
         assert!(chart.ref_twist.iter().all(|m| m.abs() < 1e-14));
-    }
-}
-
-/// `config` (twist measured in the chart `from`) with its twist re-expressed in the chart `to`:
-/// the same positions and the same material frames and discrete twists, hence the same energy.
-///
-/// With `mref_from`, `mref_to` the reference twists of the two charts carried to `config.x`
-/// ([`Chart::transported`], unwrapped as the energy unwraps them), the twists
-/// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped, its director the same in
-/// both) when `theta_to^j = theta^j + sum_{i <= j} (mref_from_i - mref_to_i)`; exact, including
-/// the multiples of `2 pi`, as long as no edge of `config` points opposite to its tangent in
-/// either chart (where the parallel transport is singular).
-pub fn rechart(config: &Config, from: &Chart, to: &Chart) -> Config {
-    let a = from.transported(&config.x);
-    let b = to.transported(&config.x);
-    let mut theta = config.theta.clone();
-    let mut shift = 0.0;
-    for (j, t) in theta.iter_mut().enumerate().skip(1) {
-        shift += a.ref_twist[j] - b.ref_twist[j];
-        *t += shift;
-    }
-    Config {
-        x: config.x.clone(),
-        theta,
     }
 }

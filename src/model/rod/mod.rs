@@ -108,7 +108,7 @@ impl Rod {
     }
 
     /// The edge vector `e^j = x_{j+1} - x_j`.
-    pub fn edge_vector(config: &Config, j: usize) -> Vector3<f64> {
+    fn edge_vector(config: &Config, j: usize) -> Vector3<f64> {
         config.x[j + 1] - config.x[j]
     }
 
@@ -193,7 +193,7 @@ impl Rod {
 
     /// `dE/dtheta^j` for every edge `j` (stretching does not depend on the angles): the angle
     /// part of [`Rod::gradient`], at a fraction of its cost ([`BendTwist::twist_gradient`]).
-    pub fn twist_gradient(&self, config: &Config, chart: &Chart) -> Vec<f64> {
+    pub(crate) fn twist_gradient(&self, config: &Config, chart: &Chart) -> Vec<f64> {
         let mut g = vec![0.0; self.layout.edges()];
         for i in 1..self.layout.nodes() - 1 {
             let (s, v) = self.stencil(i, config, chart);

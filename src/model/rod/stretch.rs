@@ -8,7 +8,7 @@ use nalgebra::{Matrix3, Vector3};
 /// * `E = 1/2 EA eps^2 |ebar|`,
 /// * `dE/de = EA eps t`,
 /// * `d2E/de2 = EA/|ebar| t t^T + EA eps/|e| (I - t t^T)`.
-pub fn stretch(ea: f64, rest: f64, e: &Vector3<f64>) -> (f64, Vector3<f64>, Matrix3<f64>) {
+pub(crate) fn stretch(ea: f64, rest: f64, e: &Vector3<f64>) -> (f64, Vector3<f64>, Matrix3<f64>) {
     let len = e.norm();
     let t = e / len;
     let eps = len / rest - 1.0;

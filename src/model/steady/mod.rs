@@ -48,7 +48,7 @@ pub struct Steady<'a> {
 }
 
 /// Lab-frame velocities `omega e_z x x_i` of rigid rotation.
-pub fn rotation_velocity(omega: f64, x: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+pub(crate) fn rotation_velocity(omega: f64, x: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
     x.iter()
         .map(|p| Vector3::new(-omega * p.y, omega * p.x, 0.0))
         .collect()
@@ -152,7 +152,7 @@ impl<'a> Steady<'a> {
     /// the plain interpolation to first order, but an edge that turns between the two states
     /// keeps its length instead of shortening by the chord's `w (1 - w) phi^2 / 2`, which the
     /// stretching stiffness (`EA/EI ~ 1e4..1e6`) would turn into a large residual.
-    pub fn interpolate(&self, u0: &[f64], u1: &[f64], w: f64) -> Vec<f64> {
+    pub(crate) fn interpolate(&self, u0: &[f64], u1: &[f64], w: f64) -> Vec<f64> {
         let layout = self.layout();
         let fp = layout.free_positions();
         let (x0, x1) = (self.config(u0).x, self.config(u1).x);
@@ -276,7 +276,7 @@ impl Steady<'_> {
 
     /// `dG/d omegabar = -[Z Omega_1 X]_free` (`Omega_1` the rotation at unit rate), zero on the
     /// angles; reuses the drag of the linearization when the rate is not zero.
-    pub fn rate_derivative(&self, lin: &Linearized) -> Result<Vec<f64>> {
+    pub(crate) fn rate_derivative(&self, lin: &Linearized) -> Result<Vec<f64>> {
         let unit_forces = match &lin.drag {
             Some(d) => d.forces.iter().map(|f| f / self.omega).collect(),
             None => {
@@ -292,7 +292,7 @@ impl Steady<'_> {
     }
 
     /// `dG/dq = -wbar_i e_z` on the free nodes (the weight per unit length), zero on the angles.
-    pub fn weight_derivative(&self) -> Vec<f64> {
+    pub(crate) fn weight_derivative(&self) -> Vec<f64> {
         let unit = self.model.gravity(1.0);
         self.free_forces(&unit, 1.0)
     }

@@ -20,7 +20,7 @@ const VISCOUS_BESIDE_INVERSE: f64 = 0.29;
 impl Steady<'_> {
     /// The Hessian `H` of the elastic energy over the free unknowns at `u` (the Jacobian of the
     /// force balance at rest is `-H`).
-    pub fn free_hessian(&self, u: &[f64]) -> Mat<f64> {
+    pub(crate) fn free_hessian(&self, u: &[f64]) -> Mat<f64> {
         let (_, hessian) = self.model.rod.hessian(&self.config(u), &self.chart);
         let free = self.layout().free_indices();
         Mat::from_fn(free.len(), free.len(), |r, c| hessian[(free[r], free[c])])
@@ -54,7 +54,7 @@ impl Steady<'_> {
     /// 78 and 33 ms one after the other), `Z_ff W` split by columns so that the thread making
     /// the inverse also takes a share of it ([`VISCOUS_BESIDE_INVERSE`]). The arithmetic is the
     /// same either way.
-    pub fn stability_pair_from(
+    pub(crate) fn stability_pair_from(
         &self,
         u: &[f64],
         blocks: Option<&MobilityBlocks>,

@@ -155,7 +155,7 @@ impl<'a> Steady<'a> {
     /// `|S|_F / sqrt(n_x)`: the factor by which `S` enlarges a force of no particular shape, such
     /// as the round-off of the force balance. The continuation divides the velocity rows by it
     /// ([`crate::problem::rod::RodProblem`]), so that its tolerance measures a force, as in (1).
-    pub fn typical_mobility(&self, x: &[Vector3<f64>]) -> Result<f64> {
+    pub(crate) fn typical_mobility(&self, x: &[Vector3<f64>]) -> Result<f64> {
         let s = self.clamped_mobility(x, "mobility scale")?.schur();
         Ok(s.norm_l2() / (s.nrows() as f64).sqrt())
     }
@@ -189,7 +189,7 @@ impl<'a> Steady<'a> {
 impl Steady<'_> {
     /// `dV/d omegabar = C (Omega_1 X)_c - (Omega_1 X)_f` (eq. 4 at unit rate; the clamp
     /// reactions carry the clamp's motion), zero on the angles.
-    pub fn velocity_rate_derivative(&self, lin: &VelocityLinearized, u: &[f64]) -> Vec<f64> {
+    pub(crate) fn velocity_rate_derivative(&self, lin: &VelocityLinearized, u: &[f64]) -> Vec<f64> {
         let x = self.config(u).x;
         let rigid = stack_vectors(&rotation_velocity(1.0, &x));
         let c = 3 * Layout::CLAMPED_NODES;
@@ -202,7 +202,7 @@ impl Steady<'_> {
     }
 
     /// `dV/dq = S w_f`, `w` the weight at unit `q` on the free nodes, zero on the angles.
-    pub fn velocity_weight_derivative(&self, lin: &VelocityLinearized) -> Vec<f64> {
+    pub(crate) fn velocity_weight_derivative(&self, lin: &VelocityLinearized) -> Vec<f64> {
         let w = self.weight_derivative();
         let nx = self.layout().free_positions();
         let sw = &lin.blocks.schur * Mat::from_fn(nx, 1, |r, _| w[r]);
