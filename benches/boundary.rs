@@ -14,6 +14,7 @@ use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
 use helixbif::study::locate::run_locate;
+use helixbif::study::output::Provenance;
 
 fn main() {
     helixbif::numerics::process::configure();
@@ -51,8 +52,14 @@ fn main() {
         let dir =
             std::env::temp_dir().join(format!("helixbif-bench-boundary-{}", std::process::id()));
         let started = Instant::now();
-        let (rows, report) =
-            run_boundary(&study, "shape.R_over_lambda", from, to, &dir).expect("a curve");
+        let (rows, report) = run_boundary(
+            &study,
+            "shape.R_over_lambda",
+            (from, to),
+            &dir,
+            &Provenance::default(),
+        )
+        .expect("a curve");
         let report = report.expect("a curve");
         let curve = started.elapsed().as_secs_f64();
         let started = Instant::now();

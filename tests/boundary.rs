@@ -8,6 +8,7 @@ use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
 use helixbif::study::locate::run_locate;
+use helixbif::study::output::Provenance;
 
 /// The representative helix at `N = 30` from `R/lambda = 0.2` to `0.24`: the branch moves the
 /// chart of its twist angles before the Hopf point there (edges turn past 60 degrees), so the
@@ -17,10 +18,16 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
     let overrides = ["discretization.nodes=30".to_string()];
     let study = Study::load(None, &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-{}", std::process::id()));
-    let report = run_boundary(&study, "shape.R_over_lambda", 0.2, 0.24, &dir)
-        .unwrap()
-        .1
-        .unwrap();
+    let report = run_boundary(
+        &study,
+        "shape.R_over_lambda",
+        (0.2, 0.24),
+        &dir,
+        &Provenance::default(),
+    )
+    .unwrap()
+    .1
+    .unwrap();
     assert_eq!(report.segments, 1);
     assert!(report.special.is_empty(), "{:?}", report.special);
     let mut rows = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
@@ -115,7 +122,14 @@ fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points(
     ];
     let study = Study::from_path(Some(std::path::Path::new(path)), &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-end-{}", std::process::id()));
-    let (rows, outcome) = run_boundary(&study, "shape.R_over_lambda", 0.14, 0.1, &dir).unwrap();
+    let (rows, outcome) = run_boundary(
+        &study,
+        "shape.R_over_lambda",
+        (0.14, 0.1),
+        &dir,
+        &Provenance::default(),
+    )
+    .unwrap();
     let err = outcome.unwrap_err();
     assert!(!err.is_input(), "{err}");
     let message = err.to_string();

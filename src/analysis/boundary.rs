@@ -60,6 +60,8 @@ pub struct BoundaryPoint {
     pub l1: Option<f64>,
     pub l1_precision: Option<f64>,
     pub criticality: Option<Verdict>,
+    /// The node count of the model the point was found at.
+    pub nodes: usize,
 }
 
 /// A special point of the boundary (a row of `points.csv`).
@@ -186,6 +188,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             l1: point.lyapunov.as_ref().map(|l| l.l1),
             l1_precision: point.lyapunov.as_ref().map(|l| l.precision),
             criticality: point.lyapunov.as_ref().map(|l| l.verdict),
+            nodes: model.nodes(),
         })
     }
 

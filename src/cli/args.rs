@@ -147,17 +147,17 @@ pub struct LocateArgs {
     pub study: StudyArgs,
     /// Relative precision of omega_b, |d omega| <= TOL |omega| (default 1e-8; the study's
     /// continuation.event_tol).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub tol: Option<f64>,
     /// Relative accuracy EPS of omega_b: N is refined from the study's (spacing halved
     /// each time) until the estimated discretization error is below EPS or the model can
     /// go no further (Lighthill's admissible range, --max-nodes), and the error, the N used
     /// and how the error was estimated are reported (docs/model.md section 10).
-    #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"])]
+    #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub accuracy: f64,
     /// Largest node count of the refinement.
-    #[arg(long, default_value_t = DEFAULT_MAX_NODES, conflicts_with_all = ["single", "extrapolate"])]
-    pub max_nodes: usize,
+    #[arg(long, default_value_t = DEFAULT_MAX_NODES as i64, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
+    pub max_nodes: i64,
     /// Locate at the study's N only, without an error estimate.
     #[arg(long, conflicts_with = "extrapolate")]
     pub single: bool,
@@ -165,8 +165,13 @@ pub struct LocateArgs {
     #[arg(long)]
     pub extrapolate: bool,
     /// Node counts of the ladder (comma separated); default five inside the admissible range.
-    #[arg(long, value_delimiter = ',', requires = "extrapolate")]
-    pub nodes: Vec<usize>,
+    #[arg(
+        long,
+        value_delimiter = ',',
+        requires = "extrapolate",
+        allow_negative_numbers = true
+    )]
+    pub nodes: Vec<i64>,
 }
 
 /// The options of `helixbif boundary`.
@@ -223,8 +228,8 @@ pub struct SlurmArgs {
     #[command(flatten)]
     pub study: StudyArgs,
     /// Number of array tasks (shards), 1 to the number of points.
-    #[arg(long)]
-    pub tasks: usize,
+    #[arg(long, allow_negative_numbers = true)]
+    pub tasks: i64,
     /// Wall-time limit of each task and of the merge, HH:MM:SS or D-HH:MM:SS.
     #[arg(long, value_name = "HH:MM:SS")]
     pub time: Option<String>,
@@ -255,14 +260,14 @@ pub struct OrbitsArgs {
     #[command(flatten)]
     pub study: StudyArgs,
     /// Largest number of orbits.
-    #[arg(long, default_value_t = 40)]
-    pub max_orbits: usize,
+    #[arg(long, default_value_t = 40, allow_negative_numbers = true)]
+    pub max_orbits: i64,
     /// Equal time steps per period (BDF2; the period error falls as steps^-2).
-    #[arg(long, default_value_t = 100)]
-    pub steps: usize,
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
+    pub steps: i64,
     /// Normal-form radius of the first orbit, in reference lengths ell (the second has
     /// twice it).
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
     pub amplitude: f64,
     /// The branch ends when omega leaves [omega_min, omega_max] (rad/s); default
     /// [0, branch.omega_max].
@@ -293,7 +298,7 @@ pub struct SimulateArgs {
     )]
     pub omega: Option<f64>,
     /// Duration (s).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub t_end: f64,
     /// Start on the steady state at --omega (default: from rest, the motor spinning up).
     #[arg(long, conflicts_with = "from_orbit")]
@@ -309,14 +314,14 @@ pub struct SimulateArgs {
     #[arg(long, allow_negative_numbers = true, requires = "from_steady")]
     pub perturb: Option<f64>,
     /// Spin-up time (s) of a run from rest.
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub ramp_time: f64,
     /// Statistics over t >= this (s).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub transient: f64,
     /// Write the shape every this many time steps (0: never).
-    #[arg(long, default_value_t = 50)]
-    pub shape_every: usize,
+    #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
+    pub shape_every: i64,
     /// Output folder; default `output/<study name>/simulate/`.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -338,14 +343,14 @@ pub struct BisectArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub hi: f64,
     /// Relative width of the final bracket.
-    #[arg(long, default_value_t = 1e-2)]
+    #[arg(long, default_value_t = 1e-2, allow_negative_numbers = true)]
     pub precision: f64,
     /// Spin-up time of each trial (s); default 0.2 time units mu ell^4/EI.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub ramp_time: Option<f64>,
     /// Time held at the trial rate after the spin-up (s); default 1.0 time unit
     /// mu ell^4/EI.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub hold_time: Option<f64>,
 }
 

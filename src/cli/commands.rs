@@ -39,9 +39,29 @@ fn load(args: &StudyArgs) -> Result<(Study, Model), Error> {
     Ok((study, model))
 }
 
-/// `--out`, or the study's default folder (which depends on the `--set` overrides).
-fn output_dir(args: &StudyArgs, study: &Study, out: Option<&Path>) -> PathBuf {
-    out.map_or_else(|| default_output(&study.name, &args.set), Path::to_path_buf)
+/// `--out`, made and checked writable (an unusable folder is bad input), or the study's default
+/// folder (which depends on the `--set` overrides) with the command's own subfolder `sub`.
+fn output_dir(
+    args: &StudyArgs,
+    study: &Study,
+    out: Option<&Path>,
+    sub: Option<&str>,
+) -> Result<PathBuf, Error> {
+    let Some(out) = out else {
+        let dir = default_output(&study.name, &args.set);
+        return Ok(sub.map_or_else(|| dir.clone(), |s| dir.join(s)));
+    };
+    let unusable = |e: std::io::Error| {
+        Error::input(
+            "--out",
+            format!("cannot write results into {}: {e}", out.display()),
+        )
+    };
+    std::fs::create_dir_all(out).map_err(unusable)?;
+    let probe = out.join(".helixbif-write-check");
+    std::fs::write(&probe, b"").map_err(unusable)?;
+    std::fs::remove_file(&probe).map_err(unusable)?;
+    Ok(out.to_path_buf())
 }
 
 fn titled<T>(study: &Study, result: T) -> Titled<T> {
@@ -72,6 +92,15 @@ fn write_shape(path: &Path, model: &Model, solution: &Solution) -> anyhow::Resul
     }
     w.flush()?;
     Ok(())
+}
+
+/// A count given on the command line, at least `min` (negative numbers are read, to be refused
+/// here with the range).
+fn count(field: &str, value: i64, min: usize) -> Result<usize, Error> {
+    usize::try_from(value)
+        .ok()
+        .filter(|&v| v >= min)
+        .ok_or_else(|| Error::input(field, format!("must be >= {min}, got {value}")))
 }
 
 fn finite(field: &str, value: f64) -> Result<(), Error> {
@@ -108,7 +137,7 @@ pub fn branch(args: &BranchArgs) -> Outcome {
         )
         .into());
     }
-    let dir = output_dir(study, &study_file, out);
+    let dir = output_dir(study, &study_file, out, Some("branch"))?;
     let report = study_branch(
         &study_file,
         &model,
@@ -122,13 +151,14 @@ pub fn branch(args: &BranchArgs) -> Outcome {
 pub fn locate(args: &LocateArgs) -> Outcome {
     let study = &args.study;
     let how = if args.extrapolate {
-        Resolution::Ladder(args.nodes.clone())
+        let nodes = args.nodes.iter().map(|&n| count("--nodes", n, 5));
+        Resolution::Ladder(nodes.collect::<Result<_, _>>()?)
     } else if args.single {
         Resolution::Single
     } else {
         Resolution::Refine {
             accuracy: args.accuracy,
-            max_nodes: args.max_nodes,
+            max_nodes: count("--max-nodes", args.max_nodes, 5)?,
         }
     };
     let mut overrides = study.set.clone();
@@ -154,22 +184,22 @@ pub fn locate(args: &LocateArgs) -> Outcome {
 pub fn boundary(b: &BoundaryArgs) -> Outcome {
     let (args, key, out) = (&b.study, b.vary.as_str(), b.out.as_deref());
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = out.map_or_else(
-        || {
+    let dir = match out {
+        Some(_) => output_dir(args, &study, out, None)?,
+        None => {
             let mut dir = default_output(&study.name, &args.set).into_os_string();
             dir.push(format!(".boundary-{key}"));
             PathBuf::from(dir)
-        },
-        Path::to_path_buf,
-    );
-    let (_, report) = run_boundary(&study, key, b.from, b.to, &dir)?;
+        }
+    };
+    let (_, report) = run_boundary(&study, key, (b.from, b.to), &dir, &Provenance::of_process())?;
     Ok(Box::new(Plain(report?)))
 }
 
 pub fn run(r: &RunArgs) -> Outcome {
     let (args, out, resume) = (&r.study, r.out.as_deref(), r.resume);
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(args, &study, out);
+    let dir = output_dir(args, &study, out, None)?;
     let started = std::time::Instant::now();
     let result = run_study(&study, &dir, resume, &Provenance::of_process())?;
     Ok(Box::new(RunReport {
@@ -210,7 +240,7 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
         })
         .transpose()?;
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(args, &study, out);
+    let dir = output_dir(args, &study, out, None)?;
     let summary = run_sweep(&study, &dir, shard)?;
     if summary.failed > 0 {
         return Err(Error::Numerical(format!(
@@ -229,7 +259,7 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
 pub fn slurm(s: &SlurmArgs) -> Outcome {
     let (args, out, submit_jobs) = (&s.study, s.out.as_deref(), s.submit);
     let options = SlurmOptions {
-        tasks: s.tasks,
+        tasks: count("--tasks", s.tasks, 1)?,
         time: s.time.clone(),
         partition: s.partition.clone(),
     };
@@ -247,7 +277,7 @@ pub fn slurm(s: &SlurmArgs) -> Outcome {
         binary: std::env::current_exe()?,
         study: std::fs::canonicalize(path).map_err(helixbif::study::output::io_error(path))?,
         set: args.set.clone(),
-        out: absolute(&output_dir(args, &study, out))?,
+        out: absolute(&output_dir(args, &study, out, None)?)?,
         workdir: std::env::current_dir()?,
     };
     let scripts = write_scripts(&study, &job, &options)?;
@@ -261,7 +291,7 @@ pub fn slurm(s: &SlurmArgs) -> Outcome {
 pub fn merge(m: &MergeArgs) -> Outcome {
     let (args, out) = (&m.study, m.out.as_deref());
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
-    let dir = output_dir(args, &study, out);
+    let dir = output_dir(args, &study, out, None)?;
     let (points, shards) = merge_shards(&study, &dir)?;
     sweep_figures(&study, &dir)?;
     Ok(Box::new(MergeReport {
@@ -292,7 +322,11 @@ pub fn orbits(o: &OrbitsArgs) -> Outcome {
     let (args, out) = (&o.study, o.out.as_deref());
     let (study, model) = load(args)?;
     let opts = OrbitsOptions {
-        settings: branch_settings(o.max_orbits, o.steps, o.amplitude),
+        settings: branch_settings(
+            count("--max-orbits", o.max_orbits, 2)?,
+            count("--steps", o.steps, 8)?,
+            o.amplitude,
+        ),
         omega_range: (
             o.omega_min.unwrap_or(0.0),
             o.omega_max.unwrap_or(study.branch.omega_max),
@@ -310,10 +344,7 @@ pub fn orbits(o: &OrbitsArgs) -> Outcome {
         },
         other => other,
     })?;
-    let dir = out.map_or_else(
-        || default_output(&study.name, &args.set).join("orbits"),
-        Path::to_path_buf,
-    );
+    let dir = output_dir(args, &study, out, Some("orbits"))?;
     let report = run_orbits(&study, &model, &opts, &dir, &Provenance::of_process())?;
     if let OrbitStop::StepTooSmall(reason) = &report.stop {
         let reached = report.last.as_ref().map_or(f64::NAN, |r| r.omega);
@@ -340,7 +371,7 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
         from_orbit: None,
         ramp_time: s.ramp_time,
         transient: s.transient,
-        shape_every: s.shape_every,
+        shape_every: count("--shape-every", s.shape_every, 0)?,
         newton: Default::default(),
         resume: s.resume,
         provenance: serde_json::Value::Null,
@@ -353,16 +384,21 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
     }
     opts.newton = study.newton.clone();
     opts.provenance = simulation_provenance(&study);
-    let dir = out.map_or_else(
-        || default_output(&study.name, &args.set).join("simulate"),
-        Path::to_path_buf,
-    );
+    let dir = output_dir(args, &study, out, Some("simulate"))?;
     let bar = indicatif::ProgressBar::new(1000).with_style(
         indicatif::ProgressStyle::with_template("simulate [{elapsed_precise}] {bar:30} {msg}")
             .expect("a valid template"),
     );
     let settings = study.integrator.settings(&model.scales);
-    let report = run_simulate(&model, &settings, &opts, &dir, &bar)?;
+    let report = run_simulate(
+        &study,
+        &model,
+        &settings,
+        &opts,
+        &dir,
+        &bar,
+        &Provenance::of_process(),
+    )?;
     Ok(Box::new(titled(&study, report)))
 }
 

@@ -13,12 +13,13 @@ use crate::analysis::boundary::{
     Boundary, BoundaryObserver, BoundaryPoint, Criticality, SpecialPoint, check_end,
     follow_boundary,
 };
+use crate::model::Model;
 use crate::model::params::Field;
 use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_intercept, power_law};
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
-use crate::study::output::{CsvWriter, create_dir, write_json};
+use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
 use crate::study::plan::Case;
 use crate::study::progress;
 use crate::study::run::slug;
@@ -46,6 +47,14 @@ pub struct BoundaryReport {
     /// without a coefficient (it could not be computed).
     pub criticality: Criticality,
     pub out: String,
+}
+
+/// What `meta.json` records of a boundary run: its report, or why it stopped short.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum BoundaryRun<'a> {
+    Finished(&'a BoundaryReport),
+    Stopped { error: String },
 }
 
 /// Writes the boundary to `boundary.csv` and `points.csv` in `dir` as it grows, and draws a
@@ -106,20 +115,20 @@ pub fn family(study: &Study, key: &str) -> Result<RodFamily> {
 pub fn run_boundary(
     study: &Study,
     key: &str,
-    from: f64,
-    to: f64,
+    (from, to): (f64, f64),
     dir: &Path,
+    provenance: &Provenance,
 ) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
-    run_family(study, &family(study, key)?, from, to, dir)
+    run_family(study, &family(study, key)?, (from, to), dir, provenance)
 }
 
 /// [`run_boundary`] over the members of `family`.
 pub(crate) fn run_family(
     study: &Study,
     family: &RodFamily,
-    from: f64,
-    to: f64,
+    (from, to): (f64, f64),
     dir: &Path,
+    provenance: &Provenance,
 ) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
     let key = family.field().key();
     crate::analysis::boundary::check_range(family, from, to)?;
@@ -167,6 +176,14 @@ pub(crate) fn run_family(
             out: dir.display().to_string(),
         }
     });
+    let scales = Model::new(&family.physical(from)?)?.scales;
+    let run = match &report {
+        Ok(r) => BoundaryRun::Finished(r),
+        Err(e) => BoundaryRun::Stopped {
+            error: e.to_string(),
+        },
+    };
+    Meta::new(study, scales, run, provenance).write(&dir.join("meta.json"))?;
     Ok((boundary.points, report))
 }
 
@@ -247,6 +264,7 @@ pub fn run_study(
     cases: &[Case],
     fit: Option<[f64; 2]>,
     dir: &Path,
+    provenance: &Provenance,
 ) -> Result<(BoundaryStudy, Vec<String>)> {
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
@@ -259,7 +277,7 @@ pub fn run_study(
         } else {
             dir.join(slug(&case.label))
         };
-        let (rows, outcome) = run_boundary(&s, key, from, to, &sub)?;
+        let (rows, outcome) = run_boundary(&s, key, (from, to), &sub, provenance)?;
         let (report, error) = match outcome {
             Ok(r) => (Some(r), None),
             Err(e) if e.is_input() => return Err(e),

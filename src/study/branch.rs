@@ -43,7 +43,7 @@ pub(crate) struct BranchRow {
 }
 
 /// One row of `events.csv`: the eigenvalue in SI (1/s) and normalized.
-#[derive(Clone, Serialize)]
+#[derive(Clone, Default, Serialize)]
 pub struct EventRow {
     pub kind: &'static str,
     pub omega: f64,
@@ -223,7 +223,7 @@ pub(crate) fn run_branch(
         rest: &rest,
         rigid_slope: model.rigid_thrust(1.0)?,
         points: CsvWriter::create(&dir.join("branch.csv"))?,
-        events: CsvWriter::create(&dir.join("events.csv"))?,
+        events: CsvWriter::create_with_header(&dir.join("events.csv"), &EventRow::default())?,
         rows: Vec::new(),
         event_rows: Vec::new(),
         bar: progress(omegabar_max, "branch"),

@@ -22,7 +22,7 @@ use crate::analysis::orbits::OrbitStart;
 use crate::numerics::statistics::trapezoid_mean;
 
 /// One row of `cycles.csv` (times in s).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct CycleRow {
     pub cycle: usize,
     pub t_start: f64,

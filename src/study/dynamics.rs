@@ -80,7 +80,7 @@ pub(crate) fn run_dynamics(
             };
             let sub = dir.join(format!("omega_{omega}"));
             let bar = bars.add(progress::bar(&format!("omega = {omega} rad/s")));
-            let outcome = run_simulate(&model, &settings, &opts, &sub, &bar);
+            let outcome = run_simulate(study, &model, &settings, &opts, &sub, &bar, provenance);
             bars.remove(&bar);
             match outcome {
                 Ok(r) => AverageRow {

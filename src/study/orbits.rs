@@ -128,7 +128,13 @@ fn write_events(
             omega_to: s.omega_from_bar(e.p.1),
         })
         .collect();
-    let mut table = CsvWriter::create(path)?;
+    let sample = OrbitEventRow {
+        kind: OrbitEventKind::Fold,
+        after: 0,
+        omega_from: 0.0,
+        omega_to: 0.0,
+    };
+    let mut table = CsvWriter::create_with_header(path, &sample)?;
     for e in &rows {
         table.row(e)?;
     }

@@ -38,6 +38,23 @@ impl CsvWriter {
         })
     }
 
+    /// A table whose header (the field names of the row type of `sample`) is written at once, so
+    /// that a table that stays empty still says what it would hold (and reads as an empty table
+    /// where a 0-byte file would be refused).
+    pub(crate) fn create_with_header(path: &Path, sample: &impl Serialize) -> Result<Self> {
+        let mut header = csv::Writer::from_writer(Vec::new());
+        header.serialize(sample).map_err(|e| csv_error(path, e))?;
+        let bytes = header
+            .into_inner()
+            .map_err(|e| csv_error(path, e.into_error().into()))?;
+        let first = bytes
+            .split_inclusive(|&b| b == b'\n')
+            .next()
+            .unwrap_or_default();
+        std::fs::write(path, first).map_err(io_error(path))?;
+        Self::append(path)
+    }
+
     /// Appends rows to the table at `path`, whose header is already written (a resumed run).
     pub(crate) fn append(path: &Path) -> Result<Self> {
         let file = std::fs::OpenOptions::new()
@@ -53,12 +70,18 @@ impl CsvWriter {
     }
 
     pub fn row(&mut self, row: &impl Serialize) -> Result<()> {
-        let to_io = |e: csv::Error| Error::Io {
-            path: self.path.display().to_string(),
-            source: std::io::Error::other(e.to_string()),
-        };
-        self.writer.serialize(row).map_err(to_io)?;
+        self.writer
+            .serialize(row)
+            .map_err(|e| csv_error(&self.path, e))?;
         self.writer.flush().map_err(io_error(&self.path))
+    }
+}
+
+/// A CSV error writing `path`, as an I/O error naming it.
+fn csv_error(path: &Path, e: csv::Error) -> Error {
+    Error::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::other(e.to_string()),
     }
 }
 

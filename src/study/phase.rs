@@ -332,6 +332,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         *r_over_lambda,
         m,
         &dir.join("boundary_curve"),
+        provenance,
     );
     let mut overlays = match &curve {
         Ok(lines) => lines.clone(),
@@ -421,6 +422,7 @@ fn boundary_curve(
     r_over_lambda: Option<f64>,
     m: f64,
     dir: &Path,
+    provenance: &Provenance,
 ) -> Result<Vec<Series>> {
     let ShapeParams::Helix { l, radius, .. } = study.shape else {
         return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
@@ -430,7 +432,7 @@ fn boundary_curve(
         family = family.holding(Field::ROverLambda, r);
     }
     let (from, to) = (values[0], values[values.len() - 1]);
-    let (rows, outcome) = run_family(study, &family, from, to, dir)?;
+    let (rows, outcome) = run_family(study, &family, (from, to), dir, provenance)?;
     outcome?;
     let segments = rows.last().map_or(0, |r| r.segment + 1);
     Ok((0..segments)

@@ -177,8 +177,15 @@ pub fn run(
             cases: plan_cases,
             fit,
         } => {
-            let (value, failed) =
-                run_boundaries(study, vary, (*from, *to), &cases(plan_cases), *fit, dir)?;
+            let (value, failed) = run_boundaries(
+                study,
+                vary,
+                (*from, *to),
+                &cases(plan_cases),
+                *fit,
+                dir,
+                provenance,
+            )?;
             failures.extend(failed);
             StudyResult::Boundary(value)
         }

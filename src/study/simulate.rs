@@ -28,11 +28,22 @@ use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
+use crate::study::Study;
 use crate::study::cycles::{CycleRow, cycles};
-use crate::study::output::CsvWriter;
+use crate::study::output::{CsvWriter, Meta, Provenance};
 use crate::{Error, Result};
 
 use crate::numerics::statistics::late_statistics;
+
+/// One row of `shapes.csv`: a node's position (m) at time `t` (s).
+#[derive(Clone, Debug, Default, Serialize)]
+struct ShapeRow {
+    t: f64,
+    node: usize,
+    x: f64,
+    y: f64,
+    z: f64,
+}
 
 /// One row of `timeseries.csv` (SI and normalized).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -223,11 +234,13 @@ pub struct OrbitComparison {
 /// Runs one simulation, writing `timeseries.csv`, `shapes.csv` (when asked) and `timeseries.svg`
 /// into `dir` as it goes.
 pub fn run_simulate(
+    study: &Study,
     model: &Model,
     settings: &DynamicsSettings,
     opts: &SimulateOptions,
     dir: &Path,
     progress: &ProgressBar,
+    provenance: &Provenance,
 ) -> Result<SimulateReport> {
     let start = std::time::Instant::now();
     if !opts.omega.is_finite() {
@@ -317,7 +330,7 @@ pub fn run_simulate(
             truncate_lines(&series_path, 1, saved.samples)?;
             let rows: Vec<TimeRow> = crate::study::output::read_rows(&series_path, true)?;
             let shapes = if opts.shape_every > 0 {
-                truncate_lines(&shapes_path, 0, saved.shape_lines)?;
+                truncate_lines(&shapes_path, 1, saved.shape_lines)?;
                 Some(CsvWriter::append(&shapes_path)?)
             } else {
                 None
@@ -347,7 +360,7 @@ pub fn run_simulate(
                 steady.free_vector(&rest.config)
             };
             let shapes = (opts.shape_every > 0)
-                .then(|| CsvWriter::create(&shapes_path))
+                .then(|| CsvWriter::create_with_header(&shapes_path, &ShapeRow::default()))
                 .transpose()?;
             (
                 Start::Initial(u0),
@@ -382,7 +395,13 @@ pub fn run_simulate(
             {
                 for (i, p) in x.iter().enumerate() {
                     let p = p * scales.length;
-                    w.row(&(s.t * scales.time, i, p.x, p.y, p.z))?;
+                    w.row(&ShapeRow {
+                        t: s.t * scales.time,
+                        node: i,
+                        x: p.x,
+                        y: p.y,
+                        z: p.z,
+                    })?;
                 }
                 shape_lines += x.len();
             }
@@ -476,7 +495,8 @@ pub fn run_simulate(
     let orbit = match &opts.from_orbit {
         Some(o) => {
             let rows = cycles(&t, &hbar_series, &fpbar_series, &o.start);
-            let mut csv = CsvWriter::create(&dir.join("cycles.csv"))?;
+            let mut csv =
+                CsvWriter::create_with_header(&dir.join("cycles.csv"), &CycleRow::default())?;
             for r in &rows {
                 csv.row(r)?;
             }
@@ -492,7 +512,7 @@ pub fn run_simulate(
         }
         None => None,
     };
-    Ok(SimulateReport {
+    let report = SimulateReport {
         omega: opts.omega,
         t_end: opts.t_end,
         steps: trajectory.steps,
@@ -509,5 +529,7 @@ pub fn run_simulate(
         seconds: earlier_seconds + start.elapsed().as_secs_f64(),
         out: dir.display().to_string(),
         orbit,
-    })
+    };
+    Meta::new(study, model.scales, &report, provenance).write(&dir.join("meta.json"))?;
+    Ok(report)
 }
