@@ -4,7 +4,8 @@
 mod common;
 
 use common::straight_rod;
-use helixbif::analysis::locate::{LocateSettings, locate, observables_at, trace};
+use helixbif::analysis::branch::{observables_at, trace};
+use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;

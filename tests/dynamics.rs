@@ -16,11 +16,12 @@ use std::ops::ControlFlow;
 
 use common::{Rng, relative_max_error};
 use faer::c64;
+use helixbif::analysis::branch::observables_at;
 use helixbif::analysis::dynamics::{
     BisectSettings, Checkpoints, DynamicsSettings, IntegratorState, Rate, Start, bisect, integrate,
     integrate_from, least_stable_mode, perturb,
 };
-use helixbif::analysis::locate::{LocateSettings, locate, observables_at};
+use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;

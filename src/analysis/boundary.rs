@@ -16,7 +16,9 @@ use std::rc::Rc;
 
 use serde::{Serialize, Serializer};
 
-use crate::analysis::locate::{LocateSettings, locate, observables_at};
+use crate::analysis::locate::{LocateSettings, locate};
+
+use crate::analysis::branch::observables_at;
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Silent;
 use crate::engine::criticality::Verdict;

@@ -5,81 +5,18 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::engine::arclength::{Branch, Limits, Observer, Stop, follow};
+use crate::engine::arclength::{Observer, Stop};
 use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::engine::events::{Event, EventKind};
 use crate::engine::newton::NewtonSettings;
 use crate::engine::{ContinuationSettings, Problem};
 use crate::model::Model;
-use crate::model::observables::{Observables, height};
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
-use crate::problem::steady::SteadyState;
 
+use crate::analysis::branch::{observables_at, trace_in_chart};
 use crate::analysis::solve::rest_state;
-use crate::problem::rod::{OMEGA_SCALE, Parameter, RodProblem, omega_scale};
-
-/// Continuation in `omegabar` from rest up to `omegabar_max`, which may be negative (the motor
-/// turning clockwise seen from above): the branch is then followed towards negative rates.
-pub fn trace(
-    model: &Model,
-    rest: &SteadyState,
-    omegabar_max: f64,
-    settings: &ContinuationSettings,
-    stop_at_first_instability: bool,
-    observer: &mut impl Observer,
-) -> Result<Branch> {
-    let (branch, _) = trace_in_chart(
-        model,
-        rest,
-        omegabar_max,
-        settings,
-        stop_at_first_instability,
-        observer,
-    )?;
-    Ok(branch)
-}
-
-/// [`trace`], with the chart the last points and events are measured in.
-fn trace_in_chart(
-    model: &Model,
-    rest: &SteadyState,
-    omegabar_max: f64,
-    settings: &ContinuationSettings,
-    stop_at_first_instability: bool,
-    observer: &mut impl Observer,
-) -> Result<(Branch, Chart)> {
-    model.check_resolution()?;
-    if !model.fluid.is_mass_matrix() {
-        return Err(crate::Error::input(
-            "fluid.quadrature",
-            "the original quadrature's mobility is indefinite (A_ii t_i = 0), so Z_ff is no mass \
-             matrix for the stability problem: continuation needs \"reference\"",
-        ));
-    }
-    let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
-    let u0 = problem.steady(0.0).free_vector(&rest.config);
-    // A fold may take the branch back past rest, a little.
-    let limits = Limits {
-        p_min: omegabar_max.min(-0.5 * omegabar_max),
-        p_max: omegabar_max.max(-0.5 * omegabar_max),
-        stop_at_first_instability,
-    };
-    let direction = omegabar_max.signum();
-    let branch = follow(&problem, u0, 0.0, direction, settings, &limits, observer)?;
-    Ok((branch, problem.chart()))
-}
-
-/// Observables of the solution `u` at `omegabar` on a branch from `rest`.
-pub fn observables_at(
-    model: &Model,
-    rest: &SteadyState,
-    u: &[f64],
-    omegabar: f64,
-) -> Result<Observables> {
-    let x = Steady::new(model, omegabar).config(u).x;
-    model.steady_observables(omegabar, &x, height(&rest.config.x))
-}
+use crate::problem::rod::{OMEGA_SCALE, Parameter, RodProblem};
 
 /// What locating the first loss of stability needs besides the model: the rate (rad/s, signed)
 /// up to which the branch from rest is followed, and the settings of the steady solves and of

@@ -3,6 +3,7 @@
 //! typed results; none prints or writes files.
 
 pub mod boundary;
+pub mod branch;
 pub mod dynamics;
 pub mod locate;
 pub mod orbits;

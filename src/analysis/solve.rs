@@ -2,7 +2,10 @@
 
 use serde::Serialize;
 
-use crate::Result;
+use crate::analysis::branch::trace;
+use crate::engine::ContinuationSettings;
+use crate::engine::arclength::Silent;
+use crate::engine::events::EventKind;
 use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::model::Model;
 use crate::model::observables::{Observables, height};
@@ -10,6 +13,7 @@ use crate::model::steady::Steady;
 use crate::problem;
 use crate::problem::rod::Parameter;
 use crate::problem::steady::SteadyState;
+use crate::{Error, Result};
 
 /// A steady state with everything `helixbif solve` reports.
 #[derive(Clone, Debug)]
@@ -92,7 +96,8 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
         model.check_resolution()?;
     }
     let rest = rest_state(model, settings)?;
-    let state = ramp(model, &rest, Parameter::Omega, omegabar, settings)?;
+    let state = ramp(model, &rest, Parameter::Omega, omegabar, settings)
+        .map_err(|e| unreachable(model, &rest, omegabar, e))?;
     let observables =
         model.steady_observables(omegabar, &state.config.x, height(&rest.config.x))?;
     Ok(Solution {
@@ -101,6 +106,47 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
         rest,
         observables,
     })
+}
+
+/// Why a ramp from rest to `omegabar` failed with `failure`: where the branch from rest turns
+/// back at a fold before the rate (followed by pseudo-arclength continuation, which passes the
+/// fold), there is no steady state on it at `omegabar`, and the error says so with the fold's
+/// rate; otherwise `failure` itself.
+fn unreachable(model: &Model, rest: &SteadyState, omegabar: f64, failure: Error) -> Error {
+    if omegabar == 0.0 || failure.is_input() {
+        return failure;
+    }
+    let Ok(branch) = trace(
+        model,
+        rest,
+        omegabar,
+        &ContinuationSettings::default(),
+        false,
+        &mut Silent,
+    ) else {
+        return failure;
+    };
+    let reached = branch
+        .points
+        .iter()
+        .any(|p| p.p.abs() >= omegabar.abs() && p.p * omegabar > 0.0);
+    let fold = branch
+        .events
+        .iter()
+        .find(|e| e.kind == EventKind::Fold && e.p * omegabar > 0.0 && e.p.abs() < omegabar.abs());
+    match (reached, fold) {
+        (false, Some(fold)) => {
+            let s = &model.scales;
+            Error::Numerical(format!(
+                "no steady state at omega = {} rad/s on the branch from rest: it turns back at a \
+                 fold at omega = {:.6} rad/s (omegabar = {:.6e}) and does not reach that rate",
+                s.omega_from_bar(omegabar),
+                s.omega_from_bar(fold.p),
+                fold.p
+            ))
+        }
+        _ => failure,
+    }
 }
 
 /// The problem whose solution `state` is, in the chart carried to it.

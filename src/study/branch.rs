@@ -7,7 +7,7 @@ use std::time::Instant;
 use indicatif::ProgressBar;
 use serde::Serialize;
 
-use crate::analysis::locate::{observables_at, trace};
+use crate::analysis::branch::{observables_at, trace};
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::{Observer, Point, Stop};
 use crate::engine::events::Event;
