@@ -16,6 +16,7 @@ use crate::model::params::{Physical, Scales};
 use crate::model::rod::frame::Chart;
 use crate::model::rod::{Config, Rod, Stiffness};
 use crate::model::shape::natural_nodes;
+use crate::numerics::process::available_memory;
 use crate::{Error, Result};
 
 /// Everything the solver needs, dimensionless (lengths by `ell`, forces by `EI/ell^2`, time by
@@ -38,6 +39,7 @@ impl Model {
     /// Validates `physical` and builds the dimensionless model.
     pub fn new(physical: &Physical) -> Result<Self> {
         physical.validate()?;
+        check_memory(physical.discretization.nodes)?;
         let scales = physical.scales();
         let ell = scales.length;
         let ei = physical.bending_stiffness();
@@ -115,6 +117,46 @@ impl Model {
             theta: vec![0.0; self.nodes() - 1],
         }
     }
+}
+
+/// The memory (bytes) a run at `nodes` nodes needs at its peak: the dense matrices of the order
+/// of the unknowns, `n = 4N` (a Jacobian and its LU factors, the mobility and resistance, the
+/// stability pair, the Krylov basis and the complex factorization of the spectrum), measured at
+/// about 20 of them at the peak of `locate` (RPY, `N = 120..473`: 39, 140 and 572 MB), taken as
+/// 24, plus 64 MB for the rest of the process.
+pub fn memory_estimate(nodes: usize) -> u64 {
+    let n = 4 * nodes as u64;
+    24 * 8 * n * n + (64 << 20)
+}
+
+/// Refuses (as bad input) a node count whose run would need more memory than this process can
+/// still allocate ([`available_memory`]), naming the estimate, the limit and the largest count
+/// that fits; a run that fits is not slowed (the check reads a few system files).
+fn check_memory(nodes: usize) -> Result<()> {
+    let need = memory_estimate(nodes);
+    let Some(available) = available_memory() else {
+        return Ok(());
+    };
+    if need <= available.bytes {
+        return Ok(());
+    }
+    let fits = (5..nodes)
+        .rev()
+        .find(|&n| memory_estimate(n) <= available.bytes)
+        .map_or("no node count fits".to_string(), |n| {
+            format!("N <= {n} fits")
+        });
+    let gb = |b: u64| b as f64 / 1e9;
+    Err(Error::input(
+        "discretization.nodes",
+        format!(
+            "N = {nodes} needs about {:.1} GB (dense matrices of order 4N), more than the {:.1} GB \
+             this process may still allocate ({}); {fits}",
+            gb(need),
+            gb(available.bytes),
+            available.source
+        ),
+    ))
 }
 
 /// True when the mobility matrix of the natural shape with `nodes` nodes is positive definite.
