@@ -106,10 +106,10 @@ pub enum Command {
     /// whether the rod settles on the steady state. Uses the study's [newton] table.
     #[command(after_help = AFTER_HELP)]
     Bisect(BisectArgs),
-    /// Power law y = C x^p fitted by least squares in logarithms (relative errors: ln y = ln C
-    /// + p ln x), with 95% confidence intervals from the log-scale residuals (Student t); rows
-    /// without positive numbers in both columns (or whose `status` is not ok) are left out and
-    /// listed.
+    /// Power law y = C x^p fitted by least squares in logarithms, ln y = ln C + p ln x (errors
+    /// taken as relative), with 95% confidence intervals from the log-scale residuals (Student
+    /// t); rows without positive numbers in both columns (or whose `status` is not ok) are left
+    /// out and listed.
     Fit(FitArgs),
 }
 
