@@ -109,3 +109,39 @@ fn an_empty_event_table_keeps_its_header() {
     assert!(dir.join("meta.json").is_file());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A simulation past buckling on the Lighthill operator stops where parts of the collapsed rod
+/// approach: the failure says when in seconds, how collapsed the rod was, why (the mobility and
+/// the closest approach) and what to change, and keeps the time series.
+#[test]
+fn a_simulation_that_dies_says_when_why_and_what_to_change() {
+    let dir = temp_dir("edges-simulate");
+    let (code, _, stderr) = helixbif(&[
+        "simulate",
+        "--omega",
+        "0.6",
+        "--t-end",
+        "300",
+        "--shape-every",
+        "0",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    for part in [
+        "stopped at t = 222.",
+        " s, the last state kept having hbar = 0.3",
+        "closest approach of non-adjacent nodes",
+        "--set fluid.model=rpy",
+    ] {
+        assert!(stderr.contains(part), "missing `{part}`: {stderr}");
+    }
+    let rows = std::fs::read_to_string(dir.join("timeseries.csv")).unwrap();
+    assert!(
+        rows.lines().count() > 1000,
+        "{} rows kept",
+        rows.lines().count()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -316,9 +316,10 @@ pub struct SimulateArgs {
     /// Spin-up time (s) of a run from rest.
     #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub ramp_time: f64,
-    /// Statistics over t >= this (s).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub transient: f64,
+    /// Statistics over t >= this (s); default the second half of the run, and never the
+    /// spin-up of a run from rest.
+    #[arg(long, allow_negative_numbers = true)]
+    pub transient: Option<f64>,
     /// Write the shape every this many time steps (0: never).
     #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
     pub shape_every: i64,

@@ -370,7 +370,14 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
         perturb: s.perturb,
         from_orbit: None,
         ramp_time: s.ramp_time,
-        transient: s.transient,
+        transient: s.transient.unwrap_or_else(|| {
+            let spin_up = if s.from_steady || s.from_orbit.is_some() {
+                0.0
+            } else {
+                s.ramp_time
+            };
+            (0.5 * s.t_end).max(spin_up)
+        }),
         shape_every: count("--shape-every", s.shape_every, 0)?,
         newton: Default::default(),
         resume: s.resume,

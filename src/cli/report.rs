@@ -288,6 +288,9 @@ impl Section for SimulateReport {
                 "\n  after t = {} s: hbar = {h:.6} +- {hs:.2e}, Fpbar = {fp:.6} +- {fs:.2e}",
                 self.transient
             )?;
+            if let (Some(e), Some(es)) = (self.eta_mean, self.eta_std) {
+                write!(f, ", eta = {e:.6} +- {es:.2e}")?;
+            }
         }
         if let Some(o) = &self.orbit {
             write!(

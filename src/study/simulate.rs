@@ -491,7 +491,20 @@ pub fn run_simulate(
             &dir.join(format!("timeseries_{name}")),
         )?;
     }
-    let trajectory = trajectory?;
+    let trajectory = trajectory.map_err(|e| match (e, rows.last()) {
+        (Error::Numerical(why), Some(last)) => Error::Numerical(format!(
+            "the simulation at omega = {} rad/s stopped at t = {:.4} s, the last state kept \
+             having hbar = {:.4} (h/h0) and Fpbar = {:.4}; the {} samples before it are in {}: \
+             {why}",
+            opts.omega,
+            last.t,
+            last.hbar,
+            last.fpbar,
+            rows.len(),
+            dir.join("timeseries.csv").display()
+        )),
+        (e, _) => e,
+    })?;
     let orbit = match &opts.from_orbit {
         Some(o) => {
             let rows = cycles(&t, &hbar_series, &fpbar_series, &o.start);

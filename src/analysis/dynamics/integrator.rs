@@ -336,7 +336,8 @@ struct Factored {
 }
 
 /// Newton's method on one step (full steps, the one solver of [`crate::engine::newton`]);
-/// `Ok(None)` when it does not converge (the step is retried shorter). With `reuse_jacobian`, the
+/// `Ok(Err(why))` when it does not converge (the step is retried shorter), with Newton's failure
+/// or the model's refusal of an iterate (a mobility that is not positive definite). With `reuse_jacobian`, the
 /// factorization in `cache` serves while it converges (the chord method: it is rebuilt when `c0`
 /// changed by more than 20%, when the residual falls by less than a factor 3 in an iteration,
 /// and once more from the start of the step if the solve fails).
@@ -346,7 +347,7 @@ fn newton_step(
     settings: &DynamicsSettings,
     cache: &mut Factored,
     trajectory: &mut Trajectory,
-) -> Result<Option<Vec<f64>>> {
+) -> Result<std::result::Result<Vec<f64>, Error>> {
     let newton = Newton {
         tol: settings.newton_tol,
         max_iter: settings.max_newton,
@@ -377,9 +378,11 @@ fn newton_step(
         };
         let solved = newton.run(&tolerated, guess.to_vec(), jacobians, "in the time step");
         let (solution, steps) = match solved {
-            Ok((u, report)) => (Some(u), report.iterations),
-            Err(Error::Engine(EngineError::NewtonFailed { iterations, .. })) => (None, iterations),
-            Err(Error::Model(ModelError::NotPositiveDefinite { .. })) => (None, 0),
+            Ok((u, report)) => (Ok(u), report.iterations),
+            Err(e @ Error::Engine(EngineError::NewtonFailed { iterations, .. })) => {
+                (Err(e), iterations)
+            }
+            Err(e @ Error::Model(ModelError::NotPositiveDefinite { .. })) => (Err(e), 0),
             Err(e) => return Err(e),
         };
         trajectory.newton_iterations += steps;
@@ -391,13 +394,30 @@ fn newton_step(
         if cache.chord.built > before {
             cache.c0 = step.c0;
         }
-        if solution.is_some() || !inherited {
-            if solution.is_none() {
+        if solution.is_ok() || !inherited {
+            if solution.is_err() {
                 cache.chord.clear();
             }
             return Ok(solution);
         }
         cache.chord.clear();
+    }
+}
+
+/// What made the implicit step fail, and what to change: the fluid's operator refusing the
+/// shape (Lighthill's where parts of the rod approach), or Newton's method not converging.
+fn step_failure(why: &Error) -> String {
+    match why {
+        Error::Model(ModelError::NotPositiveDefinite { geometry, .. }) => format!(
+            "the mobility of the moving rod stopped being positive definite ({geometry}); the \
+             RPY line is positive definite for every shape: --set fluid.model=rpy (docs/model.md \
+             section 9)"
+        ),
+        other => format!(
+            "Newton's method on the implicit step did not converge ({other}); lower \
+             integrator.dt_max or integrator.rtol, or take a fresh Jacobian at every iteration: \
+             --set integrator.jacobian=newton"
+        ),
     }
 }
 
@@ -640,22 +660,34 @@ pub(super) fn run(
             predicted.clone()
         };
         let solved = newton_step(&step, &guess, settings, &mut cache, trajectory)?;
-        let Some(u) = solved else {
-            trajectory.rejected += 1;
-            if !settings.adaptive {
-                return Err(Error::Numerical(format!(
-                    "time integration: Newton failed at t = {t:.6e} with the fixed step {h:.3e}"
-                )));
+        let u = match solved {
+            Ok(u) => u,
+            Err(why) => {
+                trajectory.rejected += 1;
+                let seconds = model.scales.time;
+                if !settings.adaptive {
+                    return Err(Error::Numerical(format!(
+                        "time integration: the implicit step failed at t = {:.4} s with the fixed \
+                         step {:.3e} s: {}",
+                        t * seconds,
+                        h * seconds,
+                        step_failure(&why)
+                    )));
+                }
+                h *= 0.25;
+                just_rejected = true;
+                if h < settings.dt_min {
+                    return Err(Error::Numerical(format!(
+                        "time integration: the step fell below dt_min = {:.1e} s at t = {:.4} s \
+                         (omega = {:.6} rad/s): {}",
+                        settings.dt_min * seconds,
+                        t * seconds,
+                        rate.at(t) / seconds,
+                        step_failure(&why)
+                    )));
+                }
+                continue;
             }
-            h *= 0.25;
-            just_rejected = true;
-            if h < settings.dt_min {
-                return Err(Error::Numerical(format!(
-                    "time integration: step below dt_min = {:e} at t = {t:.6e} (Newton fails)",
-                    settings.dt_min
-                )));
-            }
-            continue;
         };
         let mut factor = 1.0;
         if settings.adaptive {
@@ -679,9 +711,15 @@ pub(super) fn run(
                 h *= factor.min(0.9);
                 just_rejected = true;
                 if h < settings.dt_min {
+                    let seconds = model.scales.time;
                     return Err(Error::Numerical(format!(
-                        "time integration: step below dt_min = {:e} at t = {t:.6e} (error test)",
-                        settings.dt_min
+                        "time integration: the step fell below dt_min = {:.1e} s at t = {:.4} s \
+                         (omega = {:.6} rad/s): the local error test failed at every step tried \
+                         (error {err:.2e} of the tolerance); loosen integrator.rtol or \
+                         integrator.atol, or look for a discontinuity of the motion there",
+                        settings.dt_min * seconds,
+                        t * seconds,
+                        rate.at(t) / seconds,
                     )));
                 }
                 continue;
