@@ -293,17 +293,27 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
 pub fn bisect(model: &Model, lo: f64, hi: f64, settings: &BisectSettings) -> Result<Bisection> {
     settings.validate()?;
     // The motor may turn either way: the bracket lies on one side of zero, `lo` nearer zero.
+    // Rates in messages in rad/s, as the user gives them.
+    let rad_s = |w: f64| model.scales.omega_from_bar(w);
     if !(lo != 0.0 && lo * hi > 0.0 && hi.abs() > lo.abs() && hi.is_finite()) {
         return Err(Error::input(
             "--lo",
-            format!("need finite rates of one sign with 0 < |lo| < |hi|, got lo = {lo}, hi = {hi}"),
+            format!(
+                "need finite rates of one sign with 0 < |lo| < |hi|, got lo = {} rad/s, hi = {} \
+                 rad/s",
+                rad_s(lo),
+                rad_s(hi)
+            ),
         ));
     }
     let mut trials = vec![trial(model, lo, settings)?, trial(model, hi, settings)?];
     if !trials[0].stable || trials[1].stable {
         return Err(Error::Numerical(format!(
-            "bisect: [{lo}, {hi}] is not a bracket (stable at lo: {}, at hi: {})",
-            trials[0].stable, trials[1].stable
+            "bisect: [{}, {}] rad/s is not a bracket (stable at lo: {}, at hi: {})",
+            rad_s(lo),
+            rad_s(hi),
+            trials[0].stable,
+            trials[1].stable
         )));
     }
     let (mut a, mut b) = (lo, hi);
