@@ -60,7 +60,6 @@ use super::newton::{
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::{ContinuationSettings, Linearization, Problem};
-use crate::error::ModelError;
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -101,8 +100,8 @@ pub enum Stop {
     /// The starting point is already unstable (with [`Limits::stop_at_first_instability`]):
     /// there is no loss of stability to find.
     UnstableAtStart,
-    /// The corrector failed down to the smallest step; the reason of the last failure (a
-    /// mobility that is not positive definite, when any attempt met one: it names the state).
+    /// The corrector failed down to the smallest step; the reason of the last failure (a state
+    /// the problem refused, when any attempt met one: [`Error::is_refused_state`]).
     StepTooSmall(String),
     /// A stop rule of the caller's ended the run (its reason).
     Rule(String),
@@ -615,9 +614,9 @@ pub struct Continuation<'a, P: Problem> {
     ds: f64,
     /// Consecutive shortenings of the step (at most four).
     halvings: usize,
-    /// The first failure since the last accepted point that names a mobility that is not
-    /// positive definite: when the step runs out, it is the reason given.
-    indefinite: Option<String>,
+    /// The first failure since the last accepted point where the problem refused the state
+    /// ([`Error::is_refused_state`]): when the step runs out, it is the reason given.
+    refused: Option<String>,
     /// Whether the last point may move the chart before the next step.
     rechart: bool,
     stop: Option<Stop>,
@@ -673,7 +672,7 @@ impl<'a, P: Problem> Continuation<'a, P> {
             before: None,
             ds: settings.ds,
             halvings: 0,
-            indefinite: None,
+            refused: None,
             rechart: false,
             stop: None,
         })
@@ -698,14 +697,12 @@ impl<'a, P: Problem> Continuation<'a, P> {
 
     /// Halves the step after a failure; ends the run below `ds_min`.
     fn refuse(&mut self, e: Error) -> Option<Result<Outcome>> {
-        if matches!(e, Error::Model(ModelError::NotPositiveDefinite { .. }))
-            && self.indefinite.is_none()
-        {
-            self.indefinite = Some(e.to_string());
+        if e.is_refused_state() && self.refused.is_none() {
+            self.refused = Some(e.to_string());
         }
         self.ds *= 0.5;
         if self.ds < self.settings.ds_min {
-            let reason = self.indefinite.clone().unwrap_or_else(|| e.to_string());
+            let reason = self.refused.clone().unwrap_or_else(|| e.to_string());
             self.stop = Some(Stop::StepTooSmall(reason));
             return None;
         }
@@ -852,14 +849,15 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         let events = match self.events(&next) {
             Ok(events) => events,
             Err(e) => {
-                let e = match e {
-                    e @ Error::Model(ModelError::NotPositiveDefinite { .. }) => e,
-                    e => Error::Numerical(format!("locating an event: {e}")),
+                let e = if e.is_refused_state() {
+                    e
+                } else {
+                    Error::Numerical(format!("locating an event: {e}"))
                 };
                 return self.refuse(e);
             }
         };
-        self.indefinite = None;
+        self.refused = None;
         self.ds = match next.iterations {
             0..=3 => (self.ds * 1.5).min(self.settings.ds_max),
             6.. => (self.ds * 0.7).max(self.settings.ds_min),

@@ -23,7 +23,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::Result;
-use crate::error::ensure;
+use crate::error::ensure_setting;
 
 /// `G`, `G_u = dG/du` and `G_p = dG/dp` at one point.
 pub struct Linearization {
@@ -159,48 +159,48 @@ impl Default for ContinuationSettings {
 impl ContinuationSettings {
     /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
     /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`
-    /// where it is set.
+    /// where it is set; an error names the field ([`crate::error::EngineError::Setting`]).
     pub fn validate(&self) -> Result<()> {
-        ensure(
+        ensure_setting(
             self.ds_min > 0.0
                 && self.ds_min <= self.ds
                 && self.ds <= self.ds_max
                 && self.ds_max.is_finite(),
-            "continuation.ds",
+            "ds",
             format!(
                 "need 0 < ds_min <= ds <= ds_max < inf, got ds_min = {}, ds = {}, ds_max = {}",
                 self.ds_min, self.ds, self.ds_max
             ),
         )?;
-        ensure(
+        ensure_setting(
             self.max_points >= 1,
-            "continuation.max_points",
+            "max_points",
             format!("must be >= 1, got {}", self.max_points),
         )?;
-        ensure(
+        ensure_setting(
             self.max_corrector >= 2,
-            "continuation.max_corrector",
+            "max_corrector",
             format!("must be >= 2, got {}", self.max_corrector),
         )?;
-        ensure(
+        ensure_setting(
             self.tol > 0.0 && self.tol < 1.0,
-            "continuation.tol",
+            "tol",
             format!("must lie in (0, 1), got {}", self.tol),
         )?;
-        ensure(
+        ensure_setting(
             self.event_tol > 0.0 && self.event_tol < 1e-2,
-            "continuation.event_tol",
+            "event_tol",
             format!("must lie in (0, 0.01), got {}", self.event_tol),
         )?;
-        ensure(
+        ensure_setting(
             self.eigenvalues >= 1,
-            "continuation.eigenvalues",
+            "eigenvalues",
             format!("must be >= 1, got {}", self.eigenvalues),
         )?;
         let fraction = self.max_parameter_step.unwrap_or(1.0);
-        ensure(
+        ensure_setting(
             fraction > 0.0 && fraction <= 1.0,
-            "continuation.max_parameter_step",
+            "max_parameter_step",
             format!("must lie in (0, 1], got {fraction}"),
         )
     }

@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 use super::ImplicitDynamics;
 use super::orbit::{Condition, Orbit, ShootingSettings, shoot};
 use crate::Result;
-use crate::error::ensure;
+use crate::error::ensure_setting;
 
 /// Settings of the orbit branch.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -64,28 +64,29 @@ impl Default for OrbitBranchSettings {
 
 impl OrbitBranchSettings {
     /// Checks ranges: the shooting's, `amplitude > 0`, `0 < ds_min <= 1 <= ds_max`,
-    /// `max_orbits >= 2`.
+    /// `max_orbits >= 2`; an error names the field (`ds_max` for the pair of steps), one name
+    /// space with the shooting's and the flow's.
     pub fn validate(&self) -> Result<()> {
         self.shooting.validate()?;
-        ensure(
+        ensure_setting(
             self.amplitude > 0.0 && self.amplitude.is_finite(),
-            "orbits.amplitude",
+            "amplitude",
             format!("must be finite and > 0, got {}", self.amplitude),
         )?;
-        ensure(
+        ensure_setting(
             self.ds_min > 0.0
                 && self.ds_min <= 1.0
                 && self.ds_max >= 1.0
                 && self.ds_max.is_finite(),
-            "orbits.ds_max",
+            "ds_max",
             format!(
                 "need 0 < ds_min <= 1 <= ds_max < inf, got ds_min = {}, ds_max = {}",
                 self.ds_min, self.ds_max
             ),
         )?;
-        ensure(
+        ensure_setting(
             self.max_orbits >= 2,
-            "orbits.max_orbits",
+            "max_orbits",
             format!("must be >= 2, got {}", self.max_orbits),
         )
     }
