@@ -20,7 +20,8 @@
 //! The tangent at the new point solves the same matrix with right-hand side `(0, 1)`, normalized
 //! in (1); this keeps its orientation, so turning points (folds, where `p` turns back) are passed
 //! without special treatment. The step grows by 1.5 after an easy correction (at most 3
-//! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure, or
+//! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure
+//! ([`super::step::StepControl`]), or
 //! when the corrector travelled more than half a step from the predicted point, or when the
 //! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
 //! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
@@ -59,6 +60,7 @@ use super::newton::{
     self, Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System, norm,
 };
 use super::stability::{Spectrum, is_complex, leading};
+use super::step::StepControl;
 use super::{ContinuationSettings, Linearization, Problem};
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
@@ -611,7 +613,7 @@ pub struct Continuation<'a, P: Problem> {
     /// The arclength and leading spectrum of the point before `last`: with `last`, the rates at
     /// which its eigenvalues move ([`crossing_ahead`]).
     before: Option<(f64, Spectrum)>,
-    ds: f64,
+    step: StepControl,
     /// Consecutive shortenings of the step (at most four).
     halvings: usize,
     /// The first failure since the last accepted point where the problem refused the state
@@ -670,7 +672,7 @@ impl<'a, P: Problem> Continuation<'a, P> {
             range: (limits.p_min, limits.p_max),
             last: first,
             before: None,
-            ds: settings.ds,
+            step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
             halvings: 0,
             refused: None,
             rechart: false,
@@ -700,21 +702,21 @@ impl<'a, P: Problem> Continuation<'a, P> {
         if e.is_refused_state() && self.refused.is_none() {
             self.refused = Some(e.to_string());
         }
-        self.ds *= 0.5;
-        if self.ds < self.settings.ds_min {
+        if self.step.failed().is_err() {
             let reason = self.refused.clone().unwrap_or_else(|| e.to_string());
             self.stop = Some(Stop::StepTooSmall(reason));
             return None;
         }
         Some(Ok(Outcome::Rejected {
-            ds: self.ds,
+            ds: self.step.ds(),
             reason: e.to_string(),
         }))
     }
 
     /// Predictor and corrector from the last point with the current step.
     fn attempt(&self) -> Result<Point> {
-        let (problem, metric, last, ds) = (self.problem, &self.metric, &self.last, self.ds);
+        let (problem, metric, last) = (self.problem, &self.metric, &self.last);
+        let ds = self.step.ds();
         let step: Vec<f64> = last.tangent_u.iter().map(|t| ds * t).collect();
         let predicted = problem.retract(&last.u, &step);
         let p_predicted = last.p + ds * last.tangent_p;
@@ -813,24 +815,24 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         // No step moves the parameter by more than a fraction of the range followed, nor goes
         // much past where an eigenvalue is predicted to reach the axis, so that a stable window
         // between two events is not stepped over.
-        if (self.ds * self.last.tangent_p).abs() > self.dp_max {
-            self.ds = (self.dp_max / self.last.tangent_p.abs()).max(self.settings.ds_min);
+        if (self.step.ds() * self.last.tangent_p).abs() > self.dp_max {
+            self.step.set(self.dp_max / self.last.tangent_p.abs());
         }
         if let Some(ahead) = self
             .before
             .as_ref()
             .and_then(|(s, spectrum)| crossing_ahead(*s, spectrum, &self.last))
         {
-            self.ds = self.ds.min(LOOKAHEAD * ahead).max(self.settings.ds_min);
+            self.step.limit(LOOKAHEAD * ahead);
         }
         // A step that would leave the range ends a hundredth of the largest step past it.
         let (last_p, t_p) = (self.last.p, self.last.tangent_p);
         let (p_min, p_max) = self.range;
         let edge = if t_p > 0.0 { p_max } else { p_min };
         let to_edge = (edge - last_p) / t_p;
-        if to_edge > 0.0 && self.ds * t_p.abs() > (edge - last_p).abs() {
+        if to_edge > 0.0 && self.step.ds() * t_p.abs() > (edge - last_p).abs() {
             let past = 0.01 * self.dp_max / t_p.abs();
-            self.ds = (to_edge + past).min(self.ds).max(self.settings.ds_min);
+            self.step.limit(to_edge + past);
         }
         let next = match self.attempt() {
             Ok(next) => next,
@@ -840,10 +842,9 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         // modes exchange stability, is shortened first so that the events separate.
         let ambiguous = crossing(&self.last.spectrum, &next.spectrum).is_err()
             || modes_exchanged(&self.last.spectrum, &next.spectrum);
-        if ambiguous && self.halvings < 4 && self.ds * 0.5 >= self.settings.ds_min {
+        if ambiguous && self.halvings < 4 && self.step.shorten() {
             self.halvings += 1;
-            self.ds *= 0.5;
-            return Some(Ok(Outcome::Shortened { ds: self.ds }));
+            return Some(Ok(Outcome::Shortened { ds: self.step.ds() }));
         }
         self.halvings = 0;
         let events = match self.events(&next) {
@@ -858,11 +859,7 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
             }
         };
         self.refused = None;
-        self.ds = match next.iterations {
-            0..=3 => (self.ds * 1.5).min(self.settings.ds_max),
-            6.. => (self.ds * 0.7).max(self.settings.ds_min),
-            _ => self.ds,
-        };
+        self.step.adapt(next.iterations);
         let last = std::mem::replace(&mut self.last, next.clone());
         self.before = Some((last.s, last.spectrum));
         self.rechart = true;

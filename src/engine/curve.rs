@@ -59,6 +59,7 @@ use super::criticality::{Lyapunov, Verdict, first_lyapunov};
 use super::events::{Event, Zeroin};
 use super::newton::{self, NewtonSettings};
 use super::stability::{Spectrum, is_complex};
+use super::step::StepControl;
 use super::{ContinuationSettings, Problem};
 use crate::{Error, Result};
 
@@ -590,7 +591,7 @@ pub fn follow_curve<F: Family>(
     let mut drift: Option<Vec<f64>> = None;
     // The rate of change of the tracked eigenvalue along the curve over the last step.
     let mut rate: Option<c64> = None;
-    let mut ds = settings.ds;
+    let mut step_control = StepControl::new(settings.ds, settings.ds_min, settings.ds_max);
     while curve.points.len() < settings.max_points {
         let p_unit = last.p.abs().max(last.member.scales().1);
         let q_end = if t.1 > 0.0 {
@@ -600,6 +601,7 @@ pub fn follow_curve<F: Family>(
         };
         let to_end = (q_end - last.q) / (t.1 * tracer.q_unit);
         // The last step lands on the end of the range, corrected at fixed q.
+        let ds = step_control.ds();
         let ending = t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
         let step = Step {
             p0: last.p,
@@ -651,8 +653,7 @@ pub fn follow_curve<F: Family>(
                 }
                 // A shorter step, also where the family ends (to come as near that end as the
                 // smallest step allows).
-                ds *= 0.5;
-                if ds < settings.ds_min {
+                if step_control.failed().is_err() {
                     curve.stop = match reason.find(NO_MEMBER) {
                         Some(i) => CurveStop::NoMember(reason[i + NO_MEMBER.len()..].to_string()),
                         None => CurveStop::StepTooSmall(reason),
@@ -697,8 +698,7 @@ pub fn follow_curve<F: Family>(
         let specials = match located {
             Ok(found) => found,
             Err(e) => {
-                ds *= 0.5;
-                if ds < settings.ds_min {
+                if step_control.failed().is_err() {
                     curve.stop = CurveStop::StepTooSmall(format!("locating a special point: {e}"));
                     return Ok((curve, last.member));
                 }
@@ -730,11 +730,7 @@ pub fn follow_curve<F: Family>(
         slope = Some(corrected.slope);
         rate = Some((new.eigenvalue - last.eigenvalue) / length);
         t = t_new;
-        ds = match corrected.evaluations {
-            0..=3 => (ds * 1.5).min(settings.ds_max),
-            6.. => (ds * 0.7).max(settings.ds_min),
-            _ => ds,
-        };
+        step_control.adapt(corrected.evaluations);
         last = new;
         if ending {
             curve.stop = CurveStop::Range;

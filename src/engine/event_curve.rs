@@ -24,6 +24,7 @@ use super::arclength::{
 };
 use super::curve::{CurveSettings, CurveStop, Family};
 use super::events::{Event, EventKind};
+use super::step::StepControl;
 use super::{ContinuationSettings, Problem};
 use crate::{Error, Result};
 
@@ -93,7 +94,7 @@ pub fn follow_event_curve<F: Family>(
         stop: CurveStop::MaxPoints,
     };
     let mut last_member = member;
-    let mut ds = settings.ds;
+    let mut step = StepControl::new(settings.ds, settings.ds_min, settings.ds_max);
     while curve.points.len() < settings.max_points {
         let last = curve.points.last().expect("a curve has a first point");
         let remaining = (q_end - last.q) * q_direction.signum();
@@ -101,7 +102,7 @@ pub fn follow_event_curve<F: Family>(
             curve.stop = CurveStop::Range;
             return Ok(curve);
         }
-        let dq = (ds * q_unit).min(remaining);
+        let dq = (step.ds() * q_unit).min(remaining);
         let ending = dq >= remaining;
         let q = if ending {
             q_end
@@ -162,15 +163,14 @@ pub fn follow_event_curve<F: Family>(
             Ok((point, member)) => {
                 curve.points.push(point);
                 last_member = Rc::new(member);
-                ds = (ds * 1.5).min(settings.ds_max);
+                step.grow();
                 if ending {
                     curve.stop = CurveStop::Range;
                     return Ok(curve);
                 }
             }
             Err(e) => {
-                ds *= 0.5;
-                if ds < settings.ds_min {
+                if step.failed().is_err() {
                     curve.stop = CurveStop::StepTooSmall(e.to_string());
                     return Ok(curve);
                 }

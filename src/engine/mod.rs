@@ -18,6 +18,7 @@ pub mod newton;
 pub mod periodic;
 pub mod reference;
 pub mod stability;
+pub mod step;
 
 use faer::Mat;
 use serde::{Deserialize, Serialize};

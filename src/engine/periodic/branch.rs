@@ -14,7 +14,7 @@
 //! `s_k . (y - y_pred) = 0`, so that folds in `p` (where a subcritical branch turns back and
 //! gains stability) are passed without special treatment. The step grows by 1.5 after a
 //! correction of at most 3 iterations, is halved after a failure down to `ds_min`, and is at
-//! most `ds_max`.
+//! most `ds_max` ([`crate::engine::step::StepControl`], never shrinking after a hard correction).
 //!
 //! **Events** between successive orbits: a fold where `p` turns; a change of the count of
 //! multipliers outside the unit circle, typed by the multiplier that crossed (nearest the unit
@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 use super::ImplicitDynamics;
 use super::orbit::{Condition, Orbit, ShootingSettings, shoot};
 use crate::Result;
+use crate::engine::step::StepControl;
 use crate::error::ensure_setting;
 
 /// Settings of the orbit branch.
@@ -330,8 +331,10 @@ pub fn resume_orbits(
         let chord: Vec<f64> = yb.iter().zip(&ya).map(|(b, a)| b - a).collect();
         let length = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
         let secant: Vec<f64> = chord.iter().map(|v| v / length).collect();
-        let mut ds = state.ds;
+        let mut step =
+            StepControl::new(state.ds, settings.ds_min, settings.ds_max).never_shrinking();
         let attempt = loop {
+            let ds = step.ds();
             let predicted: Vec<f64> = yb.iter().zip(&secant).map(|(y, s)| y + ds * s).collect();
             // The guess: the last orbit's state moved along the secant (algebraic part kept).
             let mut guess = b.u.clone();
@@ -353,8 +356,7 @@ pub fn resume_orbits(
             match tried {
                 Ok(orbit) => break Ok(orbit),
                 Err(e) => {
-                    ds *= 0.5;
-                    if ds < settings.ds_min {
+                    if step.failed().is_err() {
                         break Err(e.to_string());
                     }
                 }
@@ -364,9 +366,7 @@ pub fn resume_orbits(
             Ok(o) => o,
             Err(reason) => break OrbitStop::StepTooSmall(reason),
         };
-        if orbit.iterations <= 3 {
-            ds = (ds * 1.5).min(settings.ds_max);
-        }
+        step.adapt(orbit.iterations);
         if (b.p - a.p) * (orbit.p - b.p) < 0.0 {
             events.push(OrbitEvent {
                 kind: OrbitEventKind::Fold,
@@ -385,7 +385,7 @@ pub fn resume_orbits(
             previous: state.last.clone(),
             last: OrbitSeed::of(&orbit),
             scale: scale.clone(),
-            ds,
+            ds: step.ds(),
             next_index: k + 1,
             events: events.clone(),
         };
