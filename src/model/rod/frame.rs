@@ -143,6 +143,30 @@ impl Chart {
     }
 }
 
+/// `config` (twist measured in the chart `from`) with its twist re-expressed in the chart `to`:
+/// the same positions and the same material frames and discrete twists, hence the same energy.
+///
+/// With `mref_from`, `mref_to` the reference twists of the two charts carried to `config.x`
+/// ([`Chart::transported`], unwrapped as the energy unwraps them), the twists
+/// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped, its director the same in
+/// both) when `theta_to^j = theta^j + sum_{i <= j} (mref_from_i - mref_to_i)`; exact, including
+/// the multiples of `2 pi`, as long as no edge of `config` points opposite to its tangent in
+/// either chart (where the parallel transport is singular).
+pub fn rechart(config: &Config, from: &Chart, to: &Chart) -> Config {
+    let a = from.transported(&config.x);
+    let b = to.transported(&config.x);
+    let mut theta = config.theta.clone();
+    let mut shift = 0.0;
+    for (j, t) in theta.iter_mut().enumerate().skip(1) {
+        shift += a.ref_twist[j] - b.ref_twist[j];
+        *t += shift;
+    }
+    Config {
+        x: config.x.clone(),
+        theta,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,29 +197,5 @@ mod tests {
             assert!(t.dot(d).abs() < 1e-14 && (d.norm() - 1.0).abs() < 1e-14);
         }
         assert!(chart.ref_twist.iter().all(|m| m.abs() < 1e-14));
-    }
-}
-
-/// `config` (twist measured in the chart `from`) with its twist re-expressed in the chart `to`:
-/// the same positions and the same material frames and discrete twists, hence the same energy.
-///
-/// With `mref_from`, `mref_to` the reference twists of the two charts carried to `config.x`
-/// ([`Chart::transported`], unwrapped as the energy unwraps them), the twists
-/// `m_i = theta^i - theta^{i-1} + mref_i` agree (edge 0 is clamped, its director the same in
-/// both) when `theta_to^j = theta^j + sum_{i <= j} (mref_from_i - mref_to_i)`; exact, including
-/// the multiples of `2 pi`, as long as no edge of `config` points opposite to its tangent in
-/// either chart (where the parallel transport is singular).
-pub fn rechart(config: &Config, from: &Chart, to: &Chart) -> Config {
-    let a = from.transported(&config.x);
-    let b = to.transported(&config.x);
-    let mut theta = config.theta.clone();
-    let mut shift = 0.0;
-    for (j, t) in theta.iter_mut().enumerate().skip(1) {
-        shift += a.ref_twist[j] - b.ref_twist[j];
-        *t += shift;
-    }
-    Config {
-        x: config.x.clone(),
-        theta,
     }
 }
