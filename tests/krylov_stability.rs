@@ -13,10 +13,11 @@ use helixbif::problem::rod::{Parameter, RodProblem, omega_scale};
 use helixbif::analysis::locate::locate;
 
 use helixbif::analysis::solve::rest_state;
-use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
+use helixbif::engine::arclength::{Limits, follow};
 use helixbif::engine::krylov::{Refusal, rightmost, shift_after};
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stability::{Spectrum, eigen_counts, leading, reset_eigen_counts, spectrum};
+use helixbif::engine::stop::{Silent, Stop};
 use helixbif::engine::{ContinuationSettings, EigenMethod, Linearization, Problem};
 use helixbif::model::Model;
 use helixbif::model::params::Physical;

@@ -5,10 +5,11 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::engine::arclength::{Branch, Limits, Observer, Stop, follow};
+use crate::engine::arclength::{Branch, BranchStop, Limits, Point, follow};
 use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::engine::events::{Event, EventKind};
 use crate::engine::newton::NewtonSettings;
+use crate::engine::stop::{Observer, Stop};
 use crate::engine::{ContinuationSettings, Problem};
 use crate::model::Model;
 use crate::model::observables::{Observables, height};
@@ -27,7 +28,7 @@ pub fn trace(
     omegabar_max: f64,
     settings: &ContinuationSettings,
     stop_at_first_instability: bool,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let (branch, _) = trace_in_chart(
         model,
@@ -47,7 +48,7 @@ fn trace_in_chart(
     omegabar_max: f64,
     settings: &ContinuationSettings,
     stop_at_first_instability: bool,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<(Branch, Chart)> {
     model.check_resolution()?;
     if !model.fluid.is_mass_matrix() {
@@ -175,7 +176,7 @@ pub fn locate(
     omega_max: f64,
     newton: &NewtonSettings,
     settings: &ContinuationSettings,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<(Located, Option<Critical>)> {
     model.check_resolution()?;
     let rest = rest_state(model, newton)?;
@@ -206,8 +207,8 @@ pub fn locate(
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
     match branch.stop {
-        Stop::FirstInstability => {}
-        Stop::UnstableAtStart => {
+        Stop::Own(BranchStop::FirstInstability) => {}
+        Stop::Own(BranchStop::UnstableAtStart) => {
             let count = branch.points[0].spectrum.unstable;
             let located = Located {
                 kind: "unstable_at_rest".into(),
@@ -230,10 +231,15 @@ pub fn locate(
                  no instability found"
             )));
         }
-        Stop::Rule(reason) => {
+        Stop::Own(BranchStop::Rule(reason)) => {
             return Err(crate::Error::Numerical(format!(
                 "the continuation was ended by a stop rule at omega = {reached_omega:.6e} rad/s: \
                  {reason}"
+            )));
+        }
+        Stop::Observer => {
+            return Err(crate::Error::Numerical(format!(
+                "the continuation was ended by its observer at omega = {reached_omega:.6e} rad/s"
             )));
         }
         Stop::MaxPoints => {

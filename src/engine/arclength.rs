@@ -61,6 +61,7 @@ use super::newton::{
 };
 use super::stability::{Spectrum, is_complex, leading};
 use super::step::StepControl;
+use super::stop::{Observer, Stop};
 use super::{ContinuationSettings, Linearization, Problem};
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
@@ -90,21 +91,15 @@ pub struct Point {
     pub uncertainty: f64,
 }
 
-/// Why a continuation ended.
+/// The arclength run's own reasons to end ([`Stop::Own`]), each given by a stop rule.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Stop {
-    /// The parameter left `[p_min, p_max]`.
-    ParameterLimit,
-    /// `max_points` points were accepted.
-    MaxPoints,
-    /// The first loss of stability was found (with [`Limits::stop_at_first_instability`]).
+pub enum BranchStop {
+    /// The first loss of stability was found ([`FirstInstability`], with
+    /// [`Limits::stop_at_first_instability`]).
     FirstInstability,
-    /// The starting point is already unstable (with [`Limits::stop_at_first_instability`]):
-    /// there is no loss of stability to find.
+    /// The starting point is already unstable ([`FirstInstability`]): there is no loss of
+    /// stability to find.
     UnstableAtStart,
-    /// The corrector failed down to the smallest step; the reason of the last failure (a state
-    /// the problem refused, when any attempt met one: [`Error::is_refused_state`]).
-    StepTooSmall(String),
     /// A stop rule of the caller's ended the run (its reason).
     Rule(String),
 }
@@ -123,7 +118,7 @@ pub struct Limits {
 pub struct Branch {
     pub points: Vec<Point>,
     pub events: Vec<Event>,
-    pub stop: Stop,
+    pub stop: Stop<BranchStop>,
 }
 
 impl Branch {
@@ -140,16 +135,6 @@ impl Branch {
             .unwrap_or(&self.points[0])
     }
 }
-
-/// Receives the points and events as they are found (for writers and progress bars).
-pub trait Observer {
-    fn point(&mut self, _point: &Point) {}
-    fn event(&mut self, _event: &Event) {}
-}
-
-/// An observer that ignores everything.
-pub struct Silent;
-impl Observer for Silent {}
 
 /// The weighted inner product (1).
 #[derive(Clone, Copy, Debug)]
@@ -554,10 +539,15 @@ impl<P: Problem> Detector<P> for CrossingDetector {
 /// A stop rule: sees the first point and every accepted step (its two ends and the events
 /// located in it), and may end the run.
 pub trait StopRule {
-    fn start(&mut self, _first: &Point) -> ControlFlow<Stop> {
+    fn start(&mut self, _first: &Point) -> ControlFlow<Stop<BranchStop>> {
         ControlFlow::Continue(())
     }
-    fn step(&mut self, before: &Point, after: &Point, events: &[Event]) -> ControlFlow<Stop>;
+    fn step(
+        &mut self,
+        before: &Point,
+        after: &Point,
+        events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>>;
 }
 
 /// Ends the run once a point lies outside `[p_min, p_max]` (that point included).
@@ -567,7 +557,12 @@ pub struct ParameterRange {
 }
 
 impl StopRule for ParameterRange {
-    fn step(&mut self, _before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        _before: &Point,
+        after: &Point,
+        _events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if after.p > self.p_max || after.p < self.p_min {
             ControlFlow::Break(Stop::ParameterLimit)
         } else {
@@ -580,16 +575,21 @@ impl StopRule for ParameterRange {
 pub struct FirstInstability;
 
 impl StopRule for FirstInstability {
-    fn start(&mut self, first: &Point) -> ControlFlow<Stop> {
+    fn start(&mut self, first: &Point) -> ControlFlow<Stop<BranchStop>> {
         if first.spectrum.unstable > 0 {
-            ControlFlow::Break(Stop::UnstableAtStart)
+            ControlFlow::Break(Stop::Own(BranchStop::UnstableAtStart))
         } else {
             ControlFlow::Continue(())
         }
     }
-    fn step(&mut self, before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        before: &Point,
+        after: &Point,
+        _events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if before.spectrum.unstable == 0 && after.spectrum.unstable > 0 {
-            ControlFlow::Break(Stop::FirstInstability)
+            ControlFlow::Break(Stop::Own(BranchStop::FirstInstability))
         } else {
             ControlFlow::Continue(())
         }
@@ -621,7 +621,7 @@ pub struct Continuation<'a, P: Problem> {
     refused: Option<String>,
     /// Whether the last point may move the chart before the next step.
     rechart: bool,
-    stop: Option<Stop>,
+    stop: Option<Stop<BranchStop>>,
 }
 
 impl<'a, P: Problem> Continuation<'a, P> {
@@ -693,7 +693,7 @@ impl<'a, P: Problem> Continuation<'a, P> {
     }
 
     /// Why the iterator ended, once it has.
-    pub fn stop(&self) -> Option<&Stop> {
+    pub fn stop(&self) -> Option<&Stop<BranchStop>> {
         self.stop.as_ref()
     }
 
@@ -881,7 +881,7 @@ pub fn follow<P: Problem>(
     direction: f64,
     settings: &ContinuationSettings,
     limits: &Limits,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let mut range = ParameterRange {
         p_min: limits.p_min,
@@ -898,15 +898,16 @@ pub fn follow<P: Problem>(
 }
 
 /// Runs `run` to its end under the stop rules `rules` (in order; the first to break ends the
-/// run) and at most `max_points` points, telling `observer` every point and event.
+/// run) and at most `max_points` points, telling `observer` every point and event (it may end
+/// the run too, [`Stop::Observer`]).
 pub fn follow_with<P: Problem>(
     mut run: Continuation<'_, P>,
     rules: &mut [&mut dyn StopRule],
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let max_points = run.settings.max_points;
     let first = run.current().clone();
-    observer.point(&first);
+    let told = observer.point(&first);
     let mut branch = Branch {
         points: vec![first],
         events: Vec::new(),
@@ -915,6 +916,7 @@ pub fn follow_with<P: Problem>(
     if let Some(stop) = rules
         .iter_mut()
         .find_map(|r| r.start(&branch.points[0]).break_value())
+        .or(told.is_break().then_some(Stop::Observer))
     {
         branch.stop = stop;
         return Ok(branch);
@@ -927,14 +929,16 @@ pub fn follow_with<P: Problem>(
         let Outcome::Accepted { point, events } = outcome? else {
             continue;
         };
+        let mut ended = false;
         for event in &events {
-            observer.event(event);
+            ended |= observer.event(event).is_break();
         }
-        observer.point(&point);
+        ended |= observer.point(&point).is_break();
         let before = branch.points.last().expect("the branch has a first point");
         let stop = rules
             .iter_mut()
-            .find_map(|r| r.step(before, &point, &events).break_value());
+            .find_map(|r| r.step(before, &point, &events).break_value())
+            .or(ended.then_some(Stop::Observer));
         branch.events.extend(events);
         branch.points.push(point);
         if let Some(stop) = stop {

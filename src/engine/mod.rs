@@ -5,8 +5,23 @@
 //! stability of a solution. [`arclength::follow`] traces a branch of solutions by
 //! pseudo-arclength continuation, [`stability`] computes the leading eigenvalues at each point,
 //! and [`events`] detects and pins down folds, branch points and Hopf points between points.
+//! [`curve`] and [`event_curve`] follow a Hopf point, a fold or a branch point in a second
+//! parameter, [`periodic`] the orbits born at a Hopf point, [`criticality`] gives the first
+//! Lyapunov coefficient of a Hopf point. Every driver shares the step-size control ([`step`]),
+//! the reasons a run ends and the observers that watch it ([`stop`]).
 //! [`reference`] holds canonical problems with exact answers (fold, pitchfork, Hopf normal form,
 //! Brusselator) shared by the tests and the benchmarks.
+//!
+//! Three kinds of events are kept apart, each with the names it has in files: the events of a
+//! branch of equilibria ([`events::EventKind`]: `fold`, `branch_point`, `hopf`,
+//! `mode_exchange`), the special points of a Hopf curve ([`curve::SpecialKind`]: `double_hopf`,
+//! `zero_hopf`, `turning`, `bogdanov_takens`, `generalized_hopf`) and the events of a branch of
+//! periodic orbits ([`periodic::branch::OrbitEventKind`]: `fold`, `cycle_fold`,
+//! `period_doubling`, `torus`). They are different objects found by different tests: an
+//! eigenvalue of an equilibrium crossing the imaginary axis between two points, a point of
+//! codimension two on a curve of Hopf points, a Floquet multiplier crossing the unit circle
+//! (bracketed by two orbits, not located); a fold of equilibria and a fold of orbits share a name
+//! but not their meaning, and no event of one kind is ever compared with one of another.
 
 pub mod arclength;
 pub mod criticality;
@@ -19,6 +34,7 @@ pub mod periodic;
 pub mod reference;
 pub mod stability;
 pub mod step;
+pub mod stop;
 
 use faer::Mat;
 use serde::{Deserialize, Serialize};

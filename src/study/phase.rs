@@ -17,7 +17,7 @@ use super::{LAMBDA_OVER_L, Study};
 use crate::analysis::boundary::BoundaryPoint;
 use crate::analysis::locate::{observables_at, trace};
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::Silent;
+use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::params::Field;
 use crate::model::params::ShapeParams;

@@ -1,6 +1,7 @@
 //! The runs behind `helixbif branch` and `helixbif locate`: continuation with results streamed
 //! to disk and progress on stderr.
 
+use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -10,8 +11,9 @@ use serde::Serialize;
 use crate::analysis::locate::{Critical, Located, locate, observables_at, trace};
 
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::{Observer, Point, Stop};
+use crate::engine::arclength::{BranchStop, Point};
 use crate::engine::events::Event;
+use crate::engine::stop::{Observer, Stop};
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
 use crate::problem::steady::SteadyState;
@@ -92,8 +94,8 @@ impl BranchWriter<'_> {
     }
 }
 
-impl Observer for BranchWriter<'_> {
-    fn point(&mut self, point: &Point) {
+impl Observer<Point, Event> for BranchWriter<'_> {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
         let result = observables_at(self.model, self.rest, &point.u, point.p).and_then(|o| {
             let row = BranchRow {
                 s: point.s,
@@ -122,9 +124,10 @@ impl Observer for BranchWriter<'_> {
             self.model.scales.omega_from_bar(point.p),
             point.spectrum.unstable
         ));
+        ControlFlow::Continue(())
     }
 
-    fn event(&mut self, event: &Event) {
+    fn event(&mut self, event: &Event) -> ControlFlow<()> {
         let time = self.model.scales.time;
         let result = observables_at(self.model, self.rest, &event.u, event.p).and_then(|o| {
             let row = EventRow {
@@ -146,6 +149,7 @@ impl Observer for BranchWriter<'_> {
             Ok(())
         });
         self.record(result);
+        ControlFlow::Continue(())
     }
 }
 
@@ -213,10 +217,11 @@ pub fn run_branch(
     let stop = match &branch.stop {
         Stop::ParameterLimit => "omega_max reached".to_string(),
         Stop::MaxPoints => "max_points reached".to_string(),
-        Stop::FirstInstability => "first instability".to_string(),
-        Stop::UnstableAtStart => "unstable at rest".to_string(),
+        Stop::Own(BranchStop::FirstInstability) => "first instability".to_string(),
+        Stop::Own(BranchStop::UnstableAtStart) => "unstable at rest".to_string(),
         Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
-        Stop::Rule(reason) => format!("stop rule: {reason}"),
+        Stop::Own(BranchStop::Rule(reason)) => format!("stop rule: {reason}"),
+        Stop::Observer => "ended by its observer".to_string(),
     };
     let report = BranchReport {
         stalled: matches!(branch.stop, Stop::StepTooSmall(_)),
@@ -244,14 +249,15 @@ struct LocateProgress<'a> {
     omegabar_max: f64,
 }
 
-impl Observer for LocateProgress<'_> {
-    fn point(&mut self, point: &Point) {
+impl Observer<Point, Event> for LocateProgress<'_> {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
         self.bar
             .set_position(((point.p / self.omegabar_max).clamp(0.0, 1.0) * 1000.0) as u64);
         self.bar.set_message(format!(
             "omega = {:.5} rad/s",
             self.model.scales.omega_from_bar(point.p)
         ));
+        ControlFlow::Continue(())
     }
 }
 
@@ -259,7 +265,7 @@ impl Observer for LocateProgress<'_> {
 pub fn locate_study(
     study: &Study,
     model: &Model,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<(Located, Option<Critical>)> {
     locate(
         model,
