@@ -39,5 +39,6 @@ pub fn others(spectrum: &Spectrum, track: c64) -> Spectrum {
     Spectrum {
         leading: rest,
         unstable,
+        solver: spectrum.solver.clone(),
     }
 }
