@@ -9,8 +9,9 @@
 //! parameter, [`periodic`] the orbits born at a Hopf point, [`criticality`] gives the first
 //! Lyapunov coefficient of a Hopf point. Every driver shares the step-size control ([`step`]),
 //! the reasons a run ends and the observers that watch it ([`stop`]).
-//! [`reference`] holds canonical problems with exact answers (fold, pitchfork, Hopf normal form,
-//! Brusselator) shared by the tests and the benchmarks.
+//! `reference` (with the feature `reference-problems`, which the tests and benchmarks turn on)
+//! holds canonical problems with exact answers (fold, pitchfork, Hopf normal form, Brusselator)
+//! shared by the tests and the benchmarks.
 //!
 //! Three kinds of events are kept apart, each with the names it has in files: the events of a
 //! branch of equilibria ([`events::EventKind`]: `fold`, `branch_point`, `hopf`,
@@ -31,6 +32,7 @@ pub mod events;
 pub mod krylov;
 pub mod newton;
 pub mod periodic;
+#[cfg(feature = "reference-problems")]
 pub mod reference;
 pub mod stability;
 pub mod step;
