@@ -19,12 +19,11 @@
 //!
 //! The tangent at the new point solves the same matrix with right-hand side `(0, 1)`, normalized
 //! in (1); this keeps its orientation, so turning points (folds, where `p` turns back) are passed
-//! without special treatment. The step grows by 1.5 after an easy correction (at most 3
-//! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure
-//! ([`super::step::StepControl`]), or
-//! when the corrector travelled more than half a step from the predicted point, or when the
-//! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
-//! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
+//! without special treatment. The step ([`super::step::StepControl`]) grows by 1.5 after an easy
+//! correction (at most 3 iterations), shrinks by 0.7 after a hard one (6 or more) and is halved
+//! after a failure, or when the corrector travelled more than half a step from the predicted
+//! point, or when the chord from the last point turned by more than about 30 degrees from its
+//! tangent (signs of a jump to another branch). No step moves the parameter by more than `max_parameter_step` times
 //! the range followed (by default 1/60, or 1/4 where the run stops at the first loss of
 //! stability), nor goes more than a hundredth of that past the range's end, nor more than 1.5
 //! times past where an eigenvalue extrapolated from the last two points reaches the axis.

@@ -46,9 +46,10 @@ pub enum Stop<Own = Infallible> {
 }
 
 /// Sees the points `P` and events `E` of a run as they are found (writers, progress bars,
-/// searches), and may end the run: `ControlFlow::Break` ends it after the point, or at the point
-/// that follows the event, with [`Stop::Observer`] (unless a stop rule ends it there too, whose
-/// reason is kept).
+/// searches), and may end the run with [`Stop::Observer`]: `ControlFlow::Break` ends it after
+/// the point, or after the event (a branch at the point that closes the event's step, unless a
+/// stop rule ends it there too, whose reason is kept; a Hopf curve at the special point, its last
+/// point).
 pub trait Observer<P, E> {
     /// An accepted point.
     fn point(&mut self, _point: &P) -> ControlFlow<()> {

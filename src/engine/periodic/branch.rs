@@ -65,8 +65,8 @@ impl Default for OrbitBranchSettings {
 
 impl OrbitBranchSettings {
     /// Checks ranges: the shooting's, `amplitude > 0`, `0 < ds_min <= 1 <= ds_max`,
-    /// `max_orbits >= 2`; an error names the field (`ds_max` for the pair of steps), one name
-    /// space with the shooting's and the flow's.
+    /// `max_orbits >= 2`; an error names the field (`ds_max` for the pair of steps), as the
+    /// shooting's and the flow's do theirs (`tol`, `steps`, ...).
     pub fn validate(&self) -> Result<()> {
         self.shooting.validate()?;
         ensure_setting(
