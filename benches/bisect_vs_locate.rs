@@ -13,8 +13,8 @@ use std::time::Instant;
 use helixbif::analysis::dynamics::{BisectSettings, bisect};
 use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::engine::ContinuationSettings;
-use helixbif::engine::arclength::Silent;
 use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
 use helixbif::model::params::Physical;
 

@@ -5,7 +5,8 @@
 //! Lighthill operator is indefinite beyond N = 87); each as a multiple of one LU factorization
 //! of a matrix of the same size (`helixbif::numerics::lu::Lu`, as the Krylov path makes it). The Krylov shift is seeded, as along a branch, from a leading
 //! spectrum of the same state. Then `locate` at N = 60 (Lighthill) with each
-//! `continuation.eigen`, with the number of Krylov results, dense solves and fallbacks.
+//! `continuation.eigen`, with the number of Krylov results, dense solves and fallbacks among the
+//! spectra of the branch's points and events.
 //!
 //! Run: `cargo bench --bench eigen`.
 
@@ -14,10 +15,10 @@ mod common;
 use faer::Mat;
 use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::solve::solve_at;
-use helixbif::engine::arclength::Silent;
 use helixbif::engine::krylov::shift_after;
 use helixbif::engine::newton::NewtonSettings;
-use helixbif::engine::stability::{eigen_counts, leading, reset_eigen_counts, spectrum};
+use helixbif::engine::stability::{EigenCounts, leading, spectrum};
+use helixbif::engine::stop::Silent;
 use helixbif::engine::{ContinuationSettings, EigenMethod};
 use helixbif::model::Model;
 use helixbif::model::fluid::FluidModel;
@@ -82,11 +83,12 @@ fn main() {
         let dense = common::median_seconds(repeats, || {
             std::hint::black_box(spectrum(&k, &m, 6).unwrap());
         });
-        reset_eigen_counts();
+        let mut counts = EigenCounts::default();
         let krylov = common::median_seconds(repeats, || {
-            std::hint::black_box(leading(&k, &m, 6, EigenMethod::Krylov, Some(&prior)).unwrap());
+            counts.add(&std::hint::black_box(
+                leading(&k, &m, 6, EigenMethod::Krylov, Some(&prior)).unwrap(),
+            ));
         });
-        let counts = eigen_counts();
         let found = leading(&k, &m, 6, EigenMethod::Krylov, Some(&prior)).unwrap();
         let agreement = found
             .leading
@@ -142,9 +144,20 @@ fn main() {
         let seconds = common::median_seconds(3, || {
             std::hint::black_box(run().unwrap());
         });
-        reset_eigen_counts();
-        let omega_b = run().unwrap().0.omega_b.unwrap();
-        let counts = eigen_counts();
+        let mut counts = EigenCounts::default();
+        let omega_b = locate(
+            &m,
+            &LocateSettings {
+                omega_max: 2.0,
+                newton: &NewtonSettings::default(),
+                continuation: &settings,
+            },
+            &mut counts,
+        )
+        .unwrap()
+        .0
+        .omega_b
+        .unwrap();
         let dense_seconds = *reference.get_or_insert(seconds);
         println!(
             "{:>7} {seconds:>10.4} {omega_b:>16.12} {:>7} {:>6} {:>9}   ({:.2}x dense)",

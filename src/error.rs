@@ -4,8 +4,11 @@
 //! message.
 //!
 //! Bad input (exit code 2 at the command line) is kept apart from numerical failure (exit code 1):
-//! [`Error::is_input`] tells which is which.
+//! [`Error::is_input`] tells which is which. The engine names its own settings
+//! ([`EngineError::Setting`]); a front end that took them from a study table or from options
+//! renames them with [`Error::naming_setting`].
 
+use faer::c64;
 use thiserror::Error;
 
 /// Everything that can go wrong in `helixbif`.
@@ -54,6 +57,20 @@ pub enum EngineError {
     /// (the front ends say where it comes from: a study key, an option).
     #[error("invalid input: {setting}: {message}")]
     Setting { setting: String, message: String },
+
+    /// A two-parameter family has no member at the value of its second parameter asked for
+    /// (why, in the member's words): a curve that meets this comes as near that end of the
+    /// family as its smallest step allows and stops there. A numerical failure, so worded.
+    #[error("numerical failure: no member of the family there: {0}")]
+    NoMember(Box<Error>),
+
+    /// The complex pair a Hopf curve tracks has met on the real axis: the curve ends at a
+    /// Bogdanov-Takens point near there. A numerical failure, so worded.
+    #[error(
+        "numerical failure: the tracked pair has become real: {track} (a Bogdanov-Takens point \
+         is near)"
+    )]
+    PairBecameReal { track: c64 },
 }
 
 /// A failure of the physical model.
@@ -73,6 +90,23 @@ impl Error {
             field: field.into(),
             message: message.into(),
         }
+    }
+
+    /// An engine setting out of range ([`EngineError::Setting`]), named as the engine names it.
+    pub fn setting(setting: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Engine(EngineError::Setting {
+            setting: setting.into(),
+            message: message.into(),
+        })
+    }
+
+    /// True where the problem refused the state it was asked about: it has no admissible state
+    /// there (the rod's mobility is not positive definite, parts of it too close). The engine
+    /// takes this for where the problem ends, not for a numerical difficulty: Newton's line
+    /// search gives it as its reason when every trial point met it, and a continuation that
+    /// runs out of step names it as the reason it stopped.
+    pub fn is_refused_state(&self) -> bool {
+        matches!(self, Error::Model(ModelError::NotPositiveDefinite { .. }))
     }
 
     /// True for errors caused by bad user input (exit code 2), false for numerical or I/O
@@ -103,6 +137,15 @@ pub(crate) fn ensure(condition: bool, field: &str, message: String) -> Result<()
         Ok(())
     } else {
         Err(Error::input(field, message))
+    }
+}
+
+/// `Ok` when `condition` holds, else an engine setting error naming `setting` with `message`.
+pub fn ensure_setting(condition: bool, setting: &str, message: String) -> Result<()> {
+    if condition {
+        Ok(())
+    } else {
+        Err(Error::setting(setting, message))
     }
 }
 

@@ -9,10 +9,11 @@ use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
-use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
+use helixbif::engine::arclength::{BranchStop, Limits, follow};
 use helixbif::engine::criticality::Verdict;
 use helixbif::engine::events::EventKind;
 use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stop::{Silent, Stop};
 use helixbif::model::Model;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::numerics::fit::extrapolate;
@@ -39,7 +40,7 @@ fn greenhill(nodes: usize) -> f64 {
         stop_at_first_instability: true,
     };
     let branch = follow(&problem, u0, 0.0, 1.0, &settings, &limits, &mut Silent).unwrap();
-    assert_eq!(branch.stop, Stop::FirstInstability);
+    assert_eq!(branch.stop, Stop::Own(BranchStop::FirstInstability));
     let event = branch.events.last().unwrap();
     assert_eq!(event.kind, EventKind::BranchPoint);
     // The two bending planes of the round rod buckle together.

@@ -4,11 +4,12 @@
 use std::ops::ControlFlow;
 
 use helixbif::engine::arclength::{
-    Continuation, Detector, Limits, Metric, Outcome, Point, Silent, Stop, StopRule, follow,
+    BranchStop, Continuation, Detector, Limits, Metric, Outcome, Point, StopRule, follow,
     follow_with,
 };
 use helixbif::engine::events::{Event, EventKind};
 use helixbif::engine::reference::{Reference, brusselator, fold, hopf_normal_form, pitchfork};
+use helixbif::engine::stop::{Silent, Stop};
 use helixbif::engine::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
@@ -380,9 +381,14 @@ impl Detector<Reference> for LevelCrossing {
 struct PastHalf;
 
 impl StopRule for PastHalf {
-    fn step(&mut self, _before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        _before: &Point,
+        after: &Point,
+        _events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if after.u[0] > 0.5 {
-            ControlFlow::Break(Stop::Rule("u passed 0.5".into()))
+            ControlFlow::Break(Stop::Own(BranchStop::Rule("u passed 0.5".into())))
         } else {
             ControlFlow::Continue(())
         }
@@ -412,7 +418,10 @@ fn the_run_is_an_iterator_of_typed_steps_that_takes_user_detectors_and_stop_rule
         .with_detector(Box::new(LevelCrossing(0.25)));
     let mut rule = PastHalf;
     let branch = follow_with(run, &mut [&mut rule], &mut Silent).unwrap();
-    assert_eq!(branch.stop, Stop::Rule("u passed 0.5".into()));
+    assert_eq!(
+        branch.stop,
+        Stop::Own(BranchStop::Rule("u passed 0.5".into()))
+    );
     let names: Vec<&str> = branch.events.iter().map(|e| e.kind.name()).collect();
     assert_eq!(names, ["fold", "level"]);
     let level = &branch.events[1];

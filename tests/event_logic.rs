@@ -4,10 +4,11 @@
 //! cannot be evaluated.
 
 use faer::Mat;
-use helixbif::engine::arclength::{Branch, Limits, Silent, Stop, follow};
+use helixbif::engine::arclength::{Branch, BranchStop, Limits, follow};
 use helixbif::engine::events::EventKind;
 use helixbif::engine::newton::{self, NewtonSettings, System};
 use helixbif::engine::reference::{Analytic, Jacobian, Reference, Residual};
+use helixbif::engine::stop::{Silent, Stop};
 use helixbif::engine::{ContinuationSettings, Linearization, Problem};
 use helixbif::error::ModelError;
 use helixbif::{Error, Result};
@@ -100,7 +101,7 @@ fn the_first_loss_of_stability_is_the_first_event_not_the_last() {
     )
     .unwrap();
     assert_eq!(branch.events.len(), 2, "{:?}", branch.events);
-    assert_eq!(branch.stop, Stop::FirstInstability);
+    assert_eq!(branch.stop, Stop::Own(BranchStop::FirstInstability));
     let first = branch.first_loss_of_stability().expect("an instability");
     assert_eq!(first.kind, EventKind::Hopf);
     assert!(first.p.abs() <= 1e-10, "{}", first.p);

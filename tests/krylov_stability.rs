@@ -13,10 +13,11 @@ use helixbif::problem::rod::{Parameter, RodProblem, omega_scale};
 use helixbif::analysis::locate::{LocateSettings, locate};
 
 use helixbif::analysis::solve::rest_state;
-use helixbif::engine::arclength::{Limits, Silent, Stop, follow};
+use helixbif::engine::arclength::{Limits, follow};
 use helixbif::engine::krylov::{Refusal, rightmost, shift_after};
 use helixbif::engine::newton::NewtonSettings;
-use helixbif::engine::stability::{Spectrum, eigen_counts, leading, reset_eigen_counts, spectrum};
+use helixbif::engine::stability::{EigenCounts, Solver, Spectrum, leading, spectrum};
+use helixbif::engine::stop::{Silent, Stop};
 use helixbif::engine::{ContinuationSettings, EigenMethod, Linearization, Problem};
 use helixbif::model::Model;
 use helixbif::model::params::Physical;
@@ -156,16 +157,23 @@ fn an_unstable_pair_beyond_the_krylov_budget_is_left_to_the_dense_solver() {
     let prior = Spectrum {
         leading: values[..6].to_vec(),
         unstable: 0,
+        solver: Solver::Dense,
     };
     let refused = rightmost(&k, &m, 6, shift_after(&prior), 24);
     assert_eq!(refused, Err(Refusal::CountInDoubt));
-    reset_eigen_counts();
     let answer = leading(&k, &m, 6, EigenMethod::Krylov, Some(&prior)).unwrap();
-    let counts = eigen_counts();
+    let mut counts = EigenCounts::default();
+    counts.add(&answer);
     println!("{counts:?}");
     assert_eq!((counts.fallbacks, counts.dense, counts.krylov), (1, 1, 0));
     assert_eq!(answer.unstable, 2);
-    assert_eq!(answer, spectrum(&k, &m, 6).unwrap());
+    assert_eq!(
+        answer,
+        Spectrum {
+            solver: Solver::Fallback(Refusal::CountInDoubt),
+            ..spectrum(&k, &m, 6).unwrap()
+        }
+    );
 }
 
 /// The rod problem, recording every stability pair the engine asks for (each in the chart the
@@ -330,7 +338,7 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
                 eigen,
                 ..ContinuationSettings::default()
             };
-            reset_eigen_counts();
+            let mut tally = EigenCounts::default();
             let (located, _) = locate(
                 &model,
                 &LocateSettings {
@@ -338,10 +346,10 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
                     newton: &NewtonSettings::default(),
                     continuation: &settings,
                 },
-                &mut Silent,
+                &mut tally,
             )
             .unwrap();
-            (located.omega_b.unwrap(), eigen_counts())
+            (located.omega_b.unwrap(), tally)
         };
         let (dense, dense_counts) = omega_b(EigenMethod::Dense);
         let (krylov, krylov_counts) = omega_b(EigenMethod::Krylov);
@@ -351,7 +359,7 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
             (krylov / dense - 1.0).abs()
         );
         assert_eq!(dense_counts.krylov, 0);
-        // Every spectrum is Krylov's, the first point's too (shift 0, no spectrum before it).
+        // Every spectrum of the branch is Krylov's, the first point's too (shift 0, no spectrum before it).
         assert_eq!(krylov_counts.fallbacks, 0, "{krylov_counts:?}");
         assert_eq!(krylov_counts.dense, 0, "{krylov_counts:?}");
         assert!(krylov_counts.krylov > 10);
@@ -361,13 +369,11 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
 
 #[test]
 fn the_canonical_problems_give_the_same_events_with_either_eigensolver() {
-    use helixbif::engine::arclength::{Limits, follow};
     use helixbif::engine::reference::{Reference, brusselator, fold, hopf_normal_form, pitchfork};
-    let events = |problem: &dyn Fn(EigenMethod) -> Vec<(f64, usize, usize)>| {
-        let dense = problem(EigenMethod::Dense);
-        reset_eigen_counts();
-        let krylov = problem(EigenMethod::Krylov);
-        let counts = eigen_counts();
+    type Found = (Vec<(f64, usize, usize)>, EigenCounts);
+    let events = |problem: &dyn Fn(EigenMethod) -> Found| {
+        let (dense, _) = problem(EigenMethod::Dense);
+        let (krylov, counts) = problem(EigenMethod::Krylov);
         // A pencil of one or two unknowns whose eigenvalue passes zero (the fold) has an
         // eigenvalue far below the shift: there shift-invert is accurate only to round-off of
         // the shift, the backward error check refuses it, and the dense solver answers.
@@ -395,12 +401,14 @@ fn the_canonical_problems_give_the_same_events_with_either_eigensolver() {
                 p_max: range.1,
                 stop_at_first_instability: false,
             };
-            follow(problem, u0, p0, direction, &settings, &limits, &mut Silent)
+            let mut tally = EigenCounts::default();
+            let events = follow(problem, u0, p0, direction, &settings, &limits, &mut tally)
                 .unwrap()
                 .events
                 .iter()
                 .map(|e| (e.p, e.unstable_before, e.unstable_after))
-                .collect::<Vec<_>>()
+                .collect::<Vec<_>>();
+            (events, tally)
         };
     events(&|eigen| run(&fold(), vec![-1.0], 1.0, -1.0, (-1.0, 1.0), eigen));
     events(&|eigen| run(&pitchfork(0.0), vec![0.0], -1.0, 1.0, (-2.0, 1.0), eigen));

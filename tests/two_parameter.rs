@@ -2,12 +2,12 @@
 //! curves: the Brusselator's Hopf curve, a double Hopf point where the first loss of stability
 //! changes mode, and a curve that turns back in the second parameter.
 
+use std::ops::ControlFlow;
 use std::rc::Rc;
 
-use helixbif::engine::arclength::{Branch, Limits, Silent, follow};
+use helixbif::engine::arclength::{Branch, Limits, follow};
 use helixbif::engine::curve::{
-    Curve, CurveObserver, CurvePoint, CurveSettings, CurveStop, Special, SpecialKind, Through,
-    follow_curve, others,
+    Curve, CurveEnd, CurvePoint, CurveSettings, Special, SpecialKind, follow_curve, others,
 };
 use helixbif::engine::event_curve::{EventPoint, follow_event_curve};
 use helixbif::engine::events::EventKind;
@@ -15,6 +15,7 @@ use helixbif::engine::reference::{
     Members, bautin, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle,
     shifted_pitchfork,
 };
+use helixbif::engine::stop::{Observer, Silent, Stop};
 use helixbif::engine::{ContinuationSettings, Problem};
 
 fn settings() -> ContinuationSettings {
@@ -69,10 +70,10 @@ fn the_brusselator_hopf_curve_is_b_equals_one_plus_a_squared() {
         1.0,
         &CurveSettings::new(0.5, 3.0),
         &settings(),
-        &mut Through,
+        &mut Silent,
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Range);
+    assert_eq!(curve.stop, Stop::ParameterLimit);
     assert!(curve.points.len() >= 20, "{} points", curve.points.len());
     let end = curve.points.last().unwrap();
     assert!((end.q - 3.0).abs() <= 1e-14, "ends at a = {}", end.q);
@@ -108,10 +109,14 @@ struct FirstLoss {
     found: Vec<Special>,
 }
 
-impl CurveObserver for FirstLoss {
-    fn special(&mut self, special: &Special) -> bool {
+impl Observer<CurvePoint, Special> for FirstLoss {
+    fn event(&mut self, special: &Special) -> ControlFlow<()> {
         self.found.push(special.clone());
-        special.kind == SpecialKind::DoubleHopf && special.gains
+        if special.kind == SpecialKind::DoubleHopf && special.gains {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
 }
 
@@ -136,7 +141,7 @@ fn a_double_hopf_point_is_located_and_the_first_loss_of_stability_moves_to_the_o
         &mut observer,
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Observer);
+    assert_eq!(curve.stop, Stop::Observer);
     // The first curve: p = q + 0.3 q^2, frequency 1, up to the double Hopf point.
     for point in &curve.points {
         let exact = point.q + 0.3 * point.q * point.q;
@@ -180,10 +185,10 @@ fn a_double_hopf_point_is_located_and_the_first_loss_of_stability_moves_to_the_o
         1.0,
         &settings_curve,
         &settings(),
-        &mut Through,
+        &mut Silent,
     )
     .unwrap();
-    assert_eq!(next.stop, CurveStop::Range);
+    assert_eq!(next.stop, Stop::ParameterLimit);
     assert!(next.points.len() >= 5);
     for point in &next.points[1..] {
         assert!(
@@ -221,7 +226,7 @@ fn a_curve_that_turns_back_in_q_is_passed_and_its_turning_point_located() {
     )
     .unwrap();
     // Past the turning point the curve comes back down to q = -0.5 on the side p < 0.
-    assert_eq!(curve.stop, CurveStop::Range);
+    assert_eq!(curve.stop, Stop::ParameterLimit);
     let end = curve.points.last().unwrap();
     assert!(
         (end.q + 0.5).abs() <= 1e-14 && end.p < 0.0,
@@ -269,7 +274,7 @@ fn a_hopf_curve_ends_at_its_bogdanov_takens_point() {
         &mut observer,
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Ended);
+    assert_eq!(curve.stop, Stop::Own(CurveEnd::BogdanovTakens));
     for point in &curve.points[..curve.points.len() - 1] {
         assert!(point.p.abs() <= 1e-8, "q = {}: p = {}", point.q, point.p);
         let w = (-point.q).sqrt();
@@ -323,7 +328,7 @@ fn the_fold_curve_of_the_cusp_is_p_equals_two_thirds_q_to_the_three_halves() {
         &settings(),
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Range);
+    assert_eq!(curve.stop, Stop::ParameterLimit);
     assert!(curve.points.len() >= 10, "{} points", curve.points.len());
     assert!((curve.points.last().unwrap().q - 3.0).abs() < 1e-15);
     let mut worst: f64 = 0.0;
@@ -358,7 +363,7 @@ fn the_branch_point_curve_of_the_shifted_pitchfork_is_p_equals_q() {
         &settings(),
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Range);
+    assert_eq!(curve.stop, Stop::ParameterLimit);
     for point in &curve.points {
         assert_eq!(point.event.kind, EventKind::BranchPoint);
         assert!(
@@ -387,10 +392,10 @@ fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_si
         1.0,
         &curve_settings,
         &settings(),
-        &mut Through,
+        &mut Silent,
     )
     .unwrap();
-    assert_eq!(curve.stop, CurveStop::Range);
+    assert_eq!(curve.stop, Stop::ParameterLimit);
     for point in &curve.points {
         let l = point
             .lyapunov

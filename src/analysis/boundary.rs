@@ -12,6 +12,7 @@
 //! (neither on it nor at a turning point) is not seen by the curve; the end of the range is
 //! therefore checked against an independent `locate` ([`check_end`]).
 
+use std::ops::ControlFlow;
 use std::rc::Rc;
 
 use serde::{Serialize, Serializer};
@@ -20,14 +21,14 @@ use crate::analysis::locate::{LocateSettings, locate};
 
 use crate::analysis::branch::observables_at;
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::Silent;
 use crate::engine::criticality::Verdict;
 use crate::engine::curve::{
-    CurveObserver, CurvePoint, CurveSettings, CurveStop, Family, Special, SpecialKind, follow_curve,
+    CurveEnd, CurvePoint, CurveSettings, Family, Special, SpecialKind, follow_curve,
 };
 use crate::engine::event_curve::{EventPoint, follow_event_curve};
 use crate::engine::events::EventKind;
 use crate::engine::newton::NewtonSettings;
+use crate::engine::stop::{Observer, Silent, Stop};
 use crate::model::Model;
 use crate::numerics::fit::log_slopes;
 use crate::problem::family::RodFamily;
@@ -216,8 +217,8 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     }
 }
 
-impl<O: BoundaryObserver> CurveObserver for Recorder<'_, O> {
-    fn point(&mut self, point: &CurvePoint) {
+impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
+    fn point(&mut self, point: &CurvePoint) -> ControlFlow<()> {
         self.boundary.evaluations += point.evaluations;
         let result = self.row(point).and_then(|row| {
             self.boundary.points.push(row);
@@ -225,17 +226,22 @@ impl<O: BoundaryObserver> CurveObserver for Recorder<'_, O> {
             self.observer.grown(&self.boundary)
         });
         self.record(result);
+        ControlFlow::Continue(())
     }
 
     /// The boundary leaves the curve where the other mode is unstable beyond a double Hopf or
     /// zero-Hopf point, and at a turning point.
-    fn special(&mut self, special: &Special) -> bool {
+    fn event(&mut self, special: &Special) -> ControlFlow<()> {
         let switch = special.gains || special.kind == SpecialKind::Turning;
         let result = self.special_point(special, switch).map(|row| {
             self.boundary.special.push(row);
         });
         self.record(result);
-        switch
+        if switch {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
 }
 
@@ -324,13 +330,14 @@ fn follow_events<O: BoundaryObserver>(
             evaluations: point.iterations,
             ..CurvePoint::at_event(point.event.clone(), point.q)
         };
-        recorder.point(&on_curve);
+        // The recorder keeps every point; it never ends an event curve.
+        let _ = recorder.point(&on_curve);
     }
     if let Some(e) = recorder.error.take() {
         return Err(e);
     }
     match curve.stop {
-        CurveStop::Range => Ok(()),
+        Stop::ParameterLimit => Ok(()),
         stop => Err(Error::Numerical(format!(
             "the {} curve stopped at {} = {:.6e}: {stop:?}",
             kind.name(),
@@ -416,34 +423,34 @@ fn follow_segments<O: BoundaryObserver>(
         }
         let at = || curve.points.last().map_or(from, |p| p.q);
         match curve.stop {
-            CurveStop::Range => return Ok(()),
-            CurveStop::MaxPoints => {
+            Stop::ParameterLimit => return Ok(()),
+            Stop::MaxPoints => {
                 return Err(Error::Numerical(format!(
                     "the curve used all {} points",
                     curve_settings.max_points
                 )));
             }
-            CurveStop::StepTooSmall(reason) => {
+            Stop::StepTooSmall(reason) => {
                 return Err(Error::Numerical(format!(
                     "the boundary curve stalled at {key} = {:.6e}: {reason}",
                     at()
                 )));
             }
-            CurveStop::NoMember(reason) => {
+            Stop::Own(CurveEnd::NoMember(reason)) => {
                 return Err(Error::Numerical(format!(
                     "the boundary curve ends at {key} = {:.6e}, past which the study has no \
                      admissible model: {reason}",
                     at()
                 )));
             }
-            CurveStop::Ended => {
+            Stop::Own(CurveEnd::BogdanovTakens) => {
                 return Err(Error::Numerical(format!(
                     "the Hopf curve ends at a Bogdanov-Takens point at {key} = {:.6e}: past it \
                      the boundary is a fold curve, which boundary does not follow",
                     at()
                 )));
             }
-            CurveStop::Observer => {}
+            Stop::Observer => {}
         }
         let special = curve
             .special

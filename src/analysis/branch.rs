@@ -3,7 +3,9 @@
 
 use crate::Result;
 use crate::engine::ContinuationSettings;
-use crate::engine::arclength::{Branch, Limits, Observer, follow};
+use crate::engine::arclength::{Branch, Limits, Point, follow};
+use crate::engine::events::Event;
+use crate::engine::stop::Observer;
 use crate::model::Model;
 use crate::model::observables::{Observables, height};
 use crate::model::rod::frame::Chart;
@@ -19,7 +21,7 @@ pub fn trace(
     omegabar_max: f64,
     settings: &ContinuationSettings,
     stop_at_first_instability: bool,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let (branch, _) = trace_in_chart(
         model,
@@ -39,7 +41,7 @@ pub(crate) fn trace_in_chart(
     omegabar_max: f64,
     settings: &ContinuationSettings,
     stop_at_first_instability: bool,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<(Branch, Chart)> {
     model.check_resolution()?;
     if !model.fluid.is_mass_matrix() {

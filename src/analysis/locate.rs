@@ -5,10 +5,11 @@
 use serde::Serialize;
 
 use crate::Result;
-use crate::engine::arclength::{Observer, Stop};
+use crate::engine::arclength::{BranchStop, Point};
 use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::engine::events::{Event, EventKind};
 use crate::engine::newton::NewtonSettings;
+use crate::engine::stop::{Observer, Stop};
 use crate::engine::{ContinuationSettings, Problem};
 use crate::model::Model;
 use crate::model::rod::frame::Chart;
@@ -148,7 +149,7 @@ impl Critical {
 pub fn locate(
     model: &Model,
     settings: &LocateSettings,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<(Located, Option<Critical>)> {
     let omega_max = settings.omega_max;
     model.check_resolution()?;
@@ -187,8 +188,8 @@ pub fn locate(
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
     match branch.stop {
-        Stop::FirstInstability => {}
-        Stop::UnstableAtStart => {
+        Stop::Own(BranchStop::FirstInstability) => {}
+        Stop::Own(BranchStop::UnstableAtStart) => {
             let count = branch.points[0].spectrum.unstable;
             let located = Located {
                 kind: Loss::UnstableAtRest,
@@ -211,7 +212,12 @@ pub fn locate(
                  no instability found"
             )));
         }
-        Stop::Rule(reason) => {
+        Stop::Observer => {
+            return Err(crate::Error::Numerical(format!(
+                "the continuation was ended by its observer at omega = {reached_omega:.6e} rad/s"
+            )));
+        }
+        Stop::Own(BranchStop::Rule(reason)) => {
             return Err(crate::Error::Numerical(format!(
                 "the continuation was ended by a stop rule at omega = {reached_omega:.6e} rad/s: \
                  {reason}"

@@ -5,7 +5,9 @@
 use serde::Serialize;
 
 use crate::analysis::locate::{LocateSettings, Located, Loss, locate};
-use crate::engine::arclength::Observer;
+use crate::engine::arclength::Point;
+use crate::engine::events::Event;
+use crate::engine::stop::Observer;
 use crate::model::params::Physical;
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
@@ -13,7 +15,7 @@ use crate::{Error, Result};
 
 /// Watches a refinement or a ladder: every rung's continuation as an engine [`Observer`], and
 /// each rung's result and error estimate as they come.
-pub trait RungObserver: Observer {
+pub trait RungObserver: Observer<Point, Event> {
     /// A rung starts on `model`.
     fn rung(&mut self, _model: &Model) {}
     /// The rung at `nodes` located `located`.

@@ -4,9 +4,9 @@ use serde::Serialize;
 
 use crate::analysis::branch::trace;
 use crate::engine::ContinuationSettings;
-use crate::engine::arclength::Silent;
 use crate::engine::events::EventKind;
 use crate::engine::newton::{self, NewtonReport, NewtonSettings};
+use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;

@@ -333,17 +333,8 @@ pub fn orbits(o: &OrbitsArgs) -> Outcome {
         ),
         resume: o.resume,
     };
-    // The options name their fields as in a study; on the command line they are flags.
-    opts.validate().map_err(|e| match e {
-        Error::Input { field, message } => Error::Input {
-            field: format!(
-                "--{}",
-                field.trim_start_matches("orbits.").replace('_', "-")
-            ),
-            message,
-        },
-        other => other,
-    })?;
+    // On the command line the options' fields are flags.
+    opts.validate_naming(|s| format!("--{}", s.replace('_', "-")))?;
     let dir = output_dir(args, &study, out, Some("orbits"))?;
     let report = run_orbits(&study, &model, &opts, &dir, &Provenance::of_process())?;
     if let OrbitStop::StepTooSmall(reason) = &report.stop {

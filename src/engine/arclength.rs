@@ -19,11 +19,11 @@
 //!
 //! The tangent at the new point solves the same matrix with right-hand side `(0, 1)`, normalized
 //! in (1); this keeps its orientation, so turning points (folds, where `p` turns back) are passed
-//! without special treatment. The step grows by 1.5 after an easy correction (at most 3
-//! iterations), shrinks by 0.7 after a hard one (6 or more) and is halved after a failure, or
-//! when the corrector travelled more than half a step from the predicted point, or when the
-//! chord from the last point turned by more than about 30 degrees from its tangent (signs of a
-//! jump to another branch). No step moves the parameter by more than `max_parameter_step` times
+//! without special treatment. The step ([`super::step::StepControl`]) grows by 1.5 after an easy
+//! correction (at most 3 iterations), shrinks by 0.7 after a hard one (6 or more) and is halved
+//! after a failure, or when the corrector travelled more than half a step from the predicted
+//! point, or when the chord from the last point turned by more than about 30 degrees from its
+//! tangent (signs of a jump to another branch). No step moves the parameter by more than `max_parameter_step` times
 //! the range followed (by default 1/60, or 1/4 where the run stops at the first loss of
 //! stability), nor goes more than a hundredth of that past the range's end, nor more than 1.5
 //! times past where an eigenvalue extrapolated from the last two points reaches the axis.
@@ -59,8 +59,9 @@ use super::newton::{
     self, Chord, Globalization, Iterate, Jacobians, Newton, NewtonSettings, ROUND_OFF, System, norm,
 };
 use super::stability::{Spectrum, is_complex, leading};
+use super::step::StepControl;
+use super::stop::{Observer, Stop};
 use super::{ContinuationSettings, Linearization, Problem};
-use crate::error::ModelError;
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -89,21 +90,15 @@ pub struct Point {
     pub uncertainty: f64,
 }
 
-/// Why a continuation ended.
+/// The arclength run's own reasons to end ([`Stop::Own`]), each given by a stop rule.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Stop {
-    /// The parameter left `[p_min, p_max]`.
-    ParameterLimit,
-    /// `max_points` points were accepted.
-    MaxPoints,
-    /// The first loss of stability was found (with [`Limits::stop_at_first_instability`]).
+pub enum BranchStop {
+    /// The first loss of stability was found ([`FirstInstability`], with
+    /// [`Limits::stop_at_first_instability`]).
     FirstInstability,
-    /// The starting point is already unstable (with [`Limits::stop_at_first_instability`]):
-    /// there is no loss of stability to find.
+    /// The starting point is already unstable ([`FirstInstability`]): there is no loss of
+    /// stability to find.
     UnstableAtStart,
-    /// The corrector failed down to the smallest step; the reason of the last failure (a
-    /// mobility that is not positive definite, when any attempt met one: it names the state).
-    StepTooSmall(String),
     /// A stop rule of the caller's ended the run (its reason).
     Rule(String),
 }
@@ -122,7 +117,7 @@ pub struct Limits {
 pub struct Branch {
     pub points: Vec<Point>,
     pub events: Vec<Event>,
-    pub stop: Stop,
+    pub stop: Stop<BranchStop>,
 }
 
 impl Branch {
@@ -139,16 +134,6 @@ impl Branch {
             .unwrap_or(&self.points[0])
     }
 }
-
-/// Receives the points and events as they are found (for writers and progress bars).
-pub trait Observer {
-    fn point(&mut self, _point: &Point) {}
-    fn event(&mut self, _event: &Event) {}
-}
-
-/// An observer that ignores everything.
-pub struct Silent;
-impl Observer for Silent {}
 
 /// The weighted inner product (1).
 #[derive(Clone, Copy, Debug)]
@@ -553,10 +538,15 @@ impl<P: Problem> Detector<P> for CrossingDetector {
 /// A stop rule: sees the first point and every accepted step (its two ends and the events
 /// located in it), and may end the run.
 pub trait StopRule {
-    fn start(&mut self, _first: &Point) -> ControlFlow<Stop> {
+    fn start(&mut self, _first: &Point) -> ControlFlow<Stop<BranchStop>> {
         ControlFlow::Continue(())
     }
-    fn step(&mut self, before: &Point, after: &Point, events: &[Event]) -> ControlFlow<Stop>;
+    fn step(
+        &mut self,
+        before: &Point,
+        after: &Point,
+        events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>>;
 }
 
 /// Ends the run once a point lies outside `[p_min, p_max]` (that point included).
@@ -566,7 +556,12 @@ pub struct ParameterRange {
 }
 
 impl StopRule for ParameterRange {
-    fn step(&mut self, _before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        _before: &Point,
+        after: &Point,
+        _events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if after.p > self.p_max || after.p < self.p_min {
             ControlFlow::Break(Stop::ParameterLimit)
         } else {
@@ -579,16 +574,21 @@ impl StopRule for ParameterRange {
 pub struct FirstInstability;
 
 impl StopRule for FirstInstability {
-    fn start(&mut self, first: &Point) -> ControlFlow<Stop> {
+    fn start(&mut self, first: &Point) -> ControlFlow<Stop<BranchStop>> {
         if first.spectrum.unstable > 0 {
-            ControlFlow::Break(Stop::UnstableAtStart)
+            ControlFlow::Break(Stop::Own(BranchStop::UnstableAtStart))
         } else {
             ControlFlow::Continue(())
         }
     }
-    fn step(&mut self, before: &Point, after: &Point, _events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        before: &Point,
+        after: &Point,
+        _events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if before.spectrum.unstable == 0 && after.spectrum.unstable > 0 {
-            ControlFlow::Break(Stop::FirstInstability)
+            ControlFlow::Break(Stop::Own(BranchStop::FirstInstability))
         } else {
             ControlFlow::Continue(())
         }
@@ -612,15 +612,15 @@ pub struct Continuation<'a, P: Problem> {
     /// The arclength and leading spectrum of the point before `last`: with `last`, the rates at
     /// which its eigenvalues move ([`crossing_ahead`]).
     before: Option<(f64, Spectrum)>,
-    ds: f64,
+    step: StepControl,
     /// Consecutive shortenings of the step (at most four).
     halvings: usize,
-    /// The first failure since the last accepted point that names a mobility that is not
-    /// positive definite: when the step runs out, it is the reason given.
-    indefinite: Option<String>,
+    /// The first failure since the last accepted point where the problem refused the state
+    /// ([`Error::is_refused_state`]): when the step runs out, it is the reason given.
+    refused: Option<String>,
     /// Whether the last point may move the chart before the next step.
     rechart: bool,
-    stop: Option<Stop>,
+    stop: Option<Stop<BranchStop>>,
 }
 
 impl<'a, P: Problem> Continuation<'a, P> {
@@ -671,9 +671,9 @@ impl<'a, P: Problem> Continuation<'a, P> {
             range: (limits.p_min, limits.p_max),
             last: first,
             before: None,
-            ds: settings.ds,
+            step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
             halvings: 0,
-            indefinite: None,
+            refused: None,
             rechart: false,
             stop: None,
         })
@@ -692,32 +692,30 @@ impl<'a, P: Problem> Continuation<'a, P> {
     }
 
     /// Why the iterator ended, once it has.
-    pub fn stop(&self) -> Option<&Stop> {
+    pub fn stop(&self) -> Option<&Stop<BranchStop>> {
         self.stop.as_ref()
     }
 
     /// Halves the step after a failure; ends the run below `ds_min`.
     fn refuse(&mut self, e: Error) -> Option<Result<Outcome>> {
-        if matches!(e, Error::Model(ModelError::NotPositiveDefinite { .. }))
-            && self.indefinite.is_none()
-        {
-            self.indefinite = Some(e.to_string());
+        if e.is_refused_state() && self.refused.is_none() {
+            self.refused = Some(e.to_string());
         }
-        self.ds *= 0.5;
-        if self.ds < self.settings.ds_min {
-            let reason = self.indefinite.clone().unwrap_or_else(|| e.to_string());
+        if self.step.failed().is_err() {
+            let reason = self.refused.clone().unwrap_or_else(|| e.to_string());
             self.stop = Some(Stop::StepTooSmall(reason));
             return None;
         }
         Some(Ok(Outcome::Rejected {
-            ds: self.ds,
+            ds: self.step.ds(),
             reason: e.to_string(),
         }))
     }
 
     /// Predictor and corrector from the last point with the current step.
     fn attempt(&self) -> Result<Point> {
-        let (problem, metric, last, ds) = (self.problem, &self.metric, &self.last, self.ds);
+        let (problem, metric, last) = (self.problem, &self.metric, &self.last);
+        let ds = self.step.ds();
         let step: Vec<f64> = last.tangent_u.iter().map(|t| ds * t).collect();
         let predicted = problem.retract(&last.u, &step);
         let p_predicted = last.p + ds * last.tangent_p;
@@ -816,24 +814,24 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         // No step moves the parameter by more than a fraction of the range followed, nor goes
         // much past where an eigenvalue is predicted to reach the axis, so that a stable window
         // between two events is not stepped over.
-        if (self.ds * self.last.tangent_p).abs() > self.dp_max {
-            self.ds = (self.dp_max / self.last.tangent_p.abs()).max(self.settings.ds_min);
+        if (self.step.ds() * self.last.tangent_p).abs() > self.dp_max {
+            self.step.set(self.dp_max / self.last.tangent_p.abs());
         }
         if let Some(ahead) = self
             .before
             .as_ref()
             .and_then(|(s, spectrum)| crossing_ahead(*s, spectrum, &self.last))
         {
-            self.ds = self.ds.min(LOOKAHEAD * ahead).max(self.settings.ds_min);
+            self.step.limit(LOOKAHEAD * ahead);
         }
         // A step that would leave the range ends a hundredth of the largest step past it.
         let (last_p, t_p) = (self.last.p, self.last.tangent_p);
         let (p_min, p_max) = self.range;
         let edge = if t_p > 0.0 { p_max } else { p_min };
         let to_edge = (edge - last_p) / t_p;
-        if to_edge > 0.0 && self.ds * t_p.abs() > (edge - last_p).abs() {
+        if to_edge > 0.0 && self.step.ds() * t_p.abs() > (edge - last_p).abs() {
             let past = 0.01 * self.dp_max / t_p.abs();
-            self.ds = (to_edge + past).min(self.ds).max(self.settings.ds_min);
+            self.step.limit(to_edge + past);
         }
         let next = match self.attempt() {
             Ok(next) => next,
@@ -843,28 +841,24 @@ impl<P: Problem> Iterator for Continuation<'_, P> {
         // modes exchange stability, is shortened first so that the events separate.
         let ambiguous = crossing(&self.last.spectrum, &next.spectrum).is_err()
             || modes_exchanged(&self.last.spectrum, &next.spectrum);
-        if ambiguous && self.halvings < 4 && self.ds * 0.5 >= self.settings.ds_min {
+        if ambiguous && self.halvings < 4 && self.step.shorten() {
             self.halvings += 1;
-            self.ds *= 0.5;
-            return Some(Ok(Outcome::Shortened { ds: self.ds }));
+            return Some(Ok(Outcome::Shortened { ds: self.step.ds() }));
         }
         self.halvings = 0;
         let events = match self.events(&next) {
             Ok(events) => events,
             Err(e) => {
-                let e = match e {
-                    e @ Error::Model(ModelError::NotPositiveDefinite { .. }) => e,
-                    e => Error::Numerical(format!("locating an event: {e}")),
+                let e = if e.is_refused_state() {
+                    e
+                } else {
+                    Error::Numerical(format!("locating an event: {e}"))
                 };
                 return self.refuse(e);
             }
         };
-        self.indefinite = None;
-        self.ds = match next.iterations {
-            0..=3 => (self.ds * 1.5).min(self.settings.ds_max),
-            6.. => (self.ds * 0.7).max(self.settings.ds_min),
-            _ => self.ds,
-        };
+        self.refused = None;
+        self.step.adapt(next.iterations);
         let last = std::mem::replace(&mut self.last, next.clone());
         self.before = Some((last.s, last.spectrum));
         self.rechart = true;
@@ -886,7 +880,7 @@ pub fn follow<P: Problem>(
     direction: f64,
     settings: &ContinuationSettings,
     limits: &Limits,
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let mut range = ParameterRange {
         p_min: limits.p_min,
@@ -903,15 +897,16 @@ pub fn follow<P: Problem>(
 }
 
 /// Runs `run` to its end under the stop rules `rules` (in order; the first to break ends the
-/// run) and at most `max_points` points, telling `observer` every point and event.
+/// run) and at most `max_points` points, telling `observer` every point and event (it may end
+/// the run too, [`Stop::Observer`]).
 pub fn follow_with<P: Problem>(
     mut run: Continuation<'_, P>,
     rules: &mut [&mut dyn StopRule],
-    observer: &mut impl Observer,
+    observer: &mut impl Observer<Point, Event>,
 ) -> Result<Branch> {
     let max_points = run.settings.max_points;
     let first = run.current().clone();
-    observer.point(&first);
+    let told = observer.point(&first);
     let mut branch = Branch {
         points: vec![first],
         events: Vec::new(),
@@ -920,6 +915,7 @@ pub fn follow_with<P: Problem>(
     if let Some(stop) = rules
         .iter_mut()
         .find_map(|r| r.start(&branch.points[0]).break_value())
+        .or(told.is_break().then_some(Stop::Observer))
     {
         branch.stop = stop;
         return Ok(branch);
@@ -932,14 +928,16 @@ pub fn follow_with<P: Problem>(
         let Outcome::Accepted { point, events } = outcome? else {
             continue;
         };
+        let mut ended = false;
         for event in &events {
-            observer.event(event);
+            ended |= observer.event(event).is_break();
         }
-        observer.point(&point);
+        ended |= observer.point(&point).is_break();
         let before = branch.points.last().expect("the branch has a first point");
         let stop = rules
             .iter_mut()
-            .find_map(|r| r.step(before, &point, &events).break_value());
+            .find_map(|r| r.step(before, &point, &events).break_value())
+            .or(ended.then_some(Stop::Observer));
         branch.events.extend(events);
         branch.points.push(point);
         if let Some(stop) = stop {

@@ -20,10 +20,12 @@ use std::ops::ControlFlow;
 use std::rc::Rc;
 
 use super::arclength::{
-    Continuation, Limits, ParameterRange, Point, Silent, Stop, StopRule, follow_with,
+    BranchStop, Continuation, Limits, ParameterRange, Point, StopRule, follow_with,
 };
-use super::curve::{CurveSettings, CurveStop, Family};
+use super::curve::{CurveSettings, Family};
 use super::events::{Event, EventKind};
+use super::step::StepControl;
+use super::stop::{Silent, Stop};
 use super::{ContinuationSettings, Problem};
 use crate::{Error, Result};
 
@@ -43,16 +45,24 @@ pub struct EventPoint {
 #[derive(Clone, Debug)]
 pub struct EventCurve {
     pub points: Vec<EventPoint>,
-    pub stop: CurveStop,
+    pub stop: Stop,
 }
 
 /// Ends a run at the first event of one kind.
 pub struct FirstOf(pub EventKind);
 
 impl StopRule for FirstOf {
-    fn step(&mut self, _before: &Point, _after: &Point, events: &[Event]) -> ControlFlow<Stop> {
+    fn step(
+        &mut self,
+        _before: &Point,
+        _after: &Point,
+        events: &[Event],
+    ) -> ControlFlow<Stop<BranchStop>> {
         if events.iter().any(|e| e.kind == self.0) {
-            ControlFlow::Break(Stop::Rule(format!("first {}", self.0.name())))
+            ControlFlow::Break(Stop::Own(BranchStop::Rule(format!(
+                "first {}",
+                self.0.name()
+            ))))
         } else {
             ControlFlow::Continue(())
         }
@@ -90,18 +100,18 @@ pub fn follow_event_curve<F: Family>(
     };
     let mut curve = EventCurve {
         points: vec![start],
-        stop: CurveStop::MaxPoints,
+        stop: Stop::MaxPoints,
     };
     let mut last_member = member;
-    let mut ds = settings.ds;
+    let mut step = StepControl::new(settings.ds, settings.ds_min, settings.ds_max);
     while curve.points.len() < settings.max_points {
         let last = curve.points.last().expect("a curve has a first point");
         let remaining = (q_end - last.q) * q_direction.signum();
         if remaining <= 0.0 {
-            curve.stop = CurveStop::Range;
+            curve.stop = Stop::ParameterLimit;
             return Ok(curve);
         }
-        let dq = (ds * q_unit).min(remaining);
+        let dq = (step.ds() * q_unit).min(remaining);
         let ending = dq >= remaining;
         let q = if ending {
             q_end
@@ -162,16 +172,15 @@ pub fn follow_event_curve<F: Family>(
             Ok((point, member)) => {
                 curve.points.push(point);
                 last_member = Rc::new(member);
-                ds = (ds * 1.5).min(settings.ds_max);
+                step.grow();
                 if ending {
-                    curve.stop = CurveStop::Range;
+                    curve.stop = Stop::ParameterLimit;
                     return Ok(curve);
                 }
             }
             Err(e) => {
-                ds *= 0.5;
-                if ds < settings.ds_min {
-                    curve.stop = CurveStop::StepTooSmall(e.to_string());
+                if step.failed().is_err() {
+                    curve.stop = Stop::StepTooSmall(e.to_string());
                     return Ok(curve);
                 }
             }

@@ -85,7 +85,7 @@ use faer::matrix_free::eigen::{PartialEigenParams, partial_eigen, partial_eigen_
 use faer::reborrow::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, c64};
 
-use super::stability::Spectrum;
+use super::stability::{Solver, Spectrum};
 use crate::numerics::lu::Lu;
 
 /// Largest backward error (4) of an eigenpair that is kept.
@@ -390,6 +390,7 @@ pub fn rightmost(
             return Ok(Spectrum {
                 leading: s,
                 unstable,
+                solver: Solver::Krylov,
             });
         }
         if nev >= MAX_NEV.min(n) {

@@ -5,8 +5,24 @@
 //! stability of a solution. [`arclength::follow`] traces a branch of solutions by
 //! pseudo-arclength continuation, [`stability`] computes the leading eigenvalues at each point,
 //! and [`events`] detects and pins down folds, branch points and Hopf points between points.
-//! [`reference`] holds canonical problems with exact answers (fold, pitchfork, Hopf normal form,
-//! Brusselator) shared by the tests and the benchmarks.
+//! [`curve`] and [`event_curve`] follow a Hopf point, a fold or a branch point in a second
+//! parameter, [`periodic`] the orbits born at a Hopf point, [`criticality`] gives the first
+//! Lyapunov coefficient of a Hopf point. Every driver shares the step-size control ([`step`]),
+//! the reasons a run ends and the observers that watch it ([`stop`]).
+//! `reference` (with the feature `reference-problems`, which the tests and benchmarks turn on)
+//! holds canonical problems with exact answers (fold, pitchfork, Hopf normal form, Brusselator)
+//! shared by the tests and the benchmarks.
+//!
+//! Three kinds of events are kept apart, each with the names it has in files: the events of a
+//! branch of equilibria ([`events::EventKind`]: `fold`, `branch_point`, `hopf`,
+//! `mode_exchange`), the special points of a Hopf curve ([`curve::SpecialKind`]: `double_hopf`,
+//! `zero_hopf`, `turning`, `bogdanov_takens`, `generalized_hopf`) and the events of a branch of
+//! periodic orbits ([`periodic::branch::OrbitEventKind`]: `fold`, `cycle_fold`,
+//! `period_doubling`, `torus`). They are different objects found by different tests: an
+//! eigenvalue of an equilibrium crossing the imaginary axis between two points, a point of
+//! codimension two on a curve of Hopf points, a Floquet multiplier crossing the unit circle
+//! (bracketed by two orbits, not located); a fold of equilibria and a fold of orbits share a name
+//! but not their meaning, and no event of one kind is ever compared with one of another.
 
 pub mod arclength;
 pub mod criticality;
@@ -16,14 +32,17 @@ pub mod events;
 pub mod krylov;
 pub mod newton;
 pub mod periodic;
+#[cfg(feature = "reference-problems")]
 pub mod reference;
 pub mod stability;
+pub mod step;
+pub mod stop;
 
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
 use crate::Result;
-use crate::error::ensure;
+use crate::error::ensure_setting;
 
 /// `G`, `G_u = dG/du` and `G_p = dG/dp` at one point.
 pub struct Linearization {
@@ -159,48 +178,48 @@ impl Default for ContinuationSettings {
 impl ContinuationSettings {
     /// Checks ranges: `0 < ds_min <= ds <= ds_max`, `max_points >= 1`, `max_corrector >= 2`,
     /// `0 < tol < 1`, `0 < event_tol < 1e-2`, `eigenvalues >= 1`, `0 < max_parameter_step <= 1`
-    /// where it is set.
+    /// where it is set; an error names the field ([`crate::error::EngineError::Setting`]).
     pub fn validate(&self) -> Result<()> {
-        ensure(
+        ensure_setting(
             self.ds_min > 0.0
                 && self.ds_min <= self.ds
                 && self.ds <= self.ds_max
                 && self.ds_max.is_finite(),
-            "continuation.ds",
+            "ds",
             format!(
                 "need 0 < ds_min <= ds <= ds_max < inf, got ds_min = {}, ds = {}, ds_max = {}",
                 self.ds_min, self.ds, self.ds_max
             ),
         )?;
-        ensure(
+        ensure_setting(
             self.max_points >= 1,
-            "continuation.max_points",
+            "max_points",
             format!("must be >= 1, got {}", self.max_points),
         )?;
-        ensure(
+        ensure_setting(
             self.max_corrector >= 2,
-            "continuation.max_corrector",
+            "max_corrector",
             format!("must be >= 2, got {}", self.max_corrector),
         )?;
-        ensure(
+        ensure_setting(
             self.tol > 0.0 && self.tol < 1.0,
-            "continuation.tol",
+            "tol",
             format!("must lie in (0, 1), got {}", self.tol),
         )?;
-        ensure(
+        ensure_setting(
             self.event_tol > 0.0 && self.event_tol < 1e-2,
-            "continuation.event_tol",
+            "event_tol",
             format!("must lie in (0, 0.01), got {}", self.event_tol),
         )?;
-        ensure(
+        ensure_setting(
             self.eigenvalues >= 1,
-            "continuation.eigenvalues",
+            "eigenvalues",
             format!("must be >= 1, got {}", self.eigenvalues),
         )?;
         let fraction = self.max_parameter_step.unwrap_or(1.0);
-        ensure(
+        ensure_setting(
             fraction > 0.0 && fraction <= 1.0,
-            "continuation.max_parameter_step",
+            "max_parameter_step",
             format!("must lie in (0, 1], got {fraction}"),
         )
     }

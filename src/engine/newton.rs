@@ -37,7 +37,7 @@
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{EngineError, ModelError};
+use crate::error::EngineError;
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -199,29 +199,29 @@ impl Default for NewtonSettings {
 
 impl NewtonSettings {
     /// Checks the ranges: `0 < tol < 1`, `1 <= max_iter <= 10000`, `0 < min_damping <= 1`,
-    /// `max_growth >= 1`.
+    /// `max_growth >= 1`; an error names the field ([`EngineError::Setting`]).
     pub fn validate(&self) -> Result<()> {
         if !(self.tol > 0.0 && self.tol < 1.0) {
-            return Err(Error::input(
-                "newton.tol",
+            return Err(Error::setting(
+                "tol",
                 format!("must lie in (0, 1), got {}", self.tol),
             ));
         }
         if !(1..=10_000).contains(&self.max_iter) {
-            return Err(Error::input(
-                "newton.max_iter",
+            return Err(Error::setting(
+                "max_iter",
                 format!("must lie in 1..=10000, got {}", self.max_iter),
             ));
         }
         if !(self.min_damping > 0.0 && self.min_damping <= 1.0) {
-            return Err(Error::input(
-                "newton.min_damping",
+            return Err(Error::setting(
+                "min_damping",
                 format!("must lie in (0, 1], got {}", self.min_damping),
             ));
         }
         if !(self.max_growth.is_finite() && self.max_growth >= 1.0) {
-            return Err(Error::input(
-                "newton.max_growth",
+            return Err(Error::setting(
+                "max_growth",
                 format!("must be a finite number >= 1, got {}", self.max_growth),
             ));
         }
@@ -416,9 +416,9 @@ impl Newton {
 
 /// The damped step of eq. (1) from `u` along `du`: the first trial point `retract(u, a du)`,
 /// `a = 1, 1/2, ...`, where `G` can be evaluated and `size(G) <= max_growth g_norm`. On failure,
-/// `Err(Some(e))` when the model could not be evaluated along the whole search because the
-/// mobility is not positive definite there (that is the reason, not the line search), else
-/// `Err(None)`.
+/// `Err(Some(e))` when the last trial point could not be evaluated because the problem has no
+/// admissible state there ([`Error::is_refused_state`]: that is the reason, not the line
+/// search), else `Err(None)`.
 fn backtrack(
     system: &impl System,
     u: &[f64],
@@ -440,5 +440,5 @@ fn backtrack(
         }
         damping *= 0.5;
     }
-    Err(refused.filter(|e| matches!(e, Error::Model(ModelError::NotPositiveDefinite { .. }))))
+    Err(refused.filter(Error::is_refused_state))
 }

@@ -1,4 +1,6 @@
-//! Canonical problems with exact answers, for the tests and benchmarks of the engine.
+//! Canonical problems with exact answers, for the tests and benchmarks of the engine. Compiled
+//! with the feature `reference-problems` only, which the tests and benchmarks get through the
+//! crate's dev-dependency on itself (Cargo.toml).
 
 use faer::Mat;
 

@@ -7,9 +7,10 @@
 //! Krylov ([`super::krylov`]): only the rightmost eigenvalues, by shift-invert over one LU
 //! factorization, with a certificate that the unstable count is that of the full spectrum.
 //! [`leading`] chooses between the two ([`EigenMethod`]) and falls back to dense wherever the
-//! Krylov path refuses; the thread's tally of both is [`eigen_counts`].
+//! Krylov path refuses; every spectrum says which solver gave it ([`Spectrum::solver`]), and
+//! [`EigenCounts`] tallies the spectra a caller has seen (as an observer, those of a run).
 
-use std::cell::RefCell;
+use std::ops::ControlFlow;
 
 use faer::linalg::triangular_solve::{
     solve_lower_triangular_in_place, solve_upper_triangular_in_place,
@@ -17,15 +18,28 @@ use faer::linalg::triangular_solve::{
 use faer::{Mat, Par, Side, c64};
 
 use super::EigenMethod;
+use super::arclength::Point;
+use super::events::Event;
 use super::krylov::{self, rightmost, shift_after};
+use super::stop::Observer;
 use crate::{Error, Result};
 
 /// Size of the pencil from which `continuation.eigen = "auto"` uses the Krylov path (measured
 /// with `cargo bench --bench eigen`: below it the dense solver is as fast).
 pub const AUTO_KRYLOV_SIZE: usize = 150;
 
-/// How the spectra of this thread were computed, since its start or the last
-/// [`reset_eigen_counts`].
+/// Which solver gave a spectrum.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Solver {
+    /// The dense solver, as asked.
+    Dense,
+    /// The Krylov path, its unstable count certified.
+    Krylov,
+    /// The dense solver, after the Krylov path refused (why).
+    Fallback(krylov::Refusal),
+}
+
+/// A tally of how spectra were computed.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EigenCounts {
     /// Certified Krylov results.
@@ -37,18 +51,31 @@ pub struct EigenCounts {
     pub last_refusal: Option<krylov::Refusal>,
 }
 
-thread_local! {
-    static COUNTS: RefCell<EigenCounts> = RefCell::new(EigenCounts::default());
+/// As an observer of an arclength run, the tally of the spectra of its points and events.
+impl Observer<Point, Event> for EigenCounts {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
+        self.add(&point.spectrum);
+        ControlFlow::Continue(())
+    }
+    fn event(&mut self, event: &Event) -> ControlFlow<()> {
+        self.add(&event.spectrum);
+        ControlFlow::Continue(())
+    }
 }
 
-/// The tally of this thread's spectra.
-pub fn eigen_counts() -> EigenCounts {
-    COUNTS.with_borrow(|c| c.clone())
-}
-
-/// Sets this thread's tally to zero.
-pub fn reset_eigen_counts() {
-    COUNTS.with_borrow_mut(|c| *c = EigenCounts::default());
+impl EigenCounts {
+    /// Counts `spectrum`.
+    pub fn add(&mut self, spectrum: &Spectrum) {
+        match &spectrum.solver {
+            Solver::Krylov => self.krylov += 1,
+            Solver::Dense => self.dense += 1,
+            Solver::Fallback(refusal) => {
+                self.fallbacks += 1;
+                self.dense += 1;
+                self.last_refusal = Some(refusal.clone());
+            }
+        }
+    }
 }
 
 /// The `keep` eigenvalues of largest real part (at least the unstable count + 2) and the
@@ -77,18 +104,14 @@ pub fn leading(
             Some(prior) => (shift_after(prior), (2 * prior.leading.len() + 8).max(24)),
             None => (0.0, (2 * keep + 8).max(24)),
         };
-        match rightmost(k, m, keep, sigma, nev) {
-            Ok(s) => {
-                COUNTS.with_borrow_mut(|c| c.krylov += 1);
-                return Ok(s);
-            }
-            Err(refusal) => COUNTS.with_borrow_mut(|c| {
-                c.fallbacks += 1;
-                c.last_refusal = Some(refusal);
+        return match rightmost(k, m, keep, sigma, nev) {
+            Ok(s) => Ok(s),
+            Err(refusal) => Ok(Spectrum {
+                solver: Solver::Fallback(refusal),
+                ..spectrum(k, m, keep)?
             }),
-        }
+        };
     }
-    COUNTS.with_borrow_mut(|c| c.dense += 1);
     spectrum(k, m, keep)
 }
 
@@ -100,6 +123,8 @@ pub struct Spectrum {
     pub leading: Vec<c64>,
     /// Number of eigenvalues with a positive real part.
     pub unstable: usize,
+    /// The solver that gave it.
+    pub solver: Solver,
 }
 
 impl Spectrum {
@@ -188,6 +213,7 @@ pub fn spectrum(k: &Mat<f64>, m: &Mat<f64>, keep: usize) -> Result<Spectrum> {
     Ok(Spectrum {
         leading: values,
         unstable,
+        solver: Solver::Dense,
     })
 }
 

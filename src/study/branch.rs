@@ -9,8 +9,11 @@ use serde::Serialize;
 
 use crate::analysis::branch::{observables_at, trace};
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::{Observer, Point, Stop};
+use std::ops::ControlFlow;
+
+use crate::engine::arclength::{BranchStop, Point};
 use crate::engine::events::Event;
+use crate::engine::stop::{Observer, Stop};
 use crate::model::Model;
 use crate::model::params::ShapeParams;
 use crate::problem::steady::SteadyState;
@@ -82,8 +85,8 @@ impl BranchWriter<'_> {
     }
 }
 
-impl Observer for BranchWriter<'_> {
-    fn point(&mut self, point: &Point) {
+impl Observer<Point, Event> for BranchWriter<'_> {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
         let result = observables_at(self.model, self.rest, &point.u, point.p).and_then(|o| {
             let row = BranchRow {
                 s: point.s,
@@ -111,9 +114,10 @@ impl Observer for BranchWriter<'_> {
             self.model.scales.omega_from_bar(point.p),
             point.spectrum.unstable
         ));
+        ControlFlow::Continue(())
     }
 
-    fn event(&mut self, event: &Event) {
+    fn event(&mut self, event: &Event) -> ControlFlow<()> {
         let time = self.model.scales.time;
         let result = observables_at(self.model, self.rest, &event.u, event.p).and_then(|o| {
             let row = EventRow {
@@ -135,6 +139,7 @@ impl Observer for BranchWriter<'_> {
             Ok(())
         });
         self.record(result);
+        ControlFlow::Continue(())
     }
 }
 
@@ -246,10 +251,11 @@ pub(crate) fn run_branch(
     let stop = match &branch.stop {
         Stop::ParameterLimit => "omega_max reached".to_string(),
         Stop::MaxPoints => "max_points reached".to_string(),
-        Stop::FirstInstability => "first instability".to_string(),
-        Stop::UnstableAtStart => "unstable at rest".to_string(),
+        Stop::Own(BranchStop::FirstInstability) => "first instability".to_string(),
+        Stop::Own(BranchStop::UnstableAtStart) => "unstable at rest".to_string(),
         Stop::StepTooSmall(reason) => format!("step too small: {reason}"),
-        Stop::Rule(reason) => format!("stop rule: {reason}"),
+        Stop::Own(BranchStop::Rule(reason)) => format!("stop rule: {reason}"),
+        Stop::Observer => "ended by its observer".to_string(),
     };
     let report = BranchReport {
         stalled: matches!(branch.stop, Stop::StepTooSmall(_)),

@@ -7,7 +7,11 @@ use serde::Serialize;
 use crate::Result;
 use crate::analysis::locate::{Critical, Located, locate};
 use crate::analysis::refine::{Ladder, Refinement, RungObserver, default_ladder, ladder, refine};
-use crate::engine::arclength::{Observer, Point};
+use std::ops::ControlFlow;
+
+use crate::engine::arclength::Point;
+use crate::engine::events::Event;
+use crate::engine::stop::Observer;
 use crate::model::Model;
 use crate::numerics::fit::DiscretizationError;
 use crate::study::Study;
@@ -58,11 +62,12 @@ impl LocateProgress {
     }
 }
 
-impl Observer for LocateProgress {
-    fn point(&mut self, point: &Point) {
+impl Observer<Point, Event> for LocateProgress {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
         progress::set_fraction(&self.bar, point.p, (0.0, self.omegabar_max));
         self.bar
             .set_message(format!("omega = {:.5} rad/s", point.p / self.time));
+        ControlFlow::Continue(())
     }
 }
 
@@ -72,9 +77,9 @@ struct RungProgress<'a> {
     progress: LocateProgress,
 }
 
-impl Observer for RungProgress<'_> {
-    fn point(&mut self, point: &Point) {
-        self.progress.point(point);
+impl Observer<Point, Event> for RungProgress<'_> {
+    fn point(&mut self, point: &Point) -> ControlFlow<()> {
+        self.progress.point(point)
     }
 }
 

@@ -151,8 +151,14 @@ impl Study {
         let mut study = study;
         study.physical().validate()?;
         study.resolve_per_turn()?;
-        study.newton.validate()?;
-        study.continuation.validate()?;
+        study
+            .newton
+            .validate()
+            .map_err(|e| e.naming_setting(|s| format!("newton.{s}")))?;
+        study
+            .continuation
+            .validate()
+            .map_err(|e| e.naming_setting(|s| format!("continuation.{s}")))?;
         study.integrator.validate()?;
         if !(study.branch.omega_max.is_finite() && study.branch.omega_max != 0.0) {
             return Err(Error::input(

@@ -71,13 +71,21 @@ impl OrbitsOptions {
     /// Checks ranges: the branch settings' and `omega_min < omega_max`, both finite (fields
     /// named `orbits.*`).
     pub fn validate(&self) -> Result<()> {
-        self.settings.validate()?;
+        self.validate_naming(|s| format!("orbits.{s}"))
+    }
+
+    /// [`OrbitsOptions::validate`], each field named by `name` (given the field, e.g.
+    /// `max_orbits`: a study key or a command-line option).
+    pub fn validate_naming(&self, name: impl Fn(&str) -> String) -> Result<()> {
+        self.settings
+            .validate()
+            .map_err(|e| e.naming_setting(&name))?;
         let (lo, hi) = self.omega_range;
         if lo.is_finite() && hi.is_finite() && lo < hi {
             Ok(())
         } else {
             Err(Error::input(
-                "orbits.omega_min",
+                name("omega_min"),
                 format!("need finite omega_min < omega_max (rad/s), got {lo} and {hi}"),
             ))
         }

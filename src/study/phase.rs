@@ -18,7 +18,7 @@ use crate::analysis::boundary::BoundaryPoint;
 use crate::analysis::branch::{observables_at, trace};
 use crate::analysis::locate::Loss;
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::Silent;
+use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::params::Field;
 use crate::model::params::ShapeParams;

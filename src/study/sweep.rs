@@ -24,7 +24,7 @@ use super::plan::{Case, Plan, Vary};
 use super::progress;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
 use crate::analysis::locate::locate;
-use crate::engine::arclength::Silent;
+use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
 use crate::study::output::{create_dir, io_error, write_atomically};

@@ -99,7 +99,9 @@ impl BisectSettings {
             ));
         }
         self.dynamics.validate()?;
-        self.newton.validate()
+        self.newton
+            .validate()
+            .map_err(|e| e.naming_setting(|s| format!("newton.{s}")))
     }
 }
 

@@ -14,7 +14,7 @@
 //! `s_k . (y - y_pred) = 0`, so that folds in `p` (where a subcritical branch turns back and
 //! gains stability) are passed without special treatment. The step grows by 1.5 after a
 //! correction of at most 3 iterations, is halved after a failure down to `ds_min`, and is at
-//! most `ds_max`.
+//! most `ds_max` ([`crate::engine::step::StepControl`], never shrinking after a hard correction).
 //!
 //! **Events** between successive orbits: a fold where `p` turns; a change of the count of
 //! multipliers outside the unit circle, typed by the multiplier that crossed (nearest the unit
@@ -33,7 +33,8 @@ use serde::{Deserialize, Serialize};
 use super::ImplicitDynamics;
 use super::orbit::{Condition, Orbit, ShootingSettings, shoot};
 use crate::Result;
-use crate::error::ensure;
+use crate::engine::step::StepControl;
+use crate::error::ensure_setting;
 
 /// Settings of the orbit branch.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -64,28 +65,29 @@ impl Default for OrbitBranchSettings {
 
 impl OrbitBranchSettings {
     /// Checks ranges: the shooting's, `amplitude > 0`, `0 < ds_min <= 1 <= ds_max`,
-    /// `max_orbits >= 2`.
+    /// `max_orbits >= 2`; an error names the field (`ds_max` for the pair of steps), as the
+    /// shooting's and the flow's do theirs (`tol`, `steps`, ...).
     pub fn validate(&self) -> Result<()> {
         self.shooting.validate()?;
-        ensure(
+        ensure_setting(
             self.amplitude > 0.0 && self.amplitude.is_finite(),
-            "orbits.amplitude",
+            "amplitude",
             format!("must be finite and > 0, got {}", self.amplitude),
         )?;
-        ensure(
+        ensure_setting(
             self.ds_min > 0.0
                 && self.ds_min <= 1.0
                 && self.ds_max >= 1.0
                 && self.ds_max.is_finite(),
-            "orbits.ds_max",
+            "ds_max",
             format!(
                 "need 0 < ds_min <= 1 <= ds_max < inf, got ds_min = {}, ds_max = {}",
                 self.ds_min, self.ds_max
             ),
         )?;
-        ensure(
+        ensure_setting(
             self.max_orbits >= 2,
-            "orbits.max_orbits",
+            "max_orbits",
             format!("must be >= 2, got {}", self.max_orbits),
         )
     }
@@ -329,8 +331,10 @@ pub fn resume_orbits(
         let chord: Vec<f64> = yb.iter().zip(&ya).map(|(b, a)| b - a).collect();
         let length = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
         let secant: Vec<f64> = chord.iter().map(|v| v / length).collect();
-        let mut ds = state.ds;
+        let mut step =
+            StepControl::new(state.ds, settings.ds_min, settings.ds_max).never_shrinking();
         let attempt = loop {
+            let ds = step.ds();
             let predicted: Vec<f64> = yb.iter().zip(&secant).map(|(y, s)| y + ds * s).collect();
             // The guess: the last orbit's state moved along the secant (algebraic part kept).
             let mut guess = b.u.clone();
@@ -352,8 +356,7 @@ pub fn resume_orbits(
             match tried {
                 Ok(orbit) => break Ok(orbit),
                 Err(e) => {
-                    ds *= 0.5;
-                    if ds < settings.ds_min {
+                    if step.failed().is_err() {
                         break Err(e.to_string());
                     }
                 }
@@ -363,9 +366,7 @@ pub fn resume_orbits(
             Ok(o) => o,
             Err(reason) => break OrbitStop::StepTooSmall(reason),
         };
-        if orbit.iterations <= 3 {
-            ds = (ds * 1.5).min(settings.ds_max);
-        }
+        step.adapt(orbit.iterations);
         if (b.p - a.p) * (orbit.p - b.p) < 0.0 {
             events.push(OrbitEvent {
                 kind: OrbitEventKind::Fold,
@@ -384,7 +385,7 @@ pub fn resume_orbits(
             previous: state.last.clone(),
             last: OrbitSeed::of(&orbit),
             scale: scale.clone(),
-            ds,
+            ds: step.ds(),
             next_index: k + 1,
             events: events.clone(),
         };

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{ImplicitDynamics, StepVelocity};
 use crate::engine::newton::{Chord, Globalization, Iterate, Jacobians, Newton, System, norm};
-use crate::error::ensure;
+use crate::error::ensure_setting;
 use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
@@ -38,19 +38,19 @@ impl Default for FlowSettings {
 impl FlowSettings {
     /// Checks ranges: `8 <= steps <= 100000`, `0 < step_tol < 1`, `max_newton >= 2`.
     pub fn validate(&self) -> Result<()> {
-        ensure(
+        ensure_setting(
             (8..=100_000).contains(&self.steps),
-            "orbits.steps",
+            "steps",
             format!("must lie in [8, 100000], got {}", self.steps),
         )?;
-        ensure(
+        ensure_setting(
             self.step_tol > 0.0 && self.step_tol < 1.0,
-            "orbits.step_tol",
+            "step_tol",
             format!("must lie in (0, 1), got {}", self.step_tol),
         )?;
-        ensure(
+        ensure_setting(
             self.max_newton >= 2,
-            "orbits.max_newton",
+            "max_newton",
             format!("must be >= 2, got {}", self.max_newton),
         )
     }

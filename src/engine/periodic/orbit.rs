@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::ImplicitDynamics;
 use super::flow::{FlowSettings, period_map};
 use crate::engine::newton::norm;
-use crate::error::{EngineError, ensure};
+use crate::error::{EngineError, ensure_setting};
 use crate::{Error, Result};
 
 /// Settings of the shooting Newton iteration.
@@ -38,14 +38,14 @@ impl ShootingSettings {
     /// Checks ranges: those of [`FlowSettings`], `0 < tol < 1e-2`, `max_iter >= 2`.
     pub fn validate(&self) -> Result<()> {
         self.flow.validate()?;
-        ensure(
+        ensure_setting(
             self.tol > 0.0 && self.tol < 1e-2,
-            "orbits.tol",
+            "tol",
             format!("must lie in (0, 0.01), got {}", self.tol),
         )?;
-        ensure(
+        ensure_setting(
             self.max_iter >= 2,
-            "orbits.max_iter",
+            "max_iter",
             format!("must be >= 2, got {}", self.max_iter),
         )
     }

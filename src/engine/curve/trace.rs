@@ -1,0 +1,383 @@
+//! The curve followed point by point: [`follow_curve`] runs a [`Trace`] (the curve so far, its
+//! last point solved, what the predictor learnt over the last step, the step) one step at a
+//! time: the next step towards the end of the range, its predictor and corrector, the failure
+//! of a step (a shorter one, or the curve's end), the special points inside an accepted step,
+//! and the point taken.
+
+use std::ops::ControlFlow;
+use std::rc::Rc;
+
+use faer::c64;
+
+use super::corrector::{At, Corrected, REACH, Step, Tracer, accept};
+use super::special::{
+    Special, locate_bogdanov_takens, locate_codim2, locate_generalized_hopf, locate_turning,
+    resolved_signs_differ,
+};
+use super::tracked::others;
+use super::{Curve, CurveEnd, CurvePoint, CurveSettings, Family};
+use crate::engine::newton::NewtonSettings;
+use crate::engine::stability::is_complex;
+use crate::engine::step::StepControl;
+use crate::engine::stop::{Observer, Stop};
+use crate::engine::{ContinuationSettings, Problem};
+use crate::error::EngineError;
+use crate::{Error, Result};
+
+/// Follows the Hopf curve through `start` (a Hopf point of `member`, the member at `start.q`,
+/// in whose coordinates `start.u` is), first in the direction of increasing `q` if
+/// `direction > 0`, until it leaves `[q_min, q_max]`. `observer` sees every point and special
+/// point, and may end the curve (at a special point, the curve's last point). Returns the curve
+/// and the member of its last point (a curve that goes on from there starts with it).
+pub fn follow_curve<F: Family>(
+    family: &F,
+    start: CurvePoint,
+    member: Rc<F::Member>,
+    direction: f64,
+    settings: &CurveSettings,
+    continuation: &ContinuationSettings,
+    observer: &mut impl Observer<CurvePoint, Special>,
+) -> Result<(Curve, Rc<F::Member>)> {
+    settings.validate()?;
+    continuation.validate()?;
+    if !is_complex(start.eigenvalue) {
+        return Err(Error::input(
+            "curve start",
+            format!(
+                "a Hopf curve starts from a complex pair, got {}",
+                start.eigenvalue
+            ),
+        ));
+    }
+    let tracer = Tracer {
+        family,
+        settings,
+        continuation,
+        newton: NewtonSettings {
+            tol: continuation.tol,
+            ..NewtonSettings::default()
+        },
+        q_unit: settings.q_max - settings.q_min,
+    };
+    let mut trace = Trace::start(tracer, start, member, direction);
+    if observer.point(&trace.curve.points[0]).is_break() {
+        trace.curve.stop = Stop::Observer;
+        return Ok((trace.curve, trace.last.member));
+    }
+    while trace.curve.points.len() < settings.max_points {
+        if let ControlFlow::Break(member) = trace.advance(observer) {
+            return Ok((trace.curve, member));
+        }
+    }
+    Ok((trace.curve, trace.last.member))
+}
+
+/// A Hopf curve being followed.
+struct Trace<'a, F: Family> {
+    tracer: Tracer<'a, F>,
+    curve: Curve,
+    /// The last point, solved.
+    last: At<F::Member>,
+    /// The unit tangent in the units of (2): the chord of the last step (at the start, along
+    /// `q`).
+    t: (f64, f64),
+    /// The slope `dh/d offset` of the last corrector's secant.
+    slope: Option<f64>,
+    /// The change of the state over the last step not explained by carrying it, per unit step.
+    drift: Option<Vec<f64>>,
+    /// The rate of change of the tracked eigenvalue along the curve over the last step.
+    rate: Option<c64>,
+    step: StepControl,
+}
+
+/// The next step from the last point.
+struct Next {
+    /// The line the point is looked for on.
+    line: Step,
+    /// The step along the tangent.
+    sigma: f64,
+    /// Whether the step lands on the end of the range (corrected at fixed `q`).
+    ending: bool,
+    /// The tracked eigenvalue predicted at the new point.
+    predicted: c64,
+}
+
+impl<'a, F: Family> Trace<'a, F> {
+    /// The curve's first point, `start` (with its Lyapunov coefficient, if asked for), the
+    /// tangent along `q` in `direction`.
+    fn start(
+        tracer: Tracer<'a, F>,
+        start: CurvePoint,
+        member: Rc<F::Member>,
+        direction: f64,
+    ) -> Self {
+        let last = At {
+            member,
+            p: start.p,
+            q: start.q,
+            u: start.u.clone(),
+            spectrum: start.spectrum.clone(),
+            eigenvalue: start.eigenvalue,
+            lyapunov: start.lyapunov.clone(),
+        };
+        let last = tracer.with_lyapunov(last);
+        let start = CurvePoint {
+            lyapunov: last.lyapunov.clone(),
+            ..start
+        };
+        let settings = tracer.settings;
+        Trace {
+            tracer,
+            curve: Curve {
+                points: vec![start],
+                special: Vec::new(),
+                stop: Stop::MaxPoints,
+            },
+            last,
+            t: (0.0, direction.signum()),
+            slope: None,
+            drift: None,
+            rate: None,
+            step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
+        }
+    }
+
+    /// The arclength of the last point.
+    fn s_last(&self) -> f64 {
+        self.curve.points.last().map_or(0.0, |p| p.s)
+    }
+
+    /// One step: `Break` with the member of the curve's last point when the curve ends.
+    fn advance(
+        &mut self,
+        observer: &mut impl Observer<CurvePoint, Special>,
+    ) -> ControlFlow<Rc<F::Member>> {
+        let next = self.next_step();
+        let corrected = match self.correct(&next) {
+            Ok(c) => c,
+            Err(e) => return self.failed(e, &next, observer),
+        };
+        let new = self.tracer.with_lyapunov(corrected.at);
+        let (dp, dq) = (
+            (new.p - self.last.p) / next.line.p_unit,
+            (new.q - self.last.q) / self.tracer.q_unit,
+        );
+        let length = dp.hypot(dq);
+        let t_new = (dp / length, dq / length);
+        // A special point that cannot be pinned down is retried from a shorter step.
+        let specials = match self.specials(&new, &next, t_new) {
+            Ok(found) => found,
+            Err(e) => {
+                return self
+                    .ran_out(|| Stop::StepTooSmall(format!("locating a special point: {e}")));
+            }
+        };
+        for (special, member) in specials {
+            let special = self.tracer.with_criticality(special, &member);
+            let stop = observer.event(&special);
+            self.curve.special.push(special.clone());
+            if stop.is_break() {
+                let _ = observer.point(&special.point);
+                self.curve.points.push(special.point);
+                self.curve.stop = Stop::Observer;
+                return ControlFlow::Break(member);
+            }
+        }
+        let point = new.point(
+            self.s_last() + length,
+            corrected.precision,
+            corrected.evaluations,
+        );
+        let told = observer.point(&point);
+        self.curve.points.push(point);
+        self.take(
+            new,
+            &next,
+            length,
+            t_new,
+            corrected.slope,
+            corrected.evaluations,
+        );
+        if next.ending {
+            self.curve.stop = Stop::ParameterLimit;
+        } else if told.is_break() {
+            self.curve.stop = Stop::Observer;
+        } else {
+            return ControlFlow::Continue(());
+        }
+        ControlFlow::Break(self.last.member.clone())
+    }
+
+    /// The next step: along the tangent by the step, or onto the end of the range where that is
+    /// nearer (the line then at fixed `q`); the tracked eigenvalue predicted along its rate of
+    /// change over the last step (on a rod it moves with the rate).
+    fn next_step(&self) -> Next {
+        let (last, t, settings) = (&self.last, self.t, self.tracer.settings);
+        let p_unit = last.p.abs().max(last.member.scales().1);
+        let q_end = if t.1 > 0.0 {
+            settings.q_max
+        } else {
+            settings.q_min
+        };
+        let to_end = (q_end - last.q) / (t.1 * self.tracer.q_unit);
+        let ds = self.step.ds();
+        let ending = t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
+        let sigma = if ending { to_end } else { ds };
+        Next {
+            line: Step {
+                p0: last.p,
+                q0: last.q,
+                p_unit,
+                t,
+                n: if ending { (1.0, 0.0) } else { (-t.1, t.0) },
+            },
+            sigma,
+            ending,
+            predicted: last.eigenvalue + self.rate.unwrap_or_default() * sigma,
+        }
+    }
+
+    /// The predicted point corrected onto the curve (the state shifted by the drift of the
+    /// last step), and accepted ([`accept`]).
+    fn correct(&self, next: &Next) -> Result<Corrected<F::Member>> {
+        let sigma = next.sigma;
+        let shift: Option<Vec<f64>> = self
+            .drift
+            .as_ref()
+            .map(|d| d.iter().map(|v| v * sigma).collect());
+        self.tracer
+            .correct(
+                &self.last,
+                &next.line,
+                sigma,
+                shift.as_deref(),
+                self.slope,
+                next.predicted,
+                REACH * sigma,
+            )
+            .and_then(|c| {
+                accept(
+                    &self.last,
+                    next.predicted,
+                    c,
+                    &next.line,
+                    self.tracer.q_unit,
+                )
+            })
+    }
+
+    /// After a step that failed with `e`: where the tracked pair turned real within it, the
+    /// curve ends at a Bogdanov-Takens point there, if one can be pinned down (else the step is
+    /// only too long); otherwise a shorter step, also where the family ends (to come as near
+    /// that end as the smallest step allows).
+    fn failed(
+        &mut self,
+        e: Error,
+        next: &Next,
+        observer: &mut impl Observer<CurvePoint, Special>,
+    ) -> ControlFlow<Rc<F::Member>> {
+        if matches!(e, Error::Engine(EngineError::PairBecameReal { .. }))
+            && let Some(previous) = self.curve.points.iter().rev().nth(1)
+            && let Ok((special, member)) = locate_bogdanov_takens(
+                &self.tracer,
+                previous,
+                &self.last,
+                &next.line,
+                self.s_last(),
+            )
+        {
+            let _ = observer.event(&special);
+            self.curve.special.push(special.clone());
+            let _ = observer.point(&special.point);
+            self.curve.points.push(special.point);
+            self.curve.stop = Stop::Own(CurveEnd::BogdanovTakens);
+            return ControlFlow::Break(member);
+        }
+        self.ran_out(|| match e {
+            Error::Engine(EngineError::NoMember(why)) => {
+                Stop::Own(CurveEnd::NoMember(why.to_string()))
+            }
+            e => Stop::StepTooSmall(e.to_string()),
+        })
+    }
+
+    /// Halves the step after a failure; below the smallest step the curve ends at its last
+    /// point, for the reason `stop`.
+    fn ran_out(&mut self, stop: impl FnOnce() -> Stop<CurveEnd>) -> ControlFlow<Rc<F::Member>> {
+        if self.step.failed().is_err() {
+            self.curve.stop = stop();
+            return ControlFlow::Break(self.last.member.clone());
+        }
+        ControlFlow::Continue(())
+    }
+
+    /// The special points between the last point and `new` (the tangent there `t_new`):
+    /// codimension-two points inside the step, a generalized Hopf point, then a turning point
+    /// at its end.
+    fn specials(
+        &self,
+        new: &At<F::Member>,
+        next: &Next,
+        t_new: (f64, f64),
+    ) -> Result<Vec<(Special, Rc<F::Member>)>> {
+        let (tracer, last, line, sigma) = (&self.tracer, &self.last, &next.line, next.sigma);
+        let s_last = self.s_last();
+        let before = others(&last.spectrum, last.eigenvalue);
+        let after = others(&new.spectrum, new.eigenvalue);
+        let mut found = Vec::new();
+        if before.unstable != after.unstable {
+            found.push(locate_codim2(
+                tracer, last, new, line, sigma, &before, &after, s_last,
+            )?);
+        }
+        if let (Some(a), Some(b)) = (&last.lyapunov, &new.lyapunov)
+            && resolved_signs_differ(a, b)
+        {
+            found.push(locate_generalized_hopf(
+                tracer, last, new, line, sigma, s_last,
+            )?);
+        }
+        if self.t.1 * t_new.1 < 0.0
+            && let Some(previous) = self.curve.points.iter().rev().nth(1)
+        {
+            found.push(locate_turning(
+                tracer,
+                previous,
+                last,
+                new,
+                line.p_unit,
+                s_last,
+            )?);
+        }
+        Ok(found)
+    }
+
+    /// Takes `new` as the last point, `length` along the curve from the one before with the
+    /// tangent `t_new`: what the predictor learns from the step (the drift of the state, the
+    /// corrector's slope, the rate of the tracked eigenvalue), and the next step after a
+    /// correction of `evaluations` solves.
+    fn take(
+        &mut self,
+        new: At<F::Member>,
+        next: &Next,
+        length: f64,
+        t_new: (f64, f64),
+        slope: f64,
+        evaluations: usize,
+    ) {
+        let last = &self.last;
+        let carried = self.tracer.family.carry(&last.u, &last.member, &new.member);
+        self.drift = Some(
+            new.u
+                .iter()
+                .zip(&carried)
+                .map(|(a, b)| (a - b) / next.sigma)
+                .collect(),
+        );
+        self.slope = Some(slope);
+        self.rate = Some((new.eigenvalue - last.eigenvalue) / length);
+        self.t = t_new;
+        self.step.adapt(evaluations);
+        self.last = new;
+    }
+}
