@@ -41,6 +41,7 @@ fn main() {
                 omega_max: 2.0,
                 newton: &NewtonSettings::default(),
                 continuation: &ContinuationSettings::default(),
+                criticality: true,
             },
             &mut Silent,
         )

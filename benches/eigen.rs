@@ -137,6 +137,7 @@ fn main() {
                     omega_max: 2.0,
                     newton: &NewtonSettings::default(),
                     continuation: &settings,
+                    criticality: true,
                 },
                 &mut Silent,
             )
@@ -151,6 +152,7 @@ fn main() {
                 omega_max: 2.0,
                 newton: &NewtonSettings::default(),
                 continuation: &settings,
+                criticality: true,
             },
             &mut counts,
         )

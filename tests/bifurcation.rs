@@ -145,6 +145,7 @@ fn omega_b_does_not_depend_on_the_continuation_steps_and_sits_on_the_axis() {
                 omega_max: 2.0,
                 newton: &newton,
                 continuation: &settings,
+                criticality: true,
             },
             &mut Silent,
         )
@@ -179,6 +180,7 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
                 omega_max: 2.0,
                 newton: &newton,
                 continuation: &settings,
+                criticality: true,
             },
             &mut Silent,
         )
@@ -325,6 +327,7 @@ fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
                 omega_max: 2.0,
                 newton: &NewtonSettings::default(),
                 continuation: &ContinuationSettings::default(),
+                criticality: true,
             },
             &mut Silent,
         )

@@ -56,6 +56,7 @@ fn hopf(model: &Model) -> f64 {
             omega_max: 2.0,
             newton: &NewtonSettings::default(),
             continuation: &ContinuationSettings::default(),
+            criticality: true,
         },
         &mut Silent,
     )

@@ -345,6 +345,7 @@ fn located_omega_b_does_not_depend_on_the_eigensolver() {
                     omega_max: 2.0,
                     newton: &NewtonSettings::default(),
                     continuation: &settings,
+                    criticality: true,
                 },
                 &mut tally,
             )

@@ -9,11 +9,13 @@ use crate::engine::arclength::{BranchStop, Point};
 use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
 use crate::engine::events::{Event, EventKind};
 use crate::engine::newton::NewtonSettings;
+use crate::engine::stability::Spectrum;
 use crate::engine::stop::{Observer, Stop};
 use crate::engine::{ContinuationSettings, Problem};
 use crate::model::Model;
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
+use crate::problem::steady::SteadyState;
 
 use crate::analysis::branch::{observables_at, trace_in_chart};
 use crate::analysis::solve::rest_state;
@@ -27,6 +29,9 @@ pub struct LocateSettings<'a> {
     pub omega_max: f64,
     pub newton: &'a NewtonSettings,
     pub continuation: &'a ContinuationSettings,
+    /// Whether a Hopf point gets its first Lyapunov coefficient (a refinement computes it at
+    /// its finest rung only).
+    pub criticality: bool,
 }
 
 /// What ends the stability of the branch from rest.
@@ -112,6 +117,73 @@ pub fn hopf_criticality(model: &Model, event: &Event, chart: &Chart) -> Result<L
 }
 
 impl Located {
+    /// The report of a branch of `model` stable up to `omega_max` (rad/s), before any count.
+    pub fn none(model: &Model, omega_max: f64) -> Located {
+        Located {
+            kind: Loss::None,
+            omega_b: None,
+            omegabar_b: None,
+            im: None,
+            imbar: None,
+            fp: None,
+            fpbar: None,
+            hbar: None,
+            nodes: model.nodes(),
+            precision: None,
+            unstable_at_rest: 0,
+            omega_max,
+            points: 0,
+            corrector_iterations: 0,
+            l1: None,
+            l1_precision: None,
+            criticality: None,
+            l1_failure: None,
+        }
+    }
+
+    /// The report of the loss of stability at `event` of `model`'s branch from `rest`, the
+    /// counts those of `self` (without the Lyapunov coefficient: [`Located::with_criticality`]).
+    pub fn at_event(self, model: &Model, rest: &SteadyState, event: &Event) -> Result<Located> {
+        let o = observables_at(model, rest, &event.u, event.p)?;
+        let s = &model.scales;
+        let imbar = event.eigenvalue.im.abs();
+        let hopf = event.kind == EventKind::Hopf;
+        Ok(Located {
+            kind: Loss::Event(event.kind),
+            omega_b: Some(o.omega),
+            omegabar_b: Some(event.p),
+            im: hopf.then(|| s.omega_from_bar(imbar)),
+            imbar: hopf.then_some(imbar),
+            fp: Some(o.fp),
+            fpbar: Some(o.fpbar),
+            hbar: Some(o.hbar),
+            precision: Some(event.precision),
+            ..self
+        })
+    }
+
+    /// At a Hopf point `event` (its state measured in `chart`), the report with the first
+    /// Lyapunov coefficient and the verdict; a coefficient that cannot be computed does not take
+    /// away `omega_b`: the report says why.
+    pub fn with_criticality(self, model: &Model, event: &Event, chart: &Chart) -> Located {
+        if event.kind != EventKind::Hopf {
+            return self;
+        }
+        match hopf_criticality(model, event, chart) {
+            Ok(l) => Located {
+                l1: Some(l.l1),
+                l1_precision: Some(l.precision),
+                criticality: Some(l.verdict),
+                l1_failure: None,
+                ..self
+            },
+            Err(e) => Located {
+                l1_failure: Some(e.to_string()),
+                ..self
+            },
+        }
+    }
+
     /// The status of a located result in a table: `ok` for a loss of stability or a branch
     /// stable throughout, else what prevents an `omega_b`.
     pub fn status(&self) -> String {
@@ -134,6 +206,17 @@ pub struct Critical {
     /// The last point of the branch before the event, `(u, omegabar)` (a start for following
     /// the event in a second parameter).
     pub lead: (Vec<f64>, f64),
+    /// The points of the branch from rest before the event: `omegabar`, the node positions and
+    /// the leading spectrum (what a finer mesh is checked against, docs/model.md section 10).
+    pub branch: Vec<BranchState>,
+}
+
+/// A point of the branch from rest: its rate, node positions and leading spectrum.
+#[derive(Clone, Debug)]
+pub struct BranchState {
+    pub omegabar: f64,
+    pub x: Vec<nalgebra::Vector3<f64>>,
+    pub spectrum: Spectrum,
 }
 
 impl Critical {
@@ -164,26 +247,10 @@ pub fn locate(
         observer,
     )?;
     let points = branch.points.len();
-    let corrector_iterations = branch.points.iter().map(|p| p.iterations).sum();
     let none = Located {
-        kind: Loss::None,
-        omega_b: None,
-        omegabar_b: None,
-        im: None,
-        imbar: None,
-        fp: None,
-        fpbar: None,
-        hbar: None,
-        nodes: model.nodes(),
-        precision: None,
-        unstable_at_rest: 0,
-        omega_max,
         points,
-        corrector_iterations,
-        l1: None,
-        l1_precision: None,
-        criticality: None,
-        l1_failure: None,
+        corrector_iterations: branch.points.iter().map(|p| p.iterations).sum(),
+        ..Located::none(model, omega_max)
     };
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
@@ -239,34 +306,29 @@ pub fn locate(
             )
         })?
         .clone();
-    let o = observables_at(model, &rest, &event.u, event.p)?;
-    let s = &model.scales;
-    let imbar = event.eigenvalue.im.abs();
-    // A coefficient that cannot be computed does not take away omega_b: it says why.
-    let (lyapunov, l1_failure) = match event.kind {
-        EventKind::Hopf => match hopf_criticality(model, &event, &chart) {
-            Ok(l) => (Some(l), None),
-            Err(e) => (None, Some(e.to_string())),
-        },
-        _ => (None, None),
-    };
-    let located = Located {
-        kind: Loss::Event(event.kind),
-        omega_b: Some(o.omega),
-        omegabar_b: Some(event.p),
-        im: (event.kind == EventKind::Hopf).then(|| s.omega_from_bar(imbar)),
-        imbar: (event.kind == EventKind::Hopf).then_some(imbar),
-        fp: Some(o.fp),
-        fpbar: Some(o.fpbar),
-        hbar: Some(o.hbar),
-        precision: Some(event.precision),
-        l1: lyapunov.as_ref().map(|l| l.l1),
-        l1_precision: lyapunov.as_ref().map(|l| l.precision),
-        criticality: lyapunov.as_ref().map(|l| l.verdict),
-        l1_failure,
-        ..none
-    };
+    let mut located = none.at_event(model, &rest, &event)?;
+    if settings.criticality {
+        located = located.with_criticality(model, &event, &chart);
+    }
     let before = branch.point_before(&event);
     let lead = (before.u.clone(), before.p);
-    Ok((located, Some(Critical { event, chart, lead })))
+    let states = branch
+        .points
+        .iter()
+        .filter(|p| p.s < event.s)
+        .map(|p| BranchState {
+            omegabar: p.p,
+            x: Steady::new(model, p.p).config(&p.u).x,
+            spectrum: p.spectrum.clone(),
+        })
+        .collect();
+    Ok((
+        located,
+        Some(Critical {
+            event,
+            chart,
+            lead,
+            branch: states,
+        }),
+    ))
 }

@@ -4,13 +4,27 @@
 
 use serde::Serialize;
 
-use crate::analysis::locate::{LocateSettings, Located, Loss, locate};
+use std::time::Instant;
+
+use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located, Loss, locate};
+use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Point;
+use crate::engine::arclength::{AtParameter, stability};
+use crate::engine::crossing::{CrossingSettings, locate_crossing};
+use crate::engine::curve::others;
 use crate::engine::events::Event;
+use crate::engine::events::EventKind;
+use crate::engine::newton;
 use crate::engine::stop::Observer;
 use crate::model::params::Physical;
+use crate::model::rod::Config;
+use crate::model::rod::frame::rechart;
+use crate::model::steady::Steady;
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
+use crate::problem::carry::{carry, carry_config};
+use crate::problem::rod::{Parameter, RodProblem, omega_scale};
+use crate::problem::twist::{natural_chart_unknowns, slave_twist};
 use crate::{Error, Result};
 
 /// Watches a refinement or a ladder: every rung's continuation as an engine [`Observer`], and
@@ -72,6 +86,31 @@ pub struct Rung {
     pub nodes: usize,
     pub omega_b: Option<f64>,
     pub kind: Loss,
+    /// How the rung found its point: `continuation` from rest, `sequenced` from the coarser
+    /// rung's point, or `continuation` after sequencing was refused (`fallback` says why).
+    pub method: &'static str,
+    pub fallback: Option<String>,
+    /// A sequenced rung's evidence that its point is still the first loss of stability.
+    pub certificate: Option<Certificate>,
+    pub seconds: f64,
+}
+
+/// Why a sequenced rung's Hopf point is the first loss of stability of its mesh
+/// (docs/model.md section 10): a state just below it with no unstable eigenvalue, and no
+/// unstable eigenvalue on this mesh at the points of the coarsest rung's branch where a mode
+/// other than the critical one came within `margin` of the axis.
+#[derive(Clone, Debug, Serialize)]
+pub struct Certificate {
+    /// The state on the stable side of the final bracket (rad/s) and its unstable count.
+    pub omega_below: f64,
+    pub unstable_below: usize,
+    /// How far the critical eigenvalue moved from the coarser mesh to this one, at the first
+    /// sample (1/s), and the margin it sets, ten times that.
+    pub shift: f64,
+    pub margin: f64,
+    /// The rates (rad/s) of the coarsest branch's points checked on this mesh (each with no
+    /// unstable eigenvalue); the others kept a margin on it.
+    pub checked: Vec<f64>,
 }
 
 /// The largest node count a refinement goes to unless told otherwise (`--max-nodes`): the
@@ -100,18 +139,191 @@ fn at_nodes(physical: &Physical, nodes: usize) -> Physical {
     p
 }
 
-/// One rung: `locate` on `physical` at `nodes` nodes.
-fn rung(
+/// A rung's result: its model, what it located, its first loss of stability, and the slope
+/// `d Re s / d omegabar` of the critical eigenvalue there.
+struct Solved {
+    model: Model,
+    located: Located,
+    critical: Option<Critical>,
+    slope: Option<f64>,
+}
+
+/// The slope `d Re s / d omegabar` of the critical eigenvalue at the event of `critical`, from
+/// the last point of its branch before it (the eigenvalue tracked back to it).
+fn branch_slope(critical: &Critical) -> Option<f64> {
+    let lead = critical.branch.last()?;
+    let s = lead.spectrum.nearest(critical.event.eigenvalue);
+    let slope = (critical.event.eigenvalue.re - s.re) / (critical.event.p - lead.omegabar);
+    slope.is_finite().then_some(slope)
+}
+
+/// One rung by continuation from rest: `locate` on `physical` at `nodes` nodes.
+fn continuation_rung(
     physical: &Physical,
     nodes: usize,
     settings: &LocateSettings,
     observer: &mut impl RungObserver,
-) -> Result<Located> {
+) -> Result<Solved> {
     let model = Model::new(&at_nodes(physical, nodes))?;
     observer.rung(&model);
-    let (located, _) = locate(&model, settings, observer)?;
-    observer.located(nodes, &located);
-    Ok(located)
+    let (located, critical) = locate(&model, settings, observer)?;
+    Ok(Solved {
+        slope: critical.as_ref().and_then(branch_slope),
+        model,
+        located,
+        critical,
+    })
+}
+
+/// How many times the critical eigenvalue's shift from the coarser mesh a mode of the coarsest
+/// branch must stay from the axis to be left unchecked on a finer mesh (docs/model.md
+/// section 10).
+const K_MARGIN: f64 = 10.0;
+
+/// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
+/// `coarse` carried onto the mesh of `nodes` nodes and located there ([`locate_crossing`]),
+/// started at `predicted` (`omegabar`), and its [`Certificate`]; `None` where the certificate
+/// fails (a point of the coarsest branch is unstable on this mesh), with the reason.
+fn sequenced_rung(
+    physical: &Physical,
+    nodes: usize,
+    coarse: &Solved,
+    predicted: f64,
+    settings: &LocateSettings,
+    observer: &mut impl RungObserver,
+) -> Result<std::result::Result<(Solved, Certificate), String>> {
+    let critical = coarse
+        .critical
+        .as_ref()
+        .expect("a sequenced rung follows a Hopf point");
+    let fine = Model::new(&at_nodes(physical, nodes))?;
+    fine.check_resolution()?;
+    observer.rung(&fine);
+    let omegabar_max = fine.scales.omega_to_bar(settings.omega_max);
+    let problem = RodProblem::new(&fine, Parameter::Omega, omega_scale(omegabar_max));
+    let u0 = carry(&coarse.model, &critical.event.u, &critical.chart, &fine);
+    let search = CrossingSettings {
+        first_step: 5e-3,
+        slope: coarse.slope,
+        max_evaluations: 40,
+        unstable_before: 0,
+    };
+    let crossing = locate_crossing(
+        &problem,
+        &u0,
+        predicted,
+        critical.event.eigenvalue,
+        &search,
+        settings.continuation,
+    )?;
+    let scales = fine.scales;
+    // How far the real part of the critical eigenvalue moved from the coarser mesh at one
+    // rate: its slope in `omegabar` over the final bracket times the move of the crossing.
+    let (near, event) = (&crossing.near, &crossing.event);
+    let slope = (event.eigenvalue.re - near.tracked.re) / (event.p - near.p);
+    let slope = if slope.is_finite() && event.p != near.p {
+        Some(slope)
+    } else {
+        coarse.slope
+    };
+    let shift = match slope {
+        Some(g) => (g * (event.p - critical.event.p)).abs(),
+        None => (crossing.first.tracked.re - critical.event.eigenvalue.re).abs(),
+    };
+    let margin = K_MARGIN * shift;
+    // The coarsest branch's points below this mesh's crossing where a mode other than the
+    // critical one (tracked back from the event, point to point) came within the margin.
+    let mut track = critical.event.eigenvalue;
+    let mut close: Vec<&BranchState> = Vec::new();
+    for state in critical.branch.iter().rev() {
+        track = state.spectrum.nearest(track);
+        let below = state.omegabar.abs() < crossing.near.p.abs();
+        if below && others(&state.spectrum, track).max_re() > -margin {
+            close.push(state);
+        }
+    }
+    let rest = rest_state(&fine, settings.newton)?;
+    // The twist of the coarse event in the coarse natural chart: a checked point's twist starts
+    // from it scaled with the rate (the twist carries the motor's torque, about proportional to
+    // it below the instability).
+    let event_twist = rechart(
+        &Steady::new(&coarse.model, 0.0).config(&critical.event.u),
+        &critical.chart,
+        &coarse.model.chart,
+    )
+    .theta;
+    let mut checked = Vec::new();
+    for state in close.iter().rev() {
+        let omega = scales.omega_from_bar(state.omegabar);
+        // The state at rest is this mesh's own; the others are carried (their twist slaved).
+        let guess = if state.omegabar == 0.0 {
+            natural_chart_unknowns(&fine, &rest.config, &rest.chart)
+        } else {
+            let ratio = state.omegabar / critical.event.p;
+            let config = Config {
+                x: state.x.clone(),
+                theta: event_twist.iter().map(|t| t * ratio).collect(),
+            };
+            slave_twist(&fine, &carry_config(&coarse.model, &config, &fine))
+        };
+        let spectrum = guess.and_then(|guess| {
+            let at = AtParameter::new(&problem, state.omegabar);
+            let context = format!("checking omega = {omega:e} rad/s");
+            let (u, _) = newton::solve(&at, guess, settings.newton, &context)?;
+            let lin = at.linearization_at(&u)?;
+            stability(
+                &problem,
+                &u,
+                state.omegabar,
+                &lin,
+                settings.continuation,
+                None,
+            )
+        });
+        let spectrum = match spectrum {
+            Ok(s) => s,
+            Err(e) => {
+                return Ok(Err(format!(
+                    "the point of the coarsest branch at omega = {omega:.6} rad/s could not be \
+                     solved on this mesh to check it: {e}"
+                )));
+            }
+        };
+        if spectrum.unstable > 0 {
+            return Ok(Err(format!(
+                "at omega = {omega:.6} rad/s, below the sequenced point, this mesh has {} \
+                 unstable eigenvalues",
+                spectrum.unstable
+            )));
+        }
+        checked.push(omega);
+    }
+    let base = Located {
+        nodes,
+        omega_max: settings.omega_max,
+        points: crossing.evaluations,
+        ..Located::none(&fine, settings.omega_max)
+    };
+    let located = base.at_event(&fine, &rest, &crossing.event)?;
+    let certificate = Certificate {
+        omega_below: scales.omega_from_bar(crossing.near.p),
+        unstable_below: crossing.near.spectrum.unstable,
+        shift: shift / scales.time,
+        margin: margin / scales.time,
+        checked,
+    };
+    let solved = Solved {
+        slope,
+        located,
+        critical: Some(Critical {
+            lead: (crossing.near.u.clone(), crossing.near.p),
+            chart: problem.chart(),
+            event: crossing.event,
+            branch: critical.branch.clone(),
+        }),
+        model: fine,
+    };
+    Ok(Ok((solved, certificate)))
 }
 
 /// Runs `locate` at each node count of `ladder` and extrapolates.
@@ -132,7 +344,8 @@ pub fn ladder(
     }
     let mut results = Vec::new();
     for &n in ladder {
-        let located = rung(physical, n, settings, observer)?;
+        let located = continuation_rung(physical, n, settings, observer)?.located;
+        observer.located(n, &located);
         let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) else {
             return Err(Error::Numerical(format!(
                 "no instability up to omega_max = {} rad/s at N = {n}: nothing to extrapolate",
@@ -203,25 +416,71 @@ pub fn refine(
         _ => format!("the next refinement would pass --max-nodes {max_nodes} (at N = {n})"),
     };
     let mut rungs: Vec<Rung> = Vec::new();
-    let mut finest: Option<Located> = None;
+    let mut finest: Option<Solved> = None;
     // The estimate of the finest rung (none while it has no omega_b or another kind of event).
     let mut estimate: Option<DiscretizationError> = None;
+    // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
+    let quiet = LocateSettings {
+        criticality: false,
+        ..*settings
+    };
     let mut n = start;
     let stopped = loop {
-        let located = match rung(physical, n, settings, observer) {
-            Ok(l) => l,
+        let started = Instant::now();
+        // A finer rung starts from the coarser one's Hopf point, at the rate the rungs so far
+        // predict (first order: the next increment half the last).
+        let sequencing = finest
+            .as_ref()
+            .filter(|f| matches!(&f.critical, Some(c) if c.event.kind == EventKind::Hopf));
+        let (solved, method, fallback, certificate) = match sequencing {
+            Some(coarse) => {
+                let (nodes, values) = rung_omegabars(&rungs, &coarse.located);
+                let k = values.len();
+                let predicted = if k >= 2 {
+                    values[k - 1] + 0.5 * (values[k - 1] - values[k - 2]) * h_ratio(&nodes, n)
+                } else {
+                    values[k - 1]
+                };
+                match sequenced_rung(physical, n, coarse, predicted, &quiet, observer) {
+                    Ok(Ok((solved, certificate))) => {
+                        (Ok(solved), "sequenced", None, Some(certificate))
+                    }
+                    Ok(Err(why)) | Err(Error::Numerical(why)) => (
+                        continuation_rung(physical, n, &quiet, observer),
+                        "continuation",
+                        Some(why),
+                        None,
+                    ),
+                    Err(e) => (Err(e), "sequenced", None, None),
+                }
+            }
+            None => (
+                continuation_rung(physical, n, &quiet, observer),
+                "continuation",
+                None,
+                None,
+            ),
+        };
+        let solved = match solved {
+            Ok(s) => s,
             Err(e) if finest.is_some() => break Some(format!("the rung at N = {n} failed: {e}")),
             Err(e) => return Err(e),
         };
+        observer.located(n, &solved.located);
+        let located = &solved.located;
         rungs.push(Rung {
             nodes: n,
             omega_b: located.omega_b,
             kind: located.kind,
+            method,
+            fallback,
+            certificate,
+            seconds: started.elapsed().as_secs_f64(),
         });
         estimate = None;
         let kind_changed = rungs[0].kind != located.kind;
         let found = located.omega_b.is_some();
-        finest = Some(located);
+        finest = Some(solved);
         if !found {
             break Some(format!(
                 "no omega_b at N = {n} (kind {}): nothing to refine",
@@ -254,7 +513,15 @@ pub fn refine(
             None => break Some(limit_reason(n)),
         }
     };
-    let finest = finest.expect("at least one rung ran");
+    let Solved {
+        model,
+        located: mut finest,
+        critical,
+        ..
+    } = finest.expect("at least one rung ran");
+    if let (true, Some(c)) = (settings.criticality, &critical) {
+        finest = finest.with_criticality(&model, &c.event, &c.chart);
+    }
     let omega_b_error = estimate.as_ref().map(|e| e.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.is_some_and(|r| r < accuracy);
@@ -268,6 +535,26 @@ pub fn refine(
         rungs,
         stopped: if reached { None } else { stopped },
     })
+}
+
+/// The node counts and `omegabar_b` of the rungs so far, the last one `last`'s.
+fn rung_omegabars(rungs: &[Rung], last: &Located) -> (Vec<usize>, Vec<f64>) {
+    let ratio = last
+        .omegabar_b
+        .zip(last.omega_b)
+        .map_or(1.0, |(wb, w)| wb / w);
+    rungs
+        .iter()
+        .filter_map(|r| r.omega_b.map(|w| (r.nodes, w * ratio)))
+        .unzip()
+}
+
+/// The ratio of the step `h = 1/(N - 1)` from the last of `nodes` to `next`, over the one
+/// before, for the prediction of the next increment (1 when the spacing halves each time).
+fn h_ratio(nodes: &[usize], next: usize) -> f64 {
+    let h = |n: usize| 1.0 / (n as f64 - 1.0);
+    let k = nodes.len();
+    (h(nodes[k - 1]) - h(next)) / (h(nodes[k - 2]) - h(nodes[k - 1]))
 }
 
 /// The node counts and `omega_b` of rungs that all found one.

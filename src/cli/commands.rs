@@ -94,13 +94,12 @@ fn write_shape(path: &Path, model: &Model, solution: &Solution) -> anyhow::Resul
     Ok(())
 }
 
-/// A count given on the command line, at least `min` (negative numbers are read, to be refused
-/// here with the range).
+/// A count given on the command line: a negative number (read, to be refused here) is refused
+/// with the smallest count allowed, `min`; the rest of the range is checked where the count is
+/// used.
 fn count(field: &str, value: i64, min: usize) -> Result<usize, Error> {
     usize::try_from(value)
-        .ok()
-        .filter(|&v| v >= min)
-        .ok_or_else(|| Error::input(field, format!("must be >= {min}, got {value}")))
+        .map_err(|_| Error::input(field, format!("must be >= {min}, got {value}")))
 }
 
 fn finite(field: &str, value: f64) -> Result<(), Error> {

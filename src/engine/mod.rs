@@ -26,6 +26,7 @@
 
 pub mod arclength;
 pub mod criticality;
+pub mod crossing;
 pub mod curve;
 pub mod event_curve;
 pub mod events;

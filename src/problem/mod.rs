@@ -2,6 +2,7 @@
 //! problem in one parameter ([`rod::RodProblem`]) and in two ([`family::RodFamily`]), the implicit
 //! time step, the twist slaved to the positions, and the rod's dynamics for periodic orbits.
 
+pub mod carry;
 pub mod family;
 pub mod orbit;
 pub mod rod;

@@ -101,6 +101,7 @@ impl Study {
             omega_max: self.branch.omega_max,
             newton: &self.newton,
             continuation: &self.continuation,
+            criticality: true,
         }
     }
 
