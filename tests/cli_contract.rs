@@ -218,9 +218,10 @@ fn set_overrides_write_to_their_own_folder_never_over_the_study_results() {
         .output()
         .unwrap();
     assert!(status.status.success(), "{status:?}");
+    // The branch command's own subfolder of the variant's folder.
     let own = dir.join("output/representative.set-discretization.nodes_20");
     assert!(
-        own.join("branch.csv").exists(),
+        own.join("branch/branch.csv").exists(),
         "{:?}",
         std::fs::read_dir(dir.join("output"))
     );

@@ -445,13 +445,21 @@ pub fn refine(
                     Ok(Ok((solved, certificate))) => {
                         (Ok(solved), "sequenced", None, Some(certificate))
                     }
-                    Ok(Err(why)) | Err(Error::Numerical(why)) => (
+                    Ok(Err(why)) => (
                         continuation_rung(physical, n, &quiet, observer),
                         "continuation",
                         Some(why),
                         None,
                     ),
-                    Err(e) => (Err(e), "sequenced", None, None),
+                    Err(e) if e.is_input() => (Err(e), "sequenced", None, None),
+                    // A carried state Newton's method cannot correct (a coarse mesh), a crossing
+                    // not found: this rung is followed from rest.
+                    Err(e) => (
+                        continuation_rung(physical, n, &quiet, observer),
+                        "continuation",
+                        Some(format!("sequencing failed: {e}")),
+                        None,
+                    ),
                 }
             }
             None => (

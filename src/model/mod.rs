@@ -39,7 +39,15 @@ impl Model {
     /// Validates `physical` and builds the dimensionless model.
     pub fn new(physical: &Physical) -> Result<Self> {
         physical.validate()?;
-        check_memory(physical.discretization.nodes)?;
+        // Runs of a few hundred megabytes are not checked (the check reads system files); a
+        // count outside Lighthill's admissible range is refused for that, more to the point
+        // ([`Model::check_resolution`]).
+        let nodes = physical.discretization.nodes;
+        if memory_estimate(nodes) > 256 << 20
+            && admissible_max_nodes(physical).is_none_or(|max| nodes <= max)
+        {
+            check_memory(nodes)?;
+        }
         let scales = physical.scales();
         let ell = scales.length;
         let ei = physical.bending_stiffness();
@@ -131,7 +139,7 @@ pub fn memory_estimate(nodes: usize) -> u64 {
 
 /// Refuses (as bad input) a node count whose run would need more memory than this process can
 /// still allocate ([`available_memory`]), naming the estimate, the limit and the largest count
-/// that fits; a run that fits is not slowed (the check reads a few system files).
+/// that fits.
 fn check_memory(nodes: usize) -> Result<()> {
     let need = memory_estimate(nodes);
     let Some(available) = available_memory() else {

@@ -3,13 +3,17 @@
 //! arclength, to be corrected by Newton's method on the new mesh.
 //!
 //! With `s_i` the natural arclength of node `i` (the sum of the natural edge lengths before it,
-//! over the contour length), the centreline is the cubic Hermite interpolant through the old
+//! over the contour length), the positions are the cubic Hermite interpolant through the old
 //! nodes with the Catmull-Rom slopes `x'_k = (x_{k+1} - x_{k-1}) / (s_{k+1} - s_{k-1})`
 //! (one-sided at the ends), third-order accurate in the old spacing; the twist angles, measured
 //! in each model's natural chart, are interpolated linearly at the edges' midpoints. The clamp
-//! (`x_0`, `x_1`, `theta^0`) is the new model's own. (The interpolated edges are slightly
-//! stretched, which the stiff stretching turns into a residual of order `1e2` at the start:
-//! Newton's method at the new mesh takes 5-7 iterations from it.)
+//! (`x_0`, `x_1`, `theta^0`) is the new model's own.
+//!
+//! The interpolant's chords are shorter than the old polygon's edges where the old mesh turns
+//! by a large angle per edge, and the stiff stretching (`1e4..1e6` times the bending
+//! stiffness) turns that into a large first residual: from a mesh of 15 or more nodes per turn
+//! of a helix Newton's method at the new mesh converges in 5-7 iterations; from 5 to 10 per
+//! turn it does not, and the refinement follows that rung from rest instead.
 
 use nalgebra::Vector3;
 
