@@ -1,0 +1,95 @@
+//! The refinement in `N` by grid sequencing (docs/model.md section 10): a finer rung started
+//! from the coarser rung's Hopf point finds the same point as a continuation from rest at that
+//! node count, to the event tolerance, with its certificate; where the carried state cannot be
+//! corrected (a mesh of a few nodes per turn) the rung is followed from rest and says why.
+
+use helixbif::analysis::locate::{LocateSettings, locate};
+use helixbif::analysis::refine::{RungObserver, refine};
+use helixbif::engine::ContinuationSettings;
+use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stop::Silent;
+use helixbif::model::Model;
+use helixbif::model::fluid::FluidModel;
+use helixbif::model::params::Physical;
+
+struct Quiet;
+impl
+    helixbif::engine::stop::Observer<
+        helixbif::engine::arclength::Point,
+        helixbif::engine::events::Event,
+    > for Quiet
+{
+}
+impl RungObserver for Quiet {}
+
+fn settings<'a>(
+    newton: &'a NewtonSettings,
+    continuation: &'a ContinuationSettings,
+) -> LocateSettings<'a> {
+    LocateSettings {
+        omega_max: 2.0,
+        newton,
+        continuation,
+        criticality: false,
+    }
+}
+
+#[test]
+fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let mut physical = Physical::representative();
+    physical.fluid.model = FluidModel::Rpy;
+    physical.discretization.nodes = 60;
+    // Two rungs: N = 60 from rest, N = 119 sequenced (the accuracy is out of reach at 119).
+    let refined = refine(
+        &physical,
+        1e-9,
+        119,
+        &settings(&newton, &continuation),
+        &mut Quiet,
+    )
+    .unwrap();
+    assert_eq!(refined.rungs.len(), 2);
+    let fine = &refined.rungs[1];
+    assert_eq!(fine.method, "sequenced", "{:?}", fine.fallback);
+    let certificate = fine.certificate.as_ref().unwrap();
+    assert_eq!(certificate.unstable_below, 0);
+    assert!(certificate.omega_below <= fine.omega_b.unwrap());
+    // The same node count followed from rest.
+    physical.discretization.nodes = 119;
+    let model = Model::new(&physical).unwrap();
+    let (direct, _) = locate(&model, &settings(&newton, &continuation), &mut Silent).unwrap();
+    let (a, b) = (fine.omega_b.unwrap(), direct.omega_b.unwrap());
+    assert!(
+        (a - b).abs() <= 2.0 * continuation.event_tol * b,
+        "sequenced {a} against continuation {b}"
+    );
+}
+
+#[test]
+fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let mut physical = Physical::representative();
+    physical.discretization.nodes = 20;
+    // Five nodes per turn: the carried state is too far from the finer mesh's for Newton.
+    let refined = refine(
+        &physical,
+        1e-9,
+        39,
+        &settings(&newton, &continuation),
+        &mut Quiet,
+    )
+    .unwrap();
+    let fine = &refined.rungs[1];
+    assert_eq!(fine.method, "continuation");
+    assert!(
+        fine.fallback
+            .as_deref()
+            .is_some_and(|w| w.starts_with("sequencing failed")),
+        "{:?}",
+        fine.fallback
+    );
+    assert!(fine.omega_b.is_some());
+}
