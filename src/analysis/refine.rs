@@ -16,6 +16,7 @@ use crate::engine::events::Event;
 use crate::engine::events::EventKind;
 use crate::engine::newton;
 use crate::engine::stop::Observer;
+use crate::model::fluid::FluidModel;
 use crate::model::params::Physical;
 use crate::model::rod::Config;
 use crate::model::rod::frame::rechart;
@@ -78,6 +79,8 @@ pub struct Refinement {
     pub rungs: Vec<Rung>,
     /// Why the refinement ended without reaching `accuracy` (absent when it did).
     pub stopped: Option<String>,
+    /// The hydrodynamic model the rungs use.
+    pub fluid: FluidModel,
 }
 
 /// One rung of a refinement.
@@ -542,6 +545,7 @@ pub fn refine(
         estimate,
         rungs,
         stopped: if reached { None } else { stopped },
+        fluid: physical.fluid.model,
     })
 }
 

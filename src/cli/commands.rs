@@ -30,8 +30,23 @@ use super::args::{
 };
 use super::report::{BisectReport, FitReport, MergeReport, Plain, Report, RunReport, Titled};
 
-/// What a command returns: its report, and whether it asks for JSON.
-pub type Outcome = anyhow::Result<Box<dyn Report>>;
+/// What a command returns: its report, and what it fell short of (a numerical failure reported
+/// after the report is printed: the report holds everything computed).
+pub struct Done {
+    pub report: Box<dyn Report>,
+    pub shortfall: Option<String>,
+}
+
+/// A report that reached what it was asked for.
+fn done(report: impl Report + 'static) -> Done {
+    Done {
+        report: Box::new(report),
+        shortfall: None,
+    }
+}
+
+/// What a command returns: its outcome, or why it failed.
+pub type Outcome = anyhow::Result<Done>;
 
 fn load(args: &StudyArgs) -> Result<(Study, Model), Error> {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
@@ -122,7 +137,7 @@ pub fn solve(args: &SolveArgs) -> Outcome {
     if let Some(path) = shape {
         write_shape(path, &model, &solution)?;
     }
-    Ok(Box::new(titled(&study_file, solution.summary(&model))))
+    Ok(done(titled(&study_file, solution.summary(&model))))
 }
 
 pub fn branch(args: &BranchArgs) -> Outcome {
@@ -144,7 +159,7 @@ pub fn branch(args: &BranchArgs) -> Outcome {
         &dir,
         &Provenance::of_process(),
     )?;
-    Ok(Box::new(titled(&study_file, report)))
+    Ok(done(titled(&study_file, report)))
 }
 
 pub fn locate(args: &LocateArgs) -> Outcome {
@@ -177,7 +192,11 @@ pub fn locate(args: &LocateArgs) -> Outcome {
         check_max_nodes("--max-nodes", max_nodes)?;
     }
     let result = locate_study(&study_file, &how)?;
-    Ok(Box::new(titled(&study_file, result)))
+    let shortfall = result.shortfall();
+    Ok(Done {
+        report: Box::new(titled(&study_file, result)),
+        shortfall,
+    })
 }
 
 pub fn boundary(b: &BoundaryArgs) -> Outcome {
@@ -192,7 +211,7 @@ pub fn boundary(b: &BoundaryArgs) -> Outcome {
         }
     };
     let (_, report) = run_boundary(&study, key, (b.from, b.to), &dir, &Provenance::of_process())?;
-    Ok(Box::new(Plain(report?)))
+    Ok(done(Plain(report?)))
 }
 
 pub fn run(r: &RunArgs) -> Outcome {
@@ -201,7 +220,7 @@ pub fn run(r: &RunArgs) -> Outcome {
     let dir = output_dir(args, &study, out, None)?;
     let started = std::time::Instant::now();
     let result = run_study(&study, &dir, resume, &Provenance::of_process())?;
-    Ok(Box::new(RunReport {
+    Ok(done(RunReport {
         study: study.name.clone(),
         kind: study.study.as_ref().map_or("locate", |p| p.kind()).into(),
         seconds: started.elapsed().as_secs_f64(),
@@ -251,7 +270,7 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     if shard.is_none() {
         sweep_figures(&study, &dir)?;
     }
-    Ok(Box::new(titled(&study, summary)))
+    Ok(done(titled(&study, summary)))
 }
 
 /// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
@@ -281,9 +300,9 @@ pub fn slurm(s: &SlurmArgs) -> Outcome {
     };
     let scripts = write_scripts(&study, &job, &options)?;
     if submit_jobs {
-        Ok(Box::new(Plain(submit(scripts, &job.out)?)))
+        Ok(done(Plain(submit(scripts, &job.out)?)))
     } else {
-        Ok(Box::new(Plain(scripts)))
+        Ok(done(Plain(scripts)))
     }
 }
 
@@ -293,7 +312,7 @@ pub fn merge(m: &MergeArgs) -> Outcome {
     let dir = output_dir(args, &study, out, None)?;
     let (points, shards) = merge_shards(&study, &dir)?;
     sweep_figures(&study, &dir)?;
-    Ok(Box::new(MergeReport {
+    Ok(done(MergeReport {
         study: study.name.clone(),
         points,
         shards,
@@ -308,7 +327,7 @@ pub fn fit(f: &FitArgs) -> Outcome {
     let (kept, left_out) = table.usable(xc, yc, true);
     let (xs, ys): (Vec<f64>, Vec<f64>) = kept.iter().map(|&(_, x, y)| (x, y)).unzip();
     let fit = power_law(&xs, &ys)?;
-    Ok(Box::new(FitReport {
+    Ok(done(FitReport {
         csv: csv.display().to_string(),
         x: x.into(),
         y: y.into(),
@@ -345,7 +364,7 @@ pub fn orbits(o: &OrbitsArgs) -> Outcome {
         ))
         .into());
     }
-    Ok(Box::new(titled(&study, report)))
+    Ok(done(titled(&study, report)))
 }
 
 /// `helixbif simulate`; `omega` and `from_orbit` as given on the command line (`opts` holds the
@@ -396,7 +415,7 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
         &bar,
         &Provenance::of_process(),
     )?;
-    Ok(Box::new(titled(&study, report)))
+    Ok(done(titled(&study, report)))
 }
 
 pub fn bisect(o: &BisectArgs) -> Outcome {
@@ -441,7 +460,7 @@ pub fn bisect(o: &BisectArgs) -> Outcome {
         s.omega_to_bar(o.hi),
         &settings,
     )?;
-    Ok(Box::new(BisectReport::new(
+    Ok(done(BisectReport::new(
         &study.name,
         model.nodes(),
         &result,

@@ -47,7 +47,15 @@ pub fn main() -> ExitCode {
         Command::Bisect(a) => (commands::bisect(a), a.study.json),
     };
     match result {
-        Ok(report) => match print(report.as_ref(), json) {
+        Ok(done) => match print(done.report.as_ref(), json) {
+            Ok(()) | Err(_) if done.shortfall.is_some() => {
+                // The report (all that was computed) is out; what it fell short of is a failure.
+                eprintln!(
+                    "helixbif: error: numerical failure: {}",
+                    done.shortfall.unwrap_or_default()
+                );
+                ExitCode::from(1)
+            }
             Ok(()) => ExitCode::SUCCESS,
             Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
             Err(e) => {

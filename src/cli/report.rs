@@ -10,6 +10,7 @@ use helixbif::analysis::locate::{Located, Loss};
 use helixbif::analysis::refine::{Ladder, Refinement};
 use helixbif::analysis::solve::SolutionSummary;
 use helixbif::engine::curve::SpecialKind;
+use helixbif::model::fluid::FluidModel;
 use helixbif::numerics::fit::PowerLaw;
 use helixbif::study::boundary::BoundaryReport;
 use helixbif::study::branch::BranchReport;
@@ -153,7 +154,7 @@ impl Section for Located {
                 )?;
                 writeln!(
                     f,
-                    "  omega_b    = {w:.10} rad/s   (omegabar_b = {wb:.8e}, relative precision {:.1e})",
+                    "  omega_b    = {w:.10} rad/s   (omegabar_b = {wb:.8e}; pinned down to {:.1e} relative at this N, which says nothing of its discretization error)",
                     self.precision.unwrap_or(f64::NAN)
                 )?;
                 if let Some(im) = self.im {
@@ -226,15 +227,62 @@ impl Section for Ladder {
 
 impl Section for Refinement {
     fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
+        let fluid = match self.fluid {
+            FluidModel::Rpy => "RPY line",
+            FluidModel::Lighthill => "Lighthill's operator, the paper's",
+        };
+        let verdict = self
+            .finest
+            .criticality
+            .map_or(String::new(), |v| format!(", {v}"));
+        let n = self.finest.nodes;
+        // The one number first: omega_b with its discretization error.
+        match (self.finest.omega_b, self.omega_b_error, self.relative_error) {
+            (Some(w), Some(e), Some(rel)) if self.reached => writeln!(
+                f,
+                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; converged to {rel:.0e} relative, \
+                 {fluid}, N = {n})",
+                self.finest.kind
+            )?,
+            (Some(w), Some(e), Some(rel)) => writeln!(
+                f,
+                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; NOT converged to {:.0e}: \
+                 estimated error {rel:.1e} relative, {fluid}, N = {n})",
+                self.finest.kind, self.accuracy
+            )?,
+            (Some(w), _, _) => writeln!(
+                f,
+                "omega_b = {w:.6} rad/s ({}{verdict}; error NOT estimated, {fluid}, N = {n})",
+                self.finest.kind
+            )?,
+            _ => {}
+        }
         if self.rungs.len() > 1 {
             writeln!(f, "refinement of `{study}` in N:")?;
             for r in &self.rungs {
+                let how = match (&r.fallback, &r.certificate) {
+                    (Some(why), _) => format!("continuation from rest; {why}"),
+                    (None, Some(c)) => format!(
+                        "sequenced; stable below at {:.6} rad/s{}",
+                        c.omega_below,
+                        if c.checked.is_empty() {
+                            String::new()
+                        } else {
+                            format!(
+                                ", {} points of the coarsest branch checked",
+                                c.checked.len()
+                            )
+                        }
+                    ),
+                    (None, None) => "continuation from rest".into(),
+                };
                 writeln!(
                     f,
-                    "  N = {:4}: omega_b = {} rad/s ({})",
+                    "  N = {:4}: omega_b = {} rad/s ({}, {how}; {:.1} s)",
                     r.nodes,
                     maybe(r.omega_b, 10),
-                    r.kind
+                    r.kind,
+                    r.seconds
                 )?;
             }
         }

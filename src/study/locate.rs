@@ -37,6 +37,30 @@ pub enum LocateResult {
     Ladder(Ladder),
 }
 
+impl LocateResult {
+    /// What the result falls short of: a refinement of an `omega_b` that did not reach its
+    /// accuracy, with the estimated error and why it stopped (a branch stable throughout, or
+    /// unstable at rest, has no `omega_b` to refine: that is its answer).
+    pub fn shortfall(&self) -> Option<String> {
+        let LocateResult::Refined(r) = self else {
+            return None;
+        };
+        (!r.reached && r.finest.omega_b.is_some()).then(|| {
+            let estimate = r
+                .relative_error
+                .map_or("no error estimate".to_string(), |e| {
+                    format!("the estimated relative error of omega_b is {e:.1e}")
+                });
+            format!(
+                "accuracy {:.0e} not reached at N = {}: {estimate}; {}",
+                r.accuracy,
+                r.finest.nodes,
+                r.stopped.as_deref().unwrap_or("")
+            )
+        })
+    }
+}
+
 /// A progress bar over the branch of each rung, and a note on stderr for each rung's result.
 struct LocateProgress {
     bar: ProgressBar,

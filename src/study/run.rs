@@ -156,6 +156,7 @@ pub fn run(
         Plan::Locate { .. } => {
             let result = locate_study(study, &resolution(&plan))?;
             write_json(&dir.join("locate.json"), &result)?;
+            failures.extend(result.shortfall());
             StudyResult::Locate { result }
         }
         Plan::Sweep { .. } => {
