@@ -16,7 +16,7 @@ use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::{Silent, Stop};
 use helixbif::model::Model;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
-use helixbif::numerics::fit::extrapolate;
+use helixbif::numerics::extrapolation::extrapolate;
 use helixbif::problem::rod::{Parameter, RodProblem};
 
 /// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its

@@ -22,7 +22,9 @@ use crate::model::rod::Config;
 use crate::model::rod::frame::rechart;
 use crate::model::steady::Steady;
 use crate::model::{Model, admissible_max_nodes};
-use crate::numerics::fit::{DiscretizationError, Extrapolated, discretization_error, extrapolate};
+use crate::numerics::extrapolation::{
+    DiscretizationError, Extrapolated, discretization_error, extrapolate,
+};
 use crate::problem::carry::{carry, carry_config};
 use crate::problem::rod::{Parameter, RodProblem, omega_scale};
 use crate::problem::twist::{natural_chart_unknowns, slave_twist};

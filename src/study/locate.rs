@@ -13,7 +13,7 @@ use crate::engine::arclength::Point;
 use crate::engine::events::Event;
 use crate::engine::stop::Observer;
 use crate::model::Model;
-use crate::numerics::fit::DiscretizationError;
+use crate::numerics::extrapolation::DiscretizationError;
 use crate::study::Study;
 use crate::study::progress::{self, progress};
 
