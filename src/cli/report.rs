@@ -1,5 +1,6 @@
-//! What each command reports: one value per command, `Serialize` (for `--json`) and `Display`
-//! (for people), printed in one place by the front end so that `--json` can never be forgotten.
+//! The text of each command's report: one value per command, `Serialize` (for `--json`) and
+//! `Display` (for people, through [`Section`] and [`Text`]), printed in one place by the front end
+//! so that `--json` can never be forgotten.
 
 use std::fmt::{self, Display, Formatter};
 

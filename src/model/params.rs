@@ -1,5 +1,6 @@
-//! Physical parameters in SI units, validated once at the boundary, and the scales that make
-//! them dimensionless.
+//! Physical parameters in SI units, validated once at the boundary, the scales that make them
+//! dimensionless, and the typed lens ([`Field`]) through which a second parameter varies one of
+//! them.
 //!
 //! Inside the solver lengths are measured in units of the reference length `ell` (the axial
 //! length `l` of a helix, the contour length `L` of an arc or a straight rod), forces in units of
