@@ -30,7 +30,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for n in nodes {
-        let mut physical = Physical::representative();
+        let mut physical = Physical::representative_lighthill();
         physical.discretization.nodes = n;
         let model = Model::new(&physical).expect("a valid model");
 

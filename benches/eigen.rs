@@ -27,7 +27,7 @@ use helixbif::model::steady::Steady;
 use helixbif::numerics::lu::Lu;
 
 fn model(nodes: usize) -> Model {
-    let mut p = Physical::representative();
+    let mut p = Physical::representative_lighthill();
     p.discretization.nodes = nodes;
     if nodes > 87 {
         p.fluid.model = FluidModel::Rpy;

@@ -17,7 +17,7 @@ use helixbif::model::params::Physical;
 use nalgebra::Vector3;
 
 fn model(fluid: FluidModel, nodes: usize) -> Model {
-    let mut p = Physical::representative();
+    let mut p = Physical::representative_lighthill();
     p.fluid.model = fluid;
     p.discretization.nodes = nodes;
     Model::new(&p).expect("valid benchmark model")

@@ -160,12 +160,12 @@ fn main() {
     println!("locate, {}", common::machine());
     let mut rows = Vec::new();
     for n in [30, 60, 85] {
-        let mut p = Physical::representative();
+        let mut p = Physical::representative_lighthill();
         p.discretization.nodes = n;
         rows.push(("default", p));
     }
     for n in [100, 150] {
-        let mut p = Physical::representative();
+        let mut p = Physical::representative_lighthill();
         if let ShapeParams::Helix { l, .. } = &mut p.shape {
             *l = 0.4;
         }
@@ -173,7 +173,7 @@ fn main() {
         rows.push(("l = 0.4 m", p));
     }
     for n in [60, 240, 400] {
-        let mut p = Physical::representative();
+        let mut p = Physical::representative_lighthill();
         p.fluid.model = FluidModel::Rpy;
         p.discretization.nodes = n;
         rows.push(("rpy", p));

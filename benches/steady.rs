@@ -15,7 +15,7 @@ use helixbif::model::params::Physical;
 use helixbif::model::steady::Steady;
 
 fn model(r0: f64, nodes: usize) -> Model {
-    let mut p = Physical::representative();
+    let mut p = Physical::representative_lighthill();
     p.rod.r0 = r0;
     p.discretization.nodes = nodes;
     Model::new(&p).expect("valid benchmark model")

@@ -73,7 +73,7 @@ fn greenhill_column_buckles_under_its_own_weight() {
 
 #[test]
 fn branch_points_agree_with_solve() {
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = 30;
     let model = Model::new(&physical).unwrap();
     let newton = NewtonSettings::default();
@@ -171,7 +171,7 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
     let mut results = Vec::new();
     let mut coefficients = Vec::new();
     for nodes in [30, 40, 60, 80] {
-        let mut physical = Physical::representative();
+        let mut physical = Physical::representative_lighthill();
         physical.discretization.nodes = nodes;
         let model = Model::new(&physical).unwrap();
         let (located, event) = locate(
@@ -244,7 +244,7 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
 fn a_branch_with_two_folds_is_followed_around_both() {
     // The representative helix turned the other way (left-handed at omega > 0): the branch
     // folds back at omega ~ 0.26 rad/s and forward again at ~ 0.12 rad/s (an S-shaped curve).
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = 40;
     if let ShapeParams::Helix { handedness, .. } = &mut physical.shape {
         *handedness = Handedness::Left;
@@ -319,7 +319,14 @@ fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
     // reference clamp (the helix's own end). Both lose stability at a Hopf point; the connector
     // lets the helix's top swing about the axis, which lowers omega_b by a few percent.
     let omega_b = |clamp: &str| {
-        let study = helixbif::study::Study::load(None, &[format!("shape.clamp={clamp}")]).unwrap();
+        let study = helixbif::study::Study::load(
+            None,
+            &[
+                "fluid.model=lighthill".into(),
+                format!("shape.clamp={clamp}"),
+            ],
+        )
+        .unwrap();
         let model = Model::new(&study.physical()).unwrap();
         let (located, _) = locate(
             &model,

@@ -15,7 +15,10 @@ use helixbif::study::output::Provenance;
 /// curve carries a moved chart from member to member with each member's own clamp.
 #[test]
 fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
-    let overrides = ["discretization.nodes=30".to_string()];
+    let overrides = [
+        "fluid.model=lighthill".to_string(),
+        "discretization.nodes=30".to_string(),
+    ];
     let study = Study::load(None, &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-{}", std::process::id()));
     let report = run_boundary(
@@ -49,7 +52,7 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
         let row = &rows[k * (rows.len() - 1) / 5];
         let q = number(row, q_col);
         let set = format!("shape.R_over_lambda={q:e}");
-        let at = Study::load(None, &[overrides[0].clone(), set]).unwrap();
+        let at = Study::load(None, &[overrides[0].clone(), overrides[1].clone(), set]).unwrap();
         let model = Model::new(&at.physical()).unwrap();
         let located = run_locate(&at, &model).unwrap();
         let expected = located.omega_b.unwrap();

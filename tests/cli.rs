@@ -111,7 +111,15 @@ fn bad_input_exits_2_with_one_line_naming_the_field() {
         ("newton.tol=0", "newton.tol"),
     ];
     for (set, field) in cases {
-        let (code, stdout, stderr) = helixbif(&["solve", "--omega", "0.1", "--set", set]);
+        let (code, stdout, stderr) = helixbif(&[
+            "solve",
+            "--set",
+            "fluid.model=lighthill",
+            "--omega",
+            "0.1",
+            "--set",
+            set,
+        ]);
         assert_eq!(code, 2, "--set {set}: {stderr}");
         assert!(stdout.is_empty());
         assert_eq!(
@@ -122,10 +130,18 @@ fn bad_input_exits_2_with_one_line_naming_the_field() {
         assert!(stderr.contains(field), "--set {set}: {stderr}");
         assert!(!stderr.contains("panicked"));
     }
-    let (code, _, stderr) = helixbif(&["solve", "--omega", "nan"]);
+    let (code, _, stderr) =
+        helixbif(&["solve", "--set", "fluid.model=lighthill", "--omega", "nan"]);
     assert_eq!(code, 2);
     assert!(stderr.contains("--omega"));
-    let (code, _, stderr) = helixbif(&["solve", "/nonexistent/study.toml", "--omega", "0.1"]);
+    let (code, _, stderr) = helixbif(&[
+        "solve",
+        "--set",
+        "fluid.model=lighthill",
+        "/nonexistent/study.toml",
+        "--omega",
+        "0.1",
+    ]);
     assert_eq!(code, 2);
     assert!(stderr.contains("study file"));
 }
@@ -134,6 +150,8 @@ fn bad_input_exits_2_with_one_line_naming_the_field() {
 fn node_count_outside_the_admissible_range_is_refused_with_the_reason() {
     let (code, _, stderr) = helixbif(&[
         "solve",
+        "--set",
+        "fluid.model=lighthill",
         "--omega",
         "0.1",
         "--set",
@@ -148,6 +166,8 @@ fn node_count_outside_the_admissible_range_is_refused_with_the_reason() {
 fn locate_json_has_the_documented_keys() {
     let (code, stdout, stderr) = helixbif(&[
         "locate",
+        "--set",
+        "fluid.model=lighthill",
         "--single",
         "--json",
         "--set",
@@ -172,6 +192,8 @@ fn locate_json_has_the_documented_keys() {
     // Below omega_b nothing happens: kind none, exit 0.
     let (code, stdout, _) = helixbif(&[
         "locate",
+        "--set",
+        "fluid.model=lighthill",
         "--single",
         "--json",
         "--set",
@@ -189,8 +211,15 @@ fn locate_json_has_the_documented_keys() {
 fn locate_extrapolate_reports_the_limit_and_its_error() {
     // A ladder in the asymptotic range (the known-order model of docs/model.md section 10 does
     // not hold on rungs as coarse as N = 30).
-    let (code, stdout, stderr) =
-        helixbif(&["locate", "--json", "--extrapolate", "--nodes", "50,60,70"]);
+    let (code, stdout, stderr) = helixbif(&[
+        "locate",
+        "--set",
+        "fluid.model=lighthill",
+        "--json",
+        "--extrapolate",
+        "--nodes",
+        "50,60,70",
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     let raw: Vec<f64> = v["omega_b"]
@@ -222,6 +251,8 @@ fn branch_writes_csv_files_and_meta() {
     let d = dir.to_str().unwrap();
     let (code, _, stderr) = helixbif(&[
         "branch",
+        "--set",
+        "fluid.model=lighthill",
         "--set",
         "discretization.nodes=24",
         "--omega-max",
@@ -260,6 +291,8 @@ fn simulate_writes_a_time_series_whose_late_statistics_are_the_steady_state() {
     let (code, stdout, stderr) = helixbif(&[
         "simulate",
         "--set",
+        "fluid.model=lighthill",
+        "--set",
         "discretization.nodes=16",
         "--omega",
         "0.2",
@@ -295,6 +328,8 @@ fn simulate_writes_a_time_series_whose_late_statistics_are_the_steady_state() {
     let (code, steady, stderr) = helixbif(&[
         "solve",
         "--set",
+        "fluid.model=lighthill",
+        "--set",
         "discretization.nodes=16",
         "--omega",
         "0.2",
@@ -321,10 +356,26 @@ fn simulate_writes_a_time_series_whose_late_statistics_are_the_steady_state() {
     assert!(dir.join("shapes.csv").exists() && dir.join("timeseries_hbar.svg").exists());
     std::fs::remove_dir_all(&dir).ok();
     // Bad input.
-    let (code, _, stderr) = helixbif(&["simulate", "--omega", "0.2", "--t-end", "-1"]);
+    let (code, _, stderr) = helixbif(&[
+        "simulate",
+        "--set",
+        "fluid.model=lighthill",
+        "--omega",
+        "0.2",
+        "--t-end",
+        "-1",
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--t-end"));
-    let (code, _, stderr) = helixbif(&["bisect", "--lo", "0.5", "--hi", "0.4"]);
+    let (code, _, stderr) = helixbif(&[
+        "bisect",
+        "--set",
+        "fluid.model=lighthill",
+        "--lo",
+        "0.5",
+        "--hi",
+        "0.4",
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--lo"));
 }
@@ -338,6 +389,8 @@ fn orbits_follows_the_unstable_orbits_below_a_subcritical_hopf_point() {
     let d = dir.to_str().unwrap();
     let (code, stdout, stderr) = helixbif(&[
         "orbits",
+        "--set",
+        "fluid.model=lighthill",
         "--set",
         "discretization.nodes=20",
         "--max-orbits",
@@ -378,7 +431,7 @@ fn orbits_follows_the_unstable_orbits_below_a_subcritical_hopf_point() {
     assert!(dir.join("events.csv").exists() && dir.join("meta.json").exists());
     std::fs::remove_dir_all(&dir).ok();
     // Bad input names the flag.
-    let (code, _, stderr) = helixbif(&["orbits", "--steps", "3"]);
+    let (code, _, stderr) = helixbif(&["orbits", "--set", "fluid.model=lighthill", "--steps", "3"]);
     assert_eq!(code, 2);
     assert!(
         stderr.contains("--steps") && stderr.contains("[8, 100000]"),
@@ -393,6 +446,8 @@ fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
     let run = |dir: &std::path::Path, orbits: &str, resume: bool| {
         let mut args = vec![
             "orbits",
+            "--set",
+            "fluid.model=lighthill",
             "--set",
             "discretization.nodes=16",
             "--max-orbits",

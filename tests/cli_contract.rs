@@ -23,7 +23,7 @@ const STANDING: [&str; 6] = [
 
 #[test]
 fn a_rest_state_that_is_already_unstable_is_reported_as_such() {
-    let mut args = vec!["locate", "--json"];
+    let mut args = vec!["locate", "--set", "fluid.model=lighthill", "--json"];
     args.extend(STANDING);
     let (code, stdout, stderr) = helixbif(&args);
     assert_eq!(code, 0, "{stderr}");
@@ -50,6 +50,7 @@ E = 1255e3
 r0 = 1.58e-3
 rho = 1306.0
 [fluid]
+model = "lighthill"
 mu = 1.32
 rho = 0.0
 [shape]
@@ -152,6 +153,8 @@ fn a_branch_that_approaches_itself_names_the_loss_of_positive_definiteness() {
     let (code, _, stderr) = helixbif(&[
         "branch",
         "--set",
+        "fluid.model=lighthill",
+        "--set",
         "shape.handedness=\"left\"",
         "--set",
         "discretization.nodes=40",
@@ -175,7 +178,13 @@ fn a_branch_that_approaches_itself_names_the_loss_of_positive_definiteness() {
 
 #[test]
 fn a_node_count_far_outside_the_range_is_refused_before_any_work() {
-    let (code, _, stderr) = helixbif(&["locate", "--set", "discretization.nodes=5000"]);
+    let (code, _, stderr) = helixbif(&[
+        "locate",
+        "--set",
+        "fluid.model=lighthill",
+        "--set",
+        "discretization.nodes=5000",
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("admissible range 5..=87"), "{stderr}");
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
@@ -232,7 +241,9 @@ fn set_overrides_write_to_their_own_folder_never_over_the_study_results() {
 /// A small sweep study over the node count (an integer field) in `dir`.
 fn node_sweep(dir: &Path) -> PathBuf {
     let study = dir.join("nodes.toml");
-    let base = std::fs::read_to_string("studies/representative.toml").unwrap();
+    let base = std::fs::read_to_string("studies/representative.toml")
+        .unwrap()
+        .replace("model = \"rpy\"", "model = \"lighthill\"");
     std::fs::write(
         &study,
         format!(
@@ -289,6 +300,8 @@ fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
     let solve = |omega: &str| {
         let (code, stdout, stderr) = helixbif(&[
             "solve",
+            "--set",
+            "fluid.model=lighthill",
             "--omega",
             omega,
             "--set",
@@ -308,6 +321,8 @@ fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
     let dir = temp_dir("cli-negative");
     let (code, stdout, stderr) = helixbif(&[
         "simulate",
+        "--set",
+        "fluid.model=lighthill",
         "--omega",
         "-0.1",
         "--t-end",
@@ -325,7 +340,15 @@ fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     assert_eq!(v["omega"], -0.1);
     // A bracket of one sign is accepted by the parser and checked by the command.
-    let (code, _, stderr) = helixbif(&["bisect", "--lo", "-0.6", "--hi", "-0.3"]);
+    let (code, _, stderr) = helixbif(&[
+        "bisect",
+        "--set",
+        "fluid.model=lighthill",
+        "--lo",
+        "-0.6",
+        "--hi",
+        "-0.3",
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(
         stderr.contains("--lo") && stderr.contains("|lo| < |hi|"),
@@ -389,6 +412,8 @@ fn simulate_and_bisect_read_the_study_newton_settings() {
     // step from convergence.
     let (code, _, stderr) = helixbif(&[
         "simulate",
+        "--set",
+        "fluid.model=lighthill",
         "--omega",
         "0.3",
         "--t-end",
@@ -406,6 +431,8 @@ fn simulate_and_bisect_read_the_study_newton_settings() {
     // The same for `bisect`, before any simulation.
     let (code, _, stderr) = helixbif(&[
         "bisect",
+        "--set",
+        "fluid.model=lighthill",
         "--lo",
         "0.3",
         "--hi",
@@ -417,7 +444,17 @@ fn simulate_and_bisect_read_the_study_newton_settings() {
     ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("newton.tol"), "{stderr}");
-    let (code, _, stderr) = helixbif(&["bisect", "--lo", "0.3", "--hi", "0.7", "--ramp-time", "0"]);
+    let (code, _, stderr) = helixbif(&[
+        "bisect",
+        "--set",
+        "fluid.model=lighthill",
+        "--lo",
+        "0.3",
+        "--hi",
+        "0.7",
+        "--ramp-time",
+        "0",
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--ramp-time"), "{stderr}");
 }
@@ -426,8 +463,14 @@ fn simulate_and_bisect_read_the_study_newton_settings() {
 fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
     // Default accuracy 1e-3: from N = 40 the spacing halves to 79, then the next rung is
     // capped at the admissible maximum 87, past which Lighthill's operator is indefinite.
-    let (code, stdout, stderr) =
-        helixbif(&["locate", "--json", "--set", "discretization.nodes=40"]);
+    let (code, stdout, stderr) = helixbif(&[
+        "locate",
+        "--set",
+        "fluid.model=lighthill",
+        "--json",
+        "--set",
+        "discretization.nodes=40",
+    ]);
     // The report is printed; the accuracy not reached is a numerical failure (exit 1).
     assert_eq!(code, 1, "{stderr}");
     assert!(
@@ -456,13 +499,26 @@ fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
         "{v}"
     );
     // Bad accuracies are refused, naming the flag.
-    let (code, _, stderr) = helixbif(&["locate", "--accuracy", "0.5"]);
+    let (code, _, stderr) = helixbif(&[
+        "locate",
+        "--set",
+        "fluid.model=lighthill",
+        "--accuracy",
+        "0.5",
+    ]);
     assert_eq!(code, 2);
     assert!(
         stderr.contains("--accuracy") && stderr.contains("(0, 0.1)"),
         "{stderr}"
     );
-    let (code, _, _) = helixbif(&["locate", "--single", "--accuracy", "1e-2"]);
+    let (code, _, _) = helixbif(&[
+        "locate",
+        "--set",
+        "fluid.model=lighthill",
+        "--single",
+        "--accuracy",
+        "1e-2",
+    ]);
     assert_eq!(code, 2);
 }
 
@@ -523,9 +579,11 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
 fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
     let dir = temp_dir("cli-locate-accuracy");
     let study = dir.join("refine.toml");
-    // The representative helix (its [discretization] table last) with 20 nodes and a study table.
+    // The representative helix (its [discretization] table last) with 20 nodes and a study
+    // table, on Lighthill's operator.
     let base = std::fs::read_to_string("studies/representative.toml")
         .unwrap()
+        .replace("model = \"rpy\"", "model = \"lighthill\"")
         .replace("nodes = 60", "nodes = 20");
     std::fs::write(
         &study,
@@ -590,6 +648,8 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     let args = |out: &std::path::Path| -> Vec<String> {
         [
             "simulate",
+            "--set",
+            "fluid.model=lighthill",
             "--set",
             "discretization.nodes=16",
             "--set",
@@ -669,7 +729,8 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     }
     // Another rate into the same folder: refused.
     let mut other = args(&part);
-    other[6] = "1.1".into();
+    let rate = other.iter().position(|a| a == "--omega").unwrap() + 1;
+    other[rate] = "1.1".into();
     other.push("--resume".into());
     let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
         .args(&other)
@@ -690,8 +751,17 @@ fn integrator_and_quadrature_fields_out_of_range_are_named() {
         ("integrator.jacobian=\"lu\"", "integrator.jacobian"),
         ("fluid.points_per_blob=4", "fluid.points_per_blob"),
     ] {
-        let (code, _, stderr) =
-            helixbif(&["simulate", "--omega", "0.2", "--t-end", "1", "--set", set]);
+        let (code, _, stderr) = helixbif(&[
+            "simulate",
+            "--set",
+            "fluid.model=lighthill",
+            "--omega",
+            "0.2",
+            "--t-end",
+            "1",
+            "--set",
+            set,
+        ]);
         assert_eq!(code, 2, "{set}: {stderr}");
         assert!(stderr.contains(field), "{set}: {stderr}");
     }
@@ -721,6 +791,8 @@ fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
     let (code, _, stderr) = helixbif(&[
         "orbits",
         "--set",
+        "fluid.model=lighthill",
+        "--set",
         "discretization.nodes=20",
         "--max-orbits",
         "2",
@@ -741,6 +813,8 @@ fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
         let (code, _, stderr) = helixbif(&[
             "simulate",
             "--set",
+            "fluid.model=lighthill",
+            "--set",
             &format!("discretization.nodes={nodes}"),
             "--from-orbit",
             file.to_str().unwrap(),
@@ -758,6 +832,8 @@ fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
     }
     let (code, stdout, stderr) = helixbif(&[
         "simulate",
+        "--set",
+        "fluid.model=lighthill",
         "--set",
         "discretization.nodes=20",
         "--from-orbit",

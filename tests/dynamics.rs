@@ -43,7 +43,7 @@ use helixbif::study::IntegratorTable;
 /// tool (no threads inside a small factorization).
 fn helix(nodes: usize) -> Model {
     helixbif::numerics::process::configure();
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = nodes;
     Model::new(&physical).unwrap()
 }
@@ -497,7 +497,7 @@ fn post_buckling_motion_far_from_the_natural_chart() {
 /// obtained from force balance and the clamp's mobility equal the steady drag `Z Omega X`.
 #[test]
 fn moving_forces_at_a_steady_state_equal_the_steady_drag() {
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = 24;
     let model = Model::new(&physical).unwrap();
     let omegabar = 150.0;

@@ -43,7 +43,15 @@ fn an_unusable_output_folder_is_bad_input() {
     let file = dir.join("a-file");
     std::fs::write(&file, "x").unwrap();
     for out in [file.to_str().unwrap(), "/proc/helixbif/out"] {
-        let (code, _, stderr) = helixbif(&["branch", "--omega-max", "0.1", "--out", out]);
+        let (code, _, stderr) = helixbif(&[
+            "branch",
+            "--set",
+            "fluid.model=lighthill",
+            "--omega-max",
+            "0.1",
+            "--out",
+            out,
+        ]);
         assert_eq!(code, 2, "{out}: {stderr}");
         assert!(stderr.contains("invalid input: --out:"), "{stderr}");
     }
@@ -80,7 +88,13 @@ fn a_run_that_cannot_fit_in_memory_is_refused_with_its_estimate() {
 /// state beyond it is not on the branch, and `solve` says so with the fold's rate.
 #[test]
 fn solve_past_a_fold_names_the_fold() {
-    let (code, _, stderr) = helixbif(&["solve", "--omega", "-0.25"]);
+    let (code, _, stderr) = helixbif(&[
+        "solve",
+        "--set",
+        "fluid.model=lighthill",
+        "--omega",
+        "-0.25",
+    ]);
     assert_eq!(code, 1, "{stderr}");
     assert!(
         stderr.contains("turns back at a fold at omega = -0.247"),
@@ -95,6 +109,8 @@ fn an_empty_event_table_keeps_its_header() {
     let dir = temp_dir("edges-events");
     let (code, _, stderr) = helixbif(&[
         "branch",
+        "--set",
+        "fluid.model=lighthill",
         "--omega-max",
         "0.1",
         "--set",
@@ -118,6 +134,8 @@ fn a_simulation_that_dies_says_when_why_and_what_to_change() {
     let dir = temp_dir("edges-simulate");
     let (code, _, stderr) = helixbif(&[
         "simulate",
+        "--set",
+        "fluid.model=lighthill",
         "--omega",
         "0.6",
         "--t-end",

@@ -271,7 +271,9 @@ fn helix_mobility_symmetric_and_positive_definite_up_to_spacing_four_delta() {
     assert!(pd.iter().all(|&(n, ok)| ok == (n < 88)));
     // The bracketing search of the admissible range finds the same limit as this scan.
     assert_eq!(
-        helixbif::model::admissible_max_nodes(&helixbif::model::params::Physical::representative()),
+        helixbif::model::admissible_max_nodes(
+            &helixbif::model::params::Physical::representative_lighthill()
+        ),
         Some(87)
     );
     match Resistance::new(&model.mobility(&helix(90)), "natural helix, N = 90") {

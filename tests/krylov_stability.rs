@@ -277,7 +277,7 @@ fn branch_agrees(label: &str, physical: &Physical, omega_max: f64) -> (usize, us
 
 /// The representative helix at `nodes` (Lighthill) up to 0.8 rad/s, past its Hopf point.
 fn helix_branch_agrees(nodes: usize) {
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = nodes;
     let (_, unstable) = branch_agrees(&format!("helix, N = {nodes}"), &physical, 0.8);
     assert!(unstable > 0);
@@ -302,7 +302,7 @@ fn krylov_and_dense_agree_along_the_representative_branch_at_85_nodes() {
 fn krylov_and_dense_agree_on_the_rpy_line_at_240_nodes() {
     // A few points of the branch from rest on the RPY-regularized fluid (docs/model.md section
     // 9), where the pencil has 714 unknowns.
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.fluid.model = helixbif::model::fluid::FluidModel::Rpy;
     physical.discretization.nodes = 240;
     let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15);
@@ -330,7 +330,7 @@ fn krylov_and_dense_agree_along_the_tight_arc_branch() {
 #[test]
 fn located_omega_b_does_not_depend_on_the_eigensolver() {
     for nodes in [30, 60, 85] {
-        let mut physical = Physical::representative();
+        let mut physical = Physical::representative_lighthill();
         physical.discretization.nodes = nodes;
         let model = Model::new(&physical).unwrap();
         let omega_b = |eigen| {

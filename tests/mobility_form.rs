@@ -22,7 +22,7 @@ use helixbif::model::params::Physical;
 use helixbif::model::steady::Steady;
 
 fn model(fluid: FluidModel, nodes: usize) -> Model {
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.fluid.model = fluid;
     physical.discretization.nodes = nodes;
     Model::new(&physical).unwrap()

@@ -38,7 +38,7 @@ fn settings<'a>(
 fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
     helixbif::numerics::process::configure();
     let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.fluid.model = FluidModel::Rpy;
     physical.discretization.nodes = 60;
     // Two rungs: N = 60 from rest, N = 119 sequenced (the accuracy is out of reach at 119).
@@ -71,7 +71,7 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
 fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
     helixbif::numerics::process::configure();
     let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = 20;
     // Five nodes per turn: the carried state is too far from the finer mesh's for Newton.
     let refined = refine(

@@ -341,6 +341,8 @@ fn orbit_and_simulation(steps: usize) -> [f64; 6] {
     let (code, _, stderr) = common::helixbif(&[
         "orbits",
         "--set",
+        "fluid.model=lighthill",
+        "--set",
         nodes,
         "--max-orbits",
         "3",
@@ -354,6 +356,8 @@ fn orbit_and_simulation(steps: usize) -> [f64; 6] {
     let start = orbits.join("states").join("orbit_0002.json");
     let (code, stdout, stderr) = common::helixbif(&[
         "simulate",
+        "--set",
+        "fluid.model=lighthill",
         "--set",
         nodes,
         "--set",

@@ -23,7 +23,7 @@ use common::SplitMix64;
 /// The representative helix (docs/model.md section 7) with `n` nodes, in units of its axial length
 /// `l`, and its rod radius `r0 / l`.
 fn helix(n: usize) -> (Vec<Vector3<f64>>, f64) {
-    let p = Physical::representative();
+    let p = Physical::representative_lighthill();
     let l = p.shape.reference_length();
     let x = natural_nodes(&p.shape, n)
         .into_iter()
@@ -386,7 +386,7 @@ fn rigid_helix_thrust_rpy_against_lighthill() {
 /// `a = e^(3/2) r0 / 4` (or `fluid.blob_radius`), has no admissible-N cap (N = 400 passes the
 /// resolution check that refuses N = 90 on Lighthill; `discretization.per_turn` is not capped;
 /// the default `locate --extrapolate` ladder is `N, 2N - 1, 4N - 3`), and bad values are refused
-/// naming the field; the default stays Lighthill.
+/// naming the field; the default is the RPY line, Lighthill chosen by name.
 #[test]
 fn study_file_selects_the_fluid_model() {
     let set = |items: &[&str]| -> Vec<String> { items.iter().map(|s| s.to_string()).collect() };
@@ -435,7 +435,18 @@ fn study_file_selects_the_fluid_model() {
     assert_eq!((per_turn("rpy"), per_turn("lighthill")), (121, 85));
     assert_eq!(default_ladder(&study.physical()), vec![400, 799, 1597]);
 
-    let lighthill = Study::load(None, &set(&["discretization.nodes=90"])).unwrap();
+    // The default is the RPY line; Lighthill's operator is chosen by name.
+    assert!(matches!(
+        Model::new(&Study::load(None, &[]).unwrap().physical())
+            .unwrap()
+            .fluid,
+        Fluid::Rpy(_)
+    ));
+    let lighthill = Study::load(
+        None,
+        &set(&["fluid.model=\"lighthill\"", "discretization.nodes=90"]),
+    )
+    .unwrap();
     assert!(matches!(
         Model::new(&lighthill.physical()).unwrap().fluid,
         Fluid::Lighthill(_)
@@ -457,7 +468,10 @@ fn study_file_selects_the_fluid_model() {
             vec!["fluid.model=\"rpy\"", "fluid.blob_radius=nan"],
             "fluid.blob_radius",
         ),
-        (vec!["fluid.blob_radius=1e-3"], "fluid.blob_radius"),
+        (
+            vec!["fluid.model=\"lighthill\"", "fluid.blob_radius=1e-3"],
+            "fluid.blob_radius",
+        ),
         (
             vec!["fluid.model=\"rpy\"", "fluid.quadrature=\"original\""],
             "fluid.quadrature",

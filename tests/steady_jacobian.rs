@@ -17,7 +17,7 @@ use helixbif::model::steady::Steady;
 /// Relative errors of the whole Jacobian, of its viscous part, and of its twist-twist block (each
 /// relative to its own largest entry) at a random state.
 fn check(fluid: FluidModel, nodes: usize, omegabar: f64, amp: f64, seed: u64) -> (f64, f64, f64) {
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.fluid.model = fluid;
     physical.discretization.nodes = nodes;
     let model = Model::new(&physical).unwrap();
@@ -107,7 +107,7 @@ fn jacobian_matches_finite_differences_on_rpy() {
 fn parameter_derivatives_match_finite_differences() {
     use helixbif::engine::Problem;
     use helixbif::problem::rod::{Parameter, RodProblem, WEIGHT_SCALE, omega_scale};
-    let mut physical = Physical::representative();
+    let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = 24;
     let model = Model::new(&physical).unwrap();
     let mut rng = Rng::new(7);

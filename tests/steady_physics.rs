@@ -11,7 +11,7 @@ use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::problem::steady;
 
 fn helix(handedness: Handedness, nodes: usize) -> Model {
-    let mut p = Physical::representative();
+    let mut p = Physical::representative_lighthill();
     p.discretization.nodes = nodes;
     if let ShapeParams::Helix { handedness: h, .. } = &mut p.shape {
         *h = handedness;
@@ -99,7 +99,7 @@ fn rigid_helix_thrust_against_the_continuous_slender_body_integral() {
     // 0.2 to 0.5 at N = 60, on both fluid models.
     let mut errors = Vec::new();
     for radius in [0.01, 0.0159, 0.025] {
-        let mut p = Physical::representative();
+        let mut p = Physical::representative_lighthill();
         p.discretization.nodes = 60;
         let (mu, r0) = (p.fluid.mu, p.rod.r0);
         let ShapeParams::Helix { l, lambda, .. } = p.shape else {
@@ -191,7 +191,7 @@ fn newton_converges_quadratically() {
 
 #[test]
 fn solve_default_at_0_3_rad_per_s() {
-    let model = Model::new(&Physical::representative()).unwrap();
+    let model = Model::new(&Physical::representative_lighthill()).unwrap();
     let omegabar = model.scales.omega_to_bar(0.3);
     let solution = solve_at(&model, omegabar, &NewtonSettings::default()).unwrap();
     let o = &solution.observables;
@@ -233,7 +233,7 @@ fn rest_state_sags_like_an_open_coiled_spring_under_its_own_weight() {
     // the clamped top turn and the free bottom turn (2 of 4) carry their load off the axis.
     // Asserted: within 10%.
     use nalgebra::{Matrix3, Vector3};
-    let mut p = Physical::representative();
+    let mut p = Physical::representative_lighthill();
     let natural_height = 0.20;
     let ShapeParams::Helix { l, lambda, .. } = p.shape else {
         unreachable!("a helix")

@@ -46,8 +46,9 @@ pub struct FluidParams {
     /// Discretization of Lighthill's integral (`reference` or `original`, see README).
     #[serde(default)]
     pub quadrature: Quadrature,
-    /// Hydrodynamic model: `lighthill` (default) or `rpy` (docs/model.md section 9).
-    #[serde(default, skip_serializing_if = "is_lighthill")]
+    /// Hydrodynamic model: `rpy` (default, docs/model.md section 9) or `lighthill` (the published
+    /// operator, section 3). Always written, so that a study read back keeps its model.
+    #[serde(default)]
     pub model: FluidModel,
     /// RPY blob radius `a` (m); default `e^(3/2) r0 / 4`. Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -58,10 +59,6 @@ pub struct FluidParams {
     /// 0.10% at 4, 0.026% at 8, against 16: `tests/rpy.rs`). Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub points_per_blob: Option<f64>,
-}
-
-fn is_lighthill(model: &FluidModel) -> bool {
-    *model == FluidModel::Lighthill
 }
 
 fn default_gravity() -> f64 {
@@ -216,7 +213,8 @@ fn non_negative(field: &str, value: f64) -> Result<()> {
 impl Physical {
     /// The representative helix of docs/model.md section 7 (a macroscopic flagellum in glycerin),
     /// right-handed: with `omega > 0` (counter-clockwise seen from above) its propulsive force is
-    /// positive (the left-handed helix pushes the other way and buckles early).
+    /// positive (the left-handed helix pushes the other way and buckles early). The fluid is the
+    /// RPY line (the default model).
     pub fn representative() -> Self {
         Physical {
             rod: RodParams {
@@ -230,7 +228,7 @@ impl Physical {
                 rho: 1240.0,
                 g: 9.81,
                 quadrature: Quadrature::Reference,
-                model: FluidModel::Lighthill,
+                model: FluidModel::Rpy,
                 blob_radius: None,
                 points_per_blob: None,
             },
@@ -246,6 +244,14 @@ impl Physical {
                 per_turn: None,
             },
         }
+    }
+
+    /// The representative helix with Lighthill's operator as published (section 3), at the
+    /// published resolution `N = 60`: the model of the paper, for comparison with it.
+    pub fn representative_lighthill() -> Self {
+        let mut p = Self::representative();
+        p.fluid.model = FluidModel::Lighthill;
+        p
     }
 
     /// Checks every field against its allowed range; the error names the field.

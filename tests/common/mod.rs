@@ -33,7 +33,7 @@ pub fn straight_rod(length: f64, r0: f64, alpha_deg: f64, nodes: usize) -> Physi
             rho: 0.0,
             g: 9.81,
             quadrature: Default::default(),
-            model: Default::default(),
+            model: helixbif::model::fluid::FluidModel::Lighthill,
             blob_radius: None,
             points_per_blob: None,
         },

@@ -94,10 +94,11 @@ use nalgebra::Vector3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FluidModel {
-    /// Lighthill's slender-body theory ([`Lighthill`]), the reference.
-    #[default]
+    /// Lighthill's slender-body theory ([`Lighthill`]) as published: the paper's operator, kept
+    /// for comparison; its node range is capped, so its discretization error is not controlled.
     Lighthill,
-    /// The RPY-regularised centreline ([`Rpy`]).
+    /// The RPY-regularised centreline ([`Rpy`]), well posed at every `N`: the default.
+    #[default]
     Rpy,
 }
 
