@@ -287,11 +287,25 @@ impl<F: Family> Tracer<'_, F> {
         let (mut t0, mut h0) = (0.0, a.eigenvalue.re);
         let mut g = slope.filter(|g| g.is_finite() && *g != 0.0);
         let mut t1 = g.map_or(1e-3 * reach, |g| -h0 / g);
+        // The evaluation before the last one: its offset, `w2` and state.
+        let mut before: Option<(f64, f64, Vec<f64>)> = None;
         for evaluations in 1..=self.settings.max_evaluations {
             // A proposed move below the tolerance: the last point is the answer.
             if let Some(g) = g
                 && size((t1 - t0).abs(), &a) <= tol
             {
+                if step.pair
+                    && let Some((tb, w2b, ub)) = &before
+                {
+                    // Carried along the last secant onto the zero of `h` it predicts: near a
+                    // Bogdanov-Takens point `w2` and the state move along the normal like
+                    // `1 / w2` times the offset, so a point left within the tolerance would
+                    // carry an error of `event_tol / w2` in `w2`; moved, it carries its square.
+                    let f = (t1 - t0) / (t0 - tb);
+                    a.w2 += f * (a.w2 - w2b);
+                    a.u.iter_mut().zip(ub).for_each(|(u, b)| *u += f * (*u - b));
+                    (a.p, a.q) = step.at(sigma, t1, self.q_unit);
+                }
                 return Ok(Corrected {
                     precision: size((t1 - t0).abs(), &a),
                     at: a,
@@ -331,6 +345,9 @@ impl<F: Family> Tracer<'_, F> {
                 });
             }
             g = Some(secant);
+            if step.pair {
+                before = Some((t0, a.w2, a.u.clone()));
+            }
             (t0, h0, a) = (t1, h1, b);
             t1 = t0 - h0 / secant;
         }
