@@ -3,11 +3,16 @@
 //! are not exact), the Brusselator, and the amplitude of the Brusselator's periodic orbit from a
 //! long simulation (the square-root law, independent of the formula).
 
+use std::rc::Rc;
+
 use faer::{Mat, c64};
 use helixbif::Result;
+use helixbif::engine::arclength::{Limits, follow};
 use helixbif::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
-use helixbif::engine::reference::{brusselator, hopf_cubic};
-use helixbif::engine::{Field, Linearization, Problem};
+use helixbif::engine::curve::{CurvePoint, CurveSettings, follow_curve};
+use helixbif::engine::reference::{Members, brusselator, hopf_cubic};
+use helixbif::engine::stop::{Silent, Stop};
+use helixbif::engine::{ContinuationSettings, Field, Linearization, Problem};
 
 fn lyapunov_at(problem: &impl Problem, u: &[f64], p: f64, s: c64) -> Lyapunov {
     let lin = problem.linearize(u, p).unwrap();
@@ -152,9 +157,12 @@ fn the_coefficient_is_invariant_under_a_curved_change_of_coordinates() {
 }
 
 /// Closed form for the Brusselator `x' = a - (b + 1) x + x^2 y`, `y' = b x - x^2 y` at its Hopf
-/// point `b = 1 + a^2` (frequency `a`), for `<q, q> = 1`: `l1 = -(a^2 + 2) / (2 a (2 a^2 + 1))`
-/// (eq. (1) evaluated symbolically; its sign, supercritical for every `a > 0`, is the classic
-/// result).
+/// point `b = 1 + a^2` (frequency `a`), for `<q, q> = 1`: `l1 = -(a^2 + 2) / (2 a (2 a^2 + 1))`:
+/// Kuznetsov's invariant formula (Elements of Applied Bifurcation Theory, 3rd ed., eq. 3.20)
+/// evaluated symbolically (sympy, exact derivatives; `l1` does not depend on the phase of `q`).
+/// Its sign, supercritical for every `a > 0`, is the classic result (e.g. the worked
+/// Mathematica example "Hopf bifurcation analysis", mathematica.stackexchange.com, question
+/// 159731).
 fn brusselator_l1(a: f64) -> f64 {
     -(a * a + 2.0) / (2.0 * a * (2.0 * a * a + 1.0))
 }
@@ -231,4 +239,87 @@ fn the_brusselator_orbit_grows_as_the_square_root_the_coefficient_predicts() {
     assert!(errors[1] < 2e-3, "relative errors {errors:?}");
     // O(eps): four times smaller eps, about four times smaller error.
     assert!(errors[1] < 0.4 * errors[0], "relative errors {errors:?}");
+}
+
+#[test]
+fn the_stated_precision_of_l1_covers_its_error_along_the_brusselator_hopf_curve() {
+    // The Hopf curve b = 1 + a^2 over a in [0.2, 6] with every point's coefficient (steps of
+    // at most 0.005 in the curve's units: about 300 points), and the coefficient at 400 points
+    // b = 1 + a^2 spaced evenly in a over the same range, against the closed form
+    // [`brusselator_l1`]: the error exceeds the stated precision nowhere.
+    let family = Members(brusselator);
+    let a0 = 0.2;
+    let b0 = 1.0 + a0 * a0;
+    let continuation = ContinuationSettings {
+        event_tol: 1e-10,
+        tol: 1e-12,
+        ..ContinuationSettings::default()
+    };
+    let branch = follow(
+        &brusselator(a0),
+        vec![a0, (b0 - 0.5) / a0],
+        b0 - 0.5,
+        1.0,
+        &continuation,
+        &Limits {
+            p_min: 0.0,
+            p_max: b0 + 1.0,
+            stop_at_first_instability: true,
+        },
+        &mut Silent,
+    )
+    .unwrap();
+    let event = branch.first_loss_of_stability().unwrap().clone();
+    let mut settings = CurveSettings::new(a0, 6.0);
+    settings.criticality = true;
+    settings.ds = 0.005;
+    settings.ds_max = 0.005;
+    let (curve, _) = follow_curve(
+        &family,
+        CurvePoint::at_event(event, a0),
+        Rc::new(brusselator(a0)),
+        1.0,
+        &settings,
+        &continuation,
+        &mut Silent,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, Stop::ParameterLimit);
+    let mut exceeded = Vec::new();
+    let mut worst: f64 = 0.0;
+    for point in &curve.points {
+        let l = point
+            .lyapunov
+            .as_ref()
+            .expect("every point has its coefficient");
+        let error = (l.l1 - brusselator_l1(point.q)).abs();
+        worst = worst.max(error / l.precision);
+        if error > l.precision {
+            exceeded.push((point.q, error, l.precision));
+        }
+    }
+    eprintln!(
+        "Brusselator curve: {} points, precision exceeded at {} (worst error / precision {worst:.2})",
+        curve.points.len(),
+        exceeded.len()
+    );
+    let mut missed = Vec::new();
+    let mut worst_exact: f64 = 0.0;
+    for k in 0..400 {
+        let a = a0 + (6.0 - a0) * k as f64 / 399.0;
+        let b = 1.0 + a * a;
+        let l = lyapunov_at(&brusselator(a), &[a, b / a], b, c64::new(0.0, a));
+        let error = (l.l1 - brusselator_l1(a)).abs();
+        worst_exact = worst_exact.max(error / l.precision);
+        if error > l.precision {
+            missed.push((a, error, l.precision));
+        }
+    }
+    eprintln!(
+        "Brusselator, 400 exact Hopf points: precision exceeded at {} (worst error / precision \
+         {worst_exact:.2})",
+        missed.len()
+    );
+    assert!(exceeded.is_empty(), "{exceeded:?}");
+    assert!(missed.is_empty(), "{missed:?}");
 }

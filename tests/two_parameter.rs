@@ -12,8 +12,8 @@ use helixbif::engine::curve::{
 use helixbif::engine::event_curve::{EventPoint, follow_event_curve};
 use helixbif::engine::events::EventKind;
 use helixbif::engine::reference::{
-    Members, bautin, bogdanov_takens, brusselator, cusp, double_hopf, hopf_circle,
-    shifted_pitchfork,
+    Members, OBLIQUE_BT, bautin, bogdanov_takens, bogdanov_takens_oblique, brusselator, cusp,
+    double_hopf, hopf_circle, hopf_line, shifted_pitchfork,
 };
 use helixbif::engine::stop::{Observer, Silent, Stop};
 use helixbif::engine::{ContinuationSettings, Problem};
@@ -423,4 +423,152 @@ fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_si
     );
     assert!(error <= 1e-6, "at q = {}, exact {exact}", gh[0].point.q);
     assert!(gh[0].point.p.abs() <= 1e-9);
+}
+
+#[test]
+fn a_steep_hopf_curve_takes_its_first_step_along_the_gradient_of_the_test_function() {
+    // Re s = p - c q: the Hopf curve p = c q, of slope c in the curve's units at its start at the
+    // origin (dp / max(|p|, 1) against dq / 1). Along q the first step would find the curve
+    // c steps off its line.
+    for c in [5.0, 50.0] {
+        let family = Members(move |q| hopf_line(c, q));
+        let first = start(&hopf_line(c, 0.0), vec![0.0; 2], -0.5, 2.0, 0.0);
+        assert!(
+            first.p.abs() < 1e-9,
+            "slope {c}: Hopf point at p = {}",
+            first.p
+        );
+        let (curve, _) = follow_curve(
+            &family,
+            first,
+            Rc::new(hopf_line(c, 0.0)),
+            1.0,
+            &CurveSettings::new(0.0, 1.0),
+            &settings(),
+            &mut Silent,
+        )
+        .unwrap();
+        println!(
+            "slope {c}: {} points, stop {:?}, second point at {:?}",
+            curve.points.len(),
+            curve.stop,
+            curve.points.get(1).map(|p| (p.p, p.q))
+        );
+        assert_eq!(curve.stop, Stop::ParameterLimit, "slope {c}");
+        assert!((curve.points.last().unwrap().q - 1.0).abs() <= 1e-14);
+        for point in &curve.points {
+            let exact = c * point.q;
+            assert!(
+                (point.p - exact).abs() <= 1e-8 * exact.abs().max(1.0),
+                "slope {c}: q = {}: p = {}, exact {exact}",
+                point.q,
+                point.p
+            );
+            assert!((point.eigenvalue.im - 1.0).abs() <= 1e-8);
+        }
+        // The first step went along the curve: its point is on it, ahead of the start in q.
+        assert!(curve.points[1].q > 0.0);
+    }
+}
+
+#[test]
+fn an_obliquely_approached_bogdanov_takens_point_is_located_with_its_own_state_and_no_l1() {
+    // The curve p = 0.5 + 2 dq + dq^2/2 (dq = q - 0.3), state (q/2, 0), frequency
+    // sqrt(-(dq + 0.3 (p - 0.5))), from q = -0.7 towards its Bogdanov-Takens point (0.5, 0.3).
+    let (p_bt, q_bt) = OBLIQUE_BT;
+    let hopf_p = |q: f64| {
+        let dq = q - q_bt;
+        p_bt + 2.0 * dq + 0.5 * dq * dq
+    };
+    let q0 = -0.7;
+    let p0 = hopf_p(q0);
+    // The stable equilibrium a little above the Hopf point, followed down in p to it.
+    let (b1, b2) = (0.3, (q0 - q_bt) + 0.3 * (p0 + 0.3 - p_bt));
+    let e0 = (-b2 - (b2 * b2 - 4.0 * b1).sqrt()) / 2.0;
+    let family = Members(bogdanov_takens_oblique);
+    let first = start(
+        &bogdanov_takens_oblique(q0),
+        vec![0.5 * q0 + e0, 0.0],
+        p0 + 0.3,
+        p0 - 1.0,
+        q0,
+    );
+    assert!((first.p - p0).abs() < 1e-9, "Hopf point at p = {}", first.p);
+    let mut curve_settings = CurveSettings::new(q0, 0.8);
+    curve_settings.criticality = true;
+    let mut observer = FirstLoss { found: Vec::new() };
+    let (curve, _) = follow_curve(
+        &family,
+        first,
+        Rc::new(bogdanov_takens_oblique(q0)),
+        1.0,
+        &curve_settings,
+        &settings(),
+        &mut observer,
+    )
+    .unwrap();
+    assert_eq!(curve.stop, Stop::Own(CurveEnd::BogdanovTakens));
+    let n = curve.points.len();
+    for point in &curve.points[..n - 1] {
+        let dq = point.q - q_bt;
+        assert!(
+            (point.p - hopf_p(point.q)).abs() <= 1e-8,
+            "q = {}: p = {}",
+            point.q,
+            point.p
+        );
+        let w = (-(dq + 0.3 * (point.p - p_bt))).sqrt();
+        assert!((point.eigenvalue.im - w).abs() <= 1e-7, "q = {}", point.q);
+    }
+    let bt = curve.special.last().unwrap();
+    assert_eq!(bt.kind, SpecialKind::BogdanovTakens);
+    let point = &bt.point;
+    let (ep, eq) = (point.p - p_bt, point.q - q_bt);
+    println!(
+        "oblique Bogdanov-Takens at (p, q) = ({}, {}): errors ({ep:e}, {eq:e}), stated precision \
+         {:e}, state {:?}, eigenvalue {}, l1 {:?}, {} points before it",
+        point.p,
+        point.q,
+        bt.precision,
+        point.u,
+        point.eigenvalue,
+        point.lyapunov.as_ref().map(|l| l.l1),
+        n - 1
+    );
+    // Located to the event tolerance (1e-10 in the units of (2)), within ten times it.
+    assert!(
+        ep.abs() <= 1e-9 && eq.abs() <= 1e-9,
+        "errors {ep:e}, {eq:e}"
+    );
+    // The error lies within the stated precision (a distance along the curve in the units of
+    // (2): q's unit 1.5, p's 1, the curve's slope 2 in p against q).
+    assert!(
+        eq.abs() <= 1.5 * bt.precision + 1e-12,
+        "{eq:e} against {:e}",
+        bt.precision
+    );
+    // Its own state: the equilibrium (q/2, 0) of the member there, a double zero eigenvalue.
+    assert!(
+        (point.u[0] - 0.5 * point.q).abs() <= 1e-9 && point.u[1].abs() <= 1e-12,
+        "state {:?} at q = {}",
+        point.u,
+        point.q
+    );
+    let residual = bogdanov_takens_oblique(point.q)
+        .residual(&point.u, point.p)
+        .unwrap();
+    // The residual is that of the exact state at a point off by the location error (`b1`,
+    // of slope 1 in p): within ten times the event tolerance.
+    assert!(
+        residual.iter().all(|r| r.abs() <= 1e-9),
+        "residual {residual:?}"
+    );
+    assert!(
+        point.eigenvalue.norm() <= 1e-3,
+        "eigenvalue {}",
+        point.eigenvalue
+    );
+    // No Lyapunov coefficient: it has no meaning where the frequency vanishes.
+    assert!(point.lyapunov.is_none(), "{:?}", point.lyapunov);
+    assert_eq!(observer.found.len(), 1);
 }

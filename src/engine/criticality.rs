@@ -39,8 +39,9 @@
 //! `B(q, qb) = B(qr, qr) + B(qi, qi)`, `B(q, q) = B(qr, qr) - B(qi, qi) + 2 i B(qr, qi)`,
 //! `C(q, q, qb) = C(qr, qr, qr) + C(qr, qi, qi) + i [C(qr, qr, qi) + C(qi, qi, qi)]`). The value is
 //! computed at the steps `h0, h0/2, h0/4, ...` and extrapolated to `h = 0` by Ridders' tableau
-//! ([`extrapolated`]); the reported precision is the tableau's error estimate plus a round-off
-//! allowance of `1e-8` times the sum of the moduli of the three terms of (1) (they cancel to a
+//! ([`extrapolated`]); the reported precision is [`SAFETY`] times the tableau's error estimate
+//! (at least the distance to a neighbouring row's extrapolation) plus a round-off
+//! allowance of `2e-8` times the sum of the moduli of the three terms of (1) (they cancel to a
 //! large extent on a stiff problem). The verdict is `supercritical` or `subcritical` only when
 //! `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate (generalized)
 //! Hopf point, or one the differences cannot resolve.
@@ -67,9 +68,14 @@ use crate::{Error, Result};
 /// problem (`sqrt(n)` times its per-unknown scale).
 const STEP: f64 = 5e-3;
 
-/// Round-off of the differences, relative to the moduli of the terms of (1) (about
-/// `1e-16 |f| / h^3` with `h ~ 1e-2`, with a margin).
-const ROUND_OFF: f64 = 1e-8;
+/// Round-off of the differences, relative to the moduli of the terms of (1): about
+/// `1e-16 |f| / h^3` with `h ~ 1e-2`, where `|f|` is the size of the field's terms before they
+/// cancel, which can exceed the size of the terms of (1) by a hundred times or more (the
+/// Brusselator at `a = 5`: terms of `f` about `a b = 130`, `|l1| = 0.04`; errors of `2e-8`
+/// there). `1e-8` missed them; `2e-8` with [`SAFETY`] covers them (error at most 0.99 of the
+/// precision over 400 points of the Brusselator's Hopf curve) while the rod's `l1` keeps a
+/// relative precision below `1e-3` (tests/bifurcation.rs; `3e-8` took it to `1.2e-3`).
+const ROUND_OFF: f64 = 2e-8;
 
 /// The side of a Hopf point the periodic orbits are born on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -171,6 +177,11 @@ pub fn first_lyapunov(
     }))
 }
 
+/// Factor of the tableau's error estimate in the precision of `l1` ([`extrapolated`]): the
+/// largest ratio of error to estimate seen along the Brusselator's Hopf curve (4.7), with the
+/// margin the rod's precision (tests/bifurcation.rs, `1e-3` relative) leaves room for.
+const SAFETY: f64 = 8.0;
+
 /// Steps tried at most (halving each time).
 const LEVELS: usize = 10;
 
@@ -181,24 +192,43 @@ const LEVELS: usize = 10;
 /// diagonal has become worse than twice that (round-off has taken over), when that estimate has
 /// fallen below the round-off allowance (which no smaller step improves on), or after
 /// [`LEVELS`].
-/// Returns the value and its error estimate plus the round-off allowance ([`ROUND_OFF`] times
-/// the scale of the terms at the winning step).
+///
+/// That estimate compares the winner with the two entries it was made from; where they agree
+/// by chance (the round-off of the differences, which grows as `h^-3`, passing through the
+/// truncation error), it is smaller than the error, which it then missed by up to 17 times on
+/// a rod's Hopf curve. The estimate returned is therefore also at least the distance of the
+/// winner to the best entry of a neighbouring row, `min_{r = k* +- 1} |T* - T_r*|` (`T_r*` the
+/// entry of least estimate in row `r`): an independent extrapolation from one more or one less
+/// step, which differs from the winner by about the larger of their errors. Both are still
+/// estimates picked as the least of many (biased low), and the round-off of the winning step,
+/// `eps |f| / h^3` with `|f|` the size of the field's terms before they cancel, is not in them:
+/// along the Brusselator's Hopf curve the error still reached 4.7 times that estimate. The
+/// estimate returned is [`SAFETY`] times it, a bound in practice (tests/criticality.rs checks
+/// its coverage along that curve against the closed form), plus the round-off allowance
+/// ([`ROUND_OFF`] times the scale of the terms at the winning step).
 fn extrapolated(mut value: impl FnMut(f64) -> Result<(f64, f64)>, h0: f64) -> Result<(f64, f64)> {
     let mut previous: Vec<f64> = Vec::new();
-    let mut best = (f64::NAN, f64::INFINITY, 0.0);
+    // (value, estimate, scale, row) of the winner, and of each row's best entry.
+    let mut best = (f64::NAN, f64::INFINITY, 0.0, 0);
+    let mut rows: Vec<(f64, f64)> = Vec::new();
     let mut h = h0;
     for k in 0..LEVELS {
         let (v, scale) = value(h)?;
         let mut row = vec![v];
+        let mut row_best = (f64::NAN, f64::INFINITY);
         for j in 1..=k {
             let factor = 4f64.powi(j as i32) - 1.0;
             let t = row[j - 1] + (row[j - 1] - previous[j - 1]) / factor;
             let error = (t - row[j - 1]).abs().max((t - previous[j - 1]).abs());
+            if error < row_best.1 {
+                row_best = (t, error);
+            }
             if error < best.1 {
-                best = (t, error, scale);
+                best = (t, error, scale, k);
             }
             row.push(t);
         }
+        rows.push(row_best);
         // Round-off has taken over, or the error estimate has fallen below the round-off
         // allowance, which no smaller step can improve on.
         if k > 0
@@ -214,7 +244,19 @@ fn extrapolated(mut value: impl FnMut(f64) -> Result<(f64, f64)>, h0: f64) -> Re
             "the differences of the Lyapunov coefficient did not converge".into(),
         ));
     }
-    Ok((best.0, best.1 + ROUND_OFF * best.2))
+    let (value, estimate, scale, k) = best;
+    let neighbour = [k.wrapping_sub(1), k + 1]
+        .iter()
+        .filter_map(|&r| rows.get(r))
+        .map(|&(t, _)| (t - value).abs())
+        .filter(|d| d.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let estimate = if neighbour.is_finite() {
+        estimate.max(neighbour)
+    } else {
+        estimate
+    };
+    Ok((value, SAFETY * estimate + ROUND_OFF * scale))
 }
 
 /// Complex column vector of a slice.

@@ -302,3 +302,67 @@ pub fn bautin(c: f64) -> Reference {
         g_p: Box::new(|u, _| vec![u[0], u[1]]),
     }
 }
+
+/// A Hopf normal form with `mu = p - c q`, frequency 1: its Hopf curve is the line `p = c q`,
+/// of slope `c` in the units of a curve over a range of `q` of width 1 while `|p| <= 1` (the
+/// curve's units `(dp / max(|p|, 1), dq / Q)`): a curve steep in those units from its start at
+/// the origin.
+pub fn hopf_line(c: f64, q: f64) -> Reference {
+    let mu = move |p: f64| p - c * q;
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let r2 = u[0] * u[0] + u[1] * u[1];
+            let m = mu(p);
+            vec![m * u[0] - u[1] - u[0] * r2, u[0] + m * u[1] - u[1] * r2]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (x, y) = (u[0], u[1]);
+            let m = mu(p);
+            vec![
+                vec![m - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
+                vec![1.0 - 2.0 * x * y, m - x * x - 3.0 * y * y],
+            ]
+        }),
+        g_p: Box::new(|u, _| vec![u[0], u[1]]),
+    }
+}
+
+/// The Bogdanov-Takens point of [`bogdanov_takens_oblique`], `(p, q)`.
+pub const OBLIQUE_BT: (f64, f64) = (0.5, 0.3);
+
+/// The Bogdanov-Takens normal form `x' = y`, `y' = b1 + b2 e + e^2 - e y` in the shifted
+/// coordinate `e = x - q / 2`, unfolded by `b1 = dp - 2 dq - dq^2 / 2`, `b2 = dq + 0.3 dp`
+/// (`dp = p - 0.5`, `dq = q - 0.3`). The equilibria `(q/2 + e0, 0)`, `e0^2 + b2 e0 + b1 = 0`,
+/// have trace `-e0` and determinant `-(b2 + 2 e0)`: the Hopf curve is `b1 = 0`, i.e.
+/// `p = 0.5 + 2 dq + dq^2 / 2`, with the state `(q/2, 0)` and the frequency
+/// `sqrt(-b2) = sqrt(-(dq + 0.3 (2 dq + dq^2 / 2)))`, for `dq < 0`. It ends at the
+/// Bogdanov-Takens point [`OBLIQUE_BT`] (state `(0.15, 0)`, a double zero eigenvalue), which
+/// it reaches at an angle to both axes, curved, with a state that moves along it. Beyond that
+/// point the curve of zero trace goes on as a curve of neutral saddles (`e0 = 0`, eigenvalues
+/// `+-sqrt(b2)`); the fold of the equilibria, `b2^2 = 4 b1`, touches it there.
+pub fn bogdanov_takens_oblique(q: f64) -> Reference {
+    let (p_bt, q_bt) = OBLIQUE_BT;
+    let dq = q - q_bt;
+    let unfold = move |p: f64| {
+        let dp = p - p_bt;
+        (dp - 2.0 * dq - 0.5 * dq * dq, dq + 0.3 * dp)
+    };
+    Analytic {
+        dim: 2,
+        g: Box::new(move |u, p| {
+            let (b1, b2) = unfold(p);
+            let (e, y) = (u[0] - 0.5 * q, u[1]);
+            vec![y, b1 + b2 * e + e * e - e * y]
+        }),
+        g_u: Box::new(move |u, p| {
+            let (_, b2) = unfold(p);
+            let (e, y) = (u[0] - 0.5 * q, u[1]);
+            vec![vec![0.0, 1.0], vec![b2 + 2.0 * e - y, -e]]
+        }),
+        g_p: Box::new(move |u, _| {
+            let e = u[0] - 0.5 * q;
+            vec![0.0, 1.0 + 0.3 * e]
+        }),
+    }
+}

@@ -7,7 +7,7 @@ use std::rc::Rc;
 use faer::c64;
 
 use super::special::Special;
-use super::tracked::{others, tracked};
+use super::tracked::{critical_pair, others, tracked};
 use super::{CurvePoint, CurveSettings, Family};
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::criticality::{Lyapunov, first_lyapunov};
@@ -17,9 +17,14 @@ use crate::engine::{ContinuationSettings, Problem};
 use crate::error::EngineError;
 use crate::{Error, Result};
 
-/// How far from the predicted point, in steps, the corrector may go (the first step, taken
-/// along `q` before the curve's slope is known, needs it where the curve is steep).
+/// How far from the predicted point, in steps, the corrector may go: a curve that turns by more
+/// than about `atan(REACH)` within a step is followed with a shorter one.
 pub(super) const REACH: f64 = 4.0;
+
+/// The step, in the units of (2), of the differences that give the gradient of the test
+/// function at the start of a curve ([`Tracer::tangent_at`]): small against the curve's
+/// curvature, large against the noise of `Re s` (a relative `1e-12` or so of the spectrum).
+const GRADIENT_STEP: f64 = 1e-5;
 
 /// A solved state of a member: the member, the parameters, the solution and its spectrum.
 pub(super) struct At<M> {
@@ -29,6 +34,10 @@ pub(super) struct At<M> {
     pub(super) u: Vec<f64>,
     pub(super) spectrum: Spectrum,
     pub(super) eigenvalue: c64,
+    /// The squared frequency continued through zero, `w2` of (3) ([`critical_pair`]): `w^2`
+    /// of the tracked eigenvalue, negative past a Bogdanov-Takens point (on a [`Step::pair`]
+    /// line only, where `eigenvalue` is `(h, sqrt(max(w2, 0)))`).
+    pub(super) w2: f64,
     /// Computed for accepted points and the samples that need it.
     pub(super) lyapunov: Option<Lyapunov>,
 }
@@ -43,6 +52,7 @@ impl<M> Clone for At<M> {
             u: self.u.clone(),
             spectrum: self.spectrum.clone(),
             eigenvalue: self.eigenvalue,
+            w2: self.w2,
             lyapunov: self.lyapunov.clone(),
         }
     }
@@ -74,6 +84,10 @@ pub(super) struct Step {
     pub(super) p_unit: f64,
     pub(super) t: (f64, f64),
     pub(super) n: (f64, f64),
+    /// Whether the corrector zeroes `h` of the critical pair continued through a
+    /// Bogdanov-Takens point (3) rather than `Re s` of the tracked eigenvalue, which fails where
+    /// the pair turns real.
+    pub(super) pair: bool,
 }
 
 impl Step {
@@ -106,14 +120,15 @@ pub(super) struct Tracer<'a, F: Family> {
 
 impl<F: Family> Tracer<'_, F> {
     /// The solution at `(p, q)` from the state `from` (plus `shift`), its spectrum and the
-    /// eigenvalue nearest `track`; [`EngineError::NoMember`] where the family has no member at
-    /// `q`.
+    /// eigenvalue nearest `track` (with `pair`, the critical pair's `h` and `w2` of (3));
+    /// [`EngineError::NoMember`] where the family has no member at `q`.
     fn evaluate(
         &self,
         from: &At<F::Member>,
         (p, q): (f64, f64),
         shift: Option<&[f64]>,
         track: c64,
+        pair: bool,
     ) -> Result<At<F::Member>> {
         let member = Rc::new(
             self.family
@@ -142,7 +157,13 @@ impl<F: Family> Tracer<'_, F> {
             self.continuation,
             Some(&from.spectrum),
         )?;
-        let eigenvalue = tracked(&spectrum, track)?;
+        let (eigenvalue, w2) = if pair {
+            let (h, w2) = critical_pair(&spectrum, track)?;
+            (c64::new(h, w2.max(0.0).sqrt()), w2)
+        } else {
+            let s = tracked(&spectrum, track)?;
+            (s, s.im * s.im)
+        };
         Ok(At {
             member,
             p,
@@ -150,8 +171,56 @@ impl<F: Family> Tracer<'_, F> {
             u,
             spectrum,
             eigenvalue,
+            w2,
             lyapunov: None,
         })
+    }
+
+    /// The tangent of the curve at its solved point `at`, before any step has shown the way:
+    /// orthogonal to the gradient of the test function (1) in the units of (2),
+    ///
+    /// ```text
+    /// t = +-(-h_q, h_p) / |grad h|,   h_p = dh/d(dp / p_unit),   h_q = dh/d(dq / Q),
+    /// ```
+    ///
+    /// the sign that moves `q` in `direction`; with the slope `dh/d offset = grad h . n` of
+    /// the test function along the first corrector's line `n = (-t_q, t_p)`. A first step along
+    /// `q` alone would find a curve of slope `c` in these units `c` steps off its line, beyond
+    /// the corrector's reach where `c > REACH`. The gradient is taken by forward differences
+    /// of [`GRADIENT_STEP`] in each unit, towards `direction` in `q` (two more solves), the
+    /// error of the direction `O(GRADIENT_STEP)` times the curvature, which the corrector
+    /// removes.
+    pub(super) fn tangent_at(
+        &self,
+        at: &At<F::Member>,
+        direction: f64,
+    ) -> Result<((f64, f64), f64)> {
+        let p_unit = at.p.abs().max(at.member.scales().1);
+        let d = GRADIENT_STEP;
+        let dq = d * direction.signum();
+        let h0 = at.eigenvalue.re;
+        let hp = self.evaluate(at, (at.p + d * p_unit, at.q), None, at.eigenvalue, false)?;
+        let hq = self.evaluate(
+            at,
+            (at.p, at.q + dq * self.q_unit),
+            None,
+            at.eigenvalue,
+            false,
+        )?;
+        let (gp, gq) = ((hp.eigenvalue.re - h0) / d, (hq.eigenvalue.re - h0) / dq);
+        let norm = gp.hypot(gq);
+        if !(norm.is_finite() && norm > 0.0) {
+            return Err(Error::Numerical(format!(
+                "the Hopf test function has no gradient at the start of the curve \
+                 (dh/dp = {gp:e}, dh/dq = {gq:e} in the curve's units)"
+            )));
+        }
+        let mut t = (-gq / norm, gp / norm);
+        if t.1 * direction < 0.0 || (t.1 == 0.0 && direction < 0.0) {
+            t = (-t.0, -t.1);
+        }
+        let slope = gp * -t.1 + gq * t.0;
+        Ok((t, slope))
     }
 
     /// `at` with its first Lyapunov coefficient, if the settings ask for it. A coefficient
@@ -208,15 +277,35 @@ impl<F: Family> Tracer<'_, F> {
             let p_scale = at.p.abs().max(at.member.scales().1);
             (dt * step.n.0.abs() * step.p_unit / p_scale).max(dt * step.n.1.abs())
         };
-        let mut a = self.evaluate(from, step.at(sigma, 0.0, self.q_unit), shift, track)?;
+        let mut a = self.evaluate(
+            from,
+            step.at(sigma, 0.0, self.q_unit),
+            shift,
+            track,
+            step.pair,
+        )?;
         let (mut t0, mut h0) = (0.0, a.eigenvalue.re);
         let mut g = slope.filter(|g| g.is_finite() && *g != 0.0);
         let mut t1 = g.map_or(1e-3 * reach, |g| -h0 / g);
+        // The evaluation before the last one: its offset, `w2` and state.
+        let mut before: Option<(f64, f64, Vec<f64>)> = None;
         for evaluations in 1..=self.settings.max_evaluations {
             // A proposed move below the tolerance: the last point is the answer.
             if let Some(g) = g
                 && size((t1 - t0).abs(), &a) <= tol
             {
+                if step.pair
+                    && let Some((tb, w2b, ub)) = &before
+                {
+                    // Carried along the last secant onto the zero of `h` it predicts: near a
+                    // Bogdanov-Takens point `w2` and the state move along the normal like
+                    // `1 / w2` times the offset, so a point left within the tolerance would
+                    // carry an error of `event_tol / w2` in `w2`; moved, it carries its square.
+                    let f = (t1 - t0) / (t0 - tb);
+                    a.w2 += f * (a.w2 - w2b);
+                    a.u.iter_mut().zip(ub).for_each(|(u, b)| *u += f * (*u - b));
+                    (a.p, a.q) = step.at(sigma, t1, self.q_unit);
+                }
                 return Ok(Corrected {
                     precision: size((t1 - t0).abs(), &a),
                     at: a,
@@ -229,7 +318,22 @@ impl<F: Family> Tracer<'_, F> {
             {
                 break;
             }
-            let b = self.evaluate(&a, step.at(sigma, t1, self.q_unit), None, a.eigenvalue)?;
+            let b = match self.evaluate(
+                &a,
+                step.at(sigma, t1, self.q_unit),
+                None,
+                a.eigenvalue,
+                step.pair,
+            ) {
+                Ok(b) => b,
+                // Near a Bogdanov-Takens point the equilibrium exists only in a sliver about
+                // the curve: a trial outside it is retried halfway back.
+                Err(_) if step.pair => {
+                    t1 = t0 + 0.5 * (t1 - t0);
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             let h1 = b.eigenvalue.re;
             let secant = (h1 - h0) / (t1 - t0);
             if h1 == 0.0 {
@@ -241,13 +345,33 @@ impl<F: Family> Tracer<'_, F> {
                 });
             }
             g = Some(secant);
+            if step.pair {
+                before = Some((t0, a.w2, a.u.clone()));
+            }
             (t0, h0, a) = (t1, h1, b);
             t1 = t0 - h0 / secant;
         }
+        // Why: the secant's next point lies beyond the reach (the curve turns more sharply
+        // than the step allows, or `h` has no zero near the predicted point), or the solves
+        // ran out while it still moved.
+        let why = if t1.is_finite() && t1.abs() <= reach {
+            format!(
+                "it still moved by {:e} (relative) after {} solves",
+                size((t1 - t0).abs(), &a),
+                self.settings.max_evaluations
+            )
+        } else {
+            format!(
+                "its secant (slope {:e}) puts the zero at the offset {t1:e} along the normal \
+                 (units of (2)), beyond the reach {reach:e} ({REACH} steps): the curve turns \
+                 more sharply than the step allows, or h has no zero near the predicted point",
+                g.unwrap_or(f64::NAN)
+            )
+        };
         Err(Error::Numerical(format!(
-            "the Hopf test function has no zero within reach of the corrector ({} solves, \
-             offset {t1:e})",
-            self.settings.max_evaluations
+            "the Hopf test function h = Re s = {h0:e} at p = {:e}, q = {:e} has no zero within \
+             reach of the corrector: {why}",
+            a.p, a.q
         )))
     }
 }

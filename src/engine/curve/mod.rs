@@ -22,7 +22,9 @@
 //! (`Q` the width of the range of `q` followed, `p_k` the parameter of the last point, at least
 //! the member's parameter scale [`Problem::scales`], so that a step is a fraction of `p`
 //! however far `p` moves along the curve, and `p` may pass zero). From the last point `z_k`
-//! with unit tangent `t_k` (the chord from the point before it), the predictor is
+//! with unit tangent `t_k` (the chord from the point before it; at the start, orthogonal to
+//! the gradient of `h` in the units of (2), `t_0 = +-(-h_q, h_p) / |grad h|`, by differences),
+//! the predictor is
 //! `z_k + ds t_k`, and the corrector solves `h = 0` on the line through the predicted point
 //! normal to `t_k`, by the secant method whose first slope is the last corrector's. A point is
 //! accepted when the next secant correction would move `p` by less than `event_tol |p|` (`|p|`
@@ -42,8 +44,11 @@
 //! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
 //! `q` part of the tangent is a **turning point** of the curve, the extremum of `q(p)` found by
 //! successive parabolic interpolation (each sample a point of the curve at fixed `p`). Where the
-//! tracked pair meets on the real axis the Hopf curve ends at a **Bogdanov-Takens** point, the
-//! zero of `w^2` along the curve (secant, bracketed by the first sample whose pair is real).
+//! tracked pair meets on the real axis the Hopf curve ends at a **Bogdanov-Takens** point: the
+//! zero of `w2 = det - tr^2 / 4` of the critical pair's block (`w^2` on the Hopf curve) along
+//! the curve `tr = 0`, which goes on through it as a curve of neutral saddles (Brent's method,
+//! bracketed by the curve's point past it, each sample a point of that curve; its own state,
+//! no Lyapunov coefficient).
 //! With [`CurveSettings::criticality`], every point carries its first Lyapunov coefficient
 //! ([`super::criticality`]), and where it changes sign (both signs resolved) the curve passes a
 //! **generalized Hopf** (Bautin) point, the zero of `l1` along the curve (Brent's method, each sample a

@@ -1,7 +1,8 @@
 //! The special points of a Hopf curve and how each is pinned down between two points of the
 //! curve (see the module doc of [`super`]): double Hopf and zero-Hopf points (Brent's method on
 //! the eigenvalue that crossed), generalized Hopf points (Brent's method on `l1`), turning points
-//! (successive parabolic interpolation) and Bogdanov-Takens points (the secant zero of `w^2`).
+//! (successive parabolic interpolation) and Bogdanov-Takens points (Brent's method on `w^2`
+//! continued through zero).
 //! Every sample is a point of the curve, corrected by [`super::corrector`].
 //!
 //! Their kinds are kept apart from the events of a branch ([`crate::engine::events::EventKind`])
@@ -29,7 +30,8 @@ pub enum SpecialKind {
     ZeroHopf,
     /// The curve turns back in `q`.
     Turning,
-    /// The tracked pair meets on the real axis at zero: the Hopf curve ends.
+    /// The tracked pair meets on the real axis at zero: the Hopf curve ends (its point carries
+    /// no Lyapunov coefficient, which is not defined where the frequency vanishes).
     BogdanovTakens,
     /// The first Lyapunov coefficient changes sign (Bautin point).
     GeneralizedHopf,
@@ -324,6 +326,7 @@ pub(super) fn locate_turning<F: Family>(
             p_unit,
             t: (1.0, 0.0),
             n: (0.0, 1.0),
+            pair: false,
         };
         let c = tracer.correct(&best, &step, 0.0, None, None, best.eigenvalue, 1.0)?;
         evaluations += c.evaluations;
@@ -341,83 +344,197 @@ pub(super) fn locate_turning<F: Family>(
     Ok((special, best.member))
 }
 
-/// The Bogdanov-Takens point ahead of `last` (`sigma = 0` on `step`) where the tracked pair
-/// meets on the real axis. Near it `w^2` is linear in the arclength (`w` vanishes like a square
-/// root), so its secant zero through the last two complex points predicts the place; the
-/// search samples the curve nine tenths of the way there, again and again (a sample that finds
-/// the pair real, or no state, is retried nearer), until the predicted zero lies within
-/// `event_tol` of the last sample, or no sample nearer it can be solved: the equilibrium itself
-/// ceases to exist beyond a fold of the branch that meets the Hopf curve there, in a sliver
-/// that narrows quadratically towards the point. The point reported lies at the predicted
-/// zero, `p` and `q` extrapolated linearly from the last two samples (the state is the last
-/// sample's); its precision is the distance extrapolated.
+/// The Bogdanov-Takens point within the step from `last` (`sigma = 0` on `step`) to
+/// `sigma_new`, where the tracked pair meets on the real axis. The curve `h = 0` of (3)
+/// ([`super::tracked::critical_pair`]) goes on through the point as a curve of neutral saddles,
+/// and `w2` of (3) (`w^2` on the Hopf side) changes sign there, transversally: the point is the
+/// zero of `w2` along that curve. The search samples it on the step's line, each sample a
+/// point of the curve `h = 0` (pair mode of the corrector, which does not fail where the pair
+/// turns real), nine tenths of the way from the last sample on the Hopf side to the predicted
+/// zero, or at the predicted zero once a sample past the point brackets it; a sample that
+/// cannot be solved is retried nearer the last. The prediction is the zero of the parabola in
+/// `sigma` through the three samples nearest it (a secant through two at first). Near the point
+/// the equilibrium exists only in a sliver about the curve that narrows quadratically (a fold
+/// of the equilibria is tangent to the curve there) and its state is conditioned like `1 /
+/// |w2|`, so the samples cannot reach it; the parabola, exact to third order, carries the last
+/// `O(sigma)` in between. The search ends when the predicted zero lies within `event_tol` of a
+/// sample or of the bracket, or when no nearer sample can be solved. The point is that zero:
+/// its `p`, `q` and state interpolated on the same parabola (the state the member's own there,
+/// to the order of the fit, not the last sample's); its precision the change of the predicted
+/// zero from the parabola through the next three samples (the distance to the nearest sample
+/// where that is smaller: the prediction is only needed beyond it). It carries no Lyapunov
+/// coefficient: (1) of [`crate::engine::criticality`] divides by `w`, which vanishes there, and
+/// the orbits born near the point are governed by the quadratic coefficients of the
+/// Bogdanov-Takens normal form, not by `l1`.
 pub(super) fn locate_bogdanov_takens<F: Family>(
     tracer: &Tracer<'_, F>,
-    previous: &CurvePoint,
     last: &At<F::Member>,
     step: &Step,
+    sigma_new: f64,
     s_last: f64,
+    slope: Option<f64>,
 ) -> Result<(Special, Rc<F::Member>)> {
-    let tol = tracer.continuation.event_tol;
-    let w2 = |s: c64| s.im * s.im;
-    // (sigma, p, q, w^2) of the sample before the last one; the last one.
-    let mut before = (
-        previous.s - s_last,
-        previous.p,
-        previous.q,
-        w2(previous.eigenvalue),
-    );
-    let (mut lo, mut lo_at) = (0.0, last.clone());
-    let (mut evaluations, mut precision) = (0, 0.0);
-    let mut fraction: f64 = 0.9;
-    let zero_of = |before: (f64, f64, f64, f64), lo: f64, at: &At<F::Member>| {
-        let (s0, _, _, y0) = before;
-        let y1 = w2(at.eigenvalue);
-        lo - y1 * (lo - s0) / (y1 - y0)
+    let line = Step {
+        pair: true,
+        ..*step
     };
+    let mut slope = slope;
+    let tol = tracer.continuation.event_tol;
+    let mut samples: Vec<(f64, At<F::Member>)> = vec![(0.0, last.clone())];
+    let mut evaluations = 0;
+    // The first sample at the end of the failed step, then as predicted.
+    let mut sigma = sigma_new;
+    let mut fraction: f64 = 1.0;
     for _ in 0..200 {
-        let zero = zero_of(before, lo, &lo_at);
-        if !(zero.is_finite() && zero > lo) {
-            return Err(Error::Numerical(
-                "the pair turned real, but w^2 does not fall towards zero ahead".into(),
-            ));
-        }
-        if zero - lo <= tol || fraction < 1e-3 {
-            break;
-        }
-        let sigma = lo + fraction * (zero - lo);
-        match tracer.correct(
-            &lo_at,
-            step,
-            sigma,
-            None,
-            None,
-            lo_at.eigenvalue,
-            REACH * sigma,
-        ) {
+        let from = samples
+            .iter()
+            .min_by(|a, b| (a.0 - sigma).abs().total_cmp(&(b.0 - sigma).abs()))
+            .expect("a sample");
+        let reach = REACH * (sigma - from.0).abs().max(tol);
+        match tracer.correct(&from.1, &line, sigma, None, slope, from.1.eigenvalue, reach) {
             Ok(c) => {
                 evaluations += c.evaluations;
-                precision = c.precision;
-                before = (lo, lo_at.p, lo_at.q, w2(lo_at.eigenvalue));
-                (lo, lo_at) = (sigma, c.at);
+                slope = Some(c.slope);
+                samples.push((sigma, c.at));
                 fraction = 0.9;
             }
             Err(_) => fraction *= 0.5,
         }
+        // The last sample on the Hopf side, the first past the point.
+        let lo = samples
+            .iter()
+            .filter(|s| s.1.w2 > 0.0)
+            .map(|s| s.0)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let hi = samples
+            .iter()
+            .filter(|s| s.1.w2 <= 0.0)
+            .map(|s| s.0)
+            .fold(f64::INFINITY, f64::min);
+        if samples.len() < 2 {
+            if fraction < 1e-3 {
+                return Err(Error::Numerical(
+                    "no point of the curve could be solved ahead of the last one".into(),
+                ));
+            }
+            sigma = fraction * sigma_new;
+            continue;
+        }
+        // Ahead of the last sample on the Hopf side, and within the step's reach when nothing
+        // brackets it yet (else the pair turned real only off the curve: a shorter step).
+        let zero = predicted_zero(&samples, lo)
+            .filter(|&z| z > lo && (hi.is_finite() || z - lo <= 2.0 * sigma_new))
+            .ok_or_else(|| {
+                Error::Numerical(
+                    "the pair turned real, but w^2 does not fall to zero ahead within the step"
+                        .into(),
+                )
+            })?;
+        let nearest = samples
+            .iter()
+            .map(|s| (s.0 - zero).abs())
+            .fold(f64::INFINITY, f64::min);
+        if nearest <= tol || hi - lo <= tol || fraction < 1e-3 {
+            break;
+        }
+        sigma = if hi.is_finite() {
+            zero.clamp(lo + 0.1 * (hi - lo), hi - 0.1 * (hi - lo))
+        } else {
+            lo + fraction * (zero - lo)
+        };
     }
-    let zero = zero_of(before, lo, &lo_at);
-    let (s0, p0, q0, _) = before;
-    let along = (zero - lo) / (lo - s0);
-    let mut point = lo_at.point(s_last + zero, precision, evaluations);
-    point.p = lo_at.p + along * (lo_at.p - p0);
-    point.q = lo_at.q + along * (lo_at.q - q0);
-    point.eigenvalue = c64::new(lo_at.eigenvalue.re, 0.0);
+    let lo = samples
+        .iter()
+        .filter(|s| s.1.w2 > 0.0)
+        .map(|s| s.0)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let zero = predicted_zero(&samples, lo).ok_or_else(|| {
+        Error::Numerical("the pair turned real, but w^2 does not fall towards zero ahead".into())
+    })?;
+    samples.sort_by(|a, b| (a.0 - zero).abs().total_cmp(&(b.0 - zero).abs()));
+    let nearest = (samples[0].0 - zero).abs();
+    // The prediction from the next three samples, where there are as many.
+    let other = (samples.len() >= 4)
+        .then(|| parabola_zero(&samples[1..4], zero))
+        .flatten();
+    let precision = match other {
+        Some(z) => (z - zero).abs().min(nearest.max(tol)),
+        None => nearest.max(tol),
+    };
+    let fit = &samples[..samples.len().min(3)];
+    let at = &fit[0].1;
+    let mut point = at.point(s_last + zero, precision, evaluations);
+    point.p = lagrange(fit, zero, |a| a.p);
+    point.q = lagrange(fit, zero, |a| a.q);
+    point.u = (0..at.u.len())
+        .map(|i| lagrange(fit, zero, |a| a.u[i]))
+        .collect();
+    point.eigenvalue = c64::new(lagrange(fit, zero, |a| a.eigenvalue.re), 0.0);
+    point.lyapunov = None;
     let special = Special {
         kind: SpecialKind::BogdanovTakens,
         point,
         other: c64::new(0.0, 0.0),
         gains: false,
-        precision: zero - lo,
+        precision,
     };
-    Ok((special, lo_at.member))
+    Ok((special, fit[0].1.member.clone()))
+}
+
+/// The zero of `w2` ahead of `lo` predicted from the samples: the parabola through the three
+/// nearest to the secant zero of the two nearest `lo` (that secant where there are only two).
+fn predicted_zero<M>(samples: &[(f64, At<M>)], lo: f64) -> Option<f64> {
+    let by = |x: f64| {
+        let mut sorted: Vec<&(f64, At<M>)> = samples.iter().collect();
+        sorted.sort_by(|a, b| (a.0 - x).abs().total_cmp(&(b.0 - x).abs()));
+        sorted
+    };
+    let near = by(lo);
+    if near.len() < 2 {
+        return None;
+    }
+    let (a, b) = (near[0], near[1]);
+    let secant = a.0 - a.1.w2 * (a.0 - b.0) / (a.1.w2 - b.1.w2);
+    if !secant.is_finite() {
+        return None;
+    }
+    let near = by(secant);
+    if near.len() < 3 {
+        return Some(secant);
+    }
+    let three: Vec<(f64, At<M>)> = near[..3].iter().map(|s| (s.0, s.1.clone())).collect();
+    parabola_zero(&three, secant).or(Some(secant))
+}
+
+/// The zero nearest `guess` of the parabola through `(sigma, w2)` of three samples, by
+/// Newton's method from `guess`.
+fn parabola_zero<M>(three: &[(f64, At<M>)], guess: f64) -> Option<f64> {
+    let w2 = |x: f64| lagrange(three, x, |a| a.w2);
+    let mut x = guess;
+    for _ in 0..50 {
+        let d = 1e-7 * (three[0].0 - three[2].0).abs().max(f64::MIN_POSITIVE);
+        let slope = (w2(x + d) - w2(x - d)) / (2.0 * d);
+        let dx = w2(x) / slope;
+        if !dx.is_finite() {
+            return None;
+        }
+        x -= dx;
+        if dx.abs() <= 1e-15 * (1.0 + x.abs()) {
+            break;
+        }
+    }
+    x.is_finite().then_some(x)
+}
+
+/// The Lagrange polynomial through `(sigma, value(at))` of `nodes`, at `x`.
+fn lagrange<M>(nodes: &[(f64, At<M>)], x: f64, value: impl Fn(&At<M>) -> f64) -> f64 {
+    (0..nodes.len())
+        .map(|i| {
+            let weight: f64 = (0..nodes.len())
+                .filter(|&j| j != i)
+                .map(|j| (x - nodes[j].0) / (nodes[i].0 - nodes[j].0))
+                .product();
+            weight * value(&nodes[i].1)
+        })
+        .sum()
 }

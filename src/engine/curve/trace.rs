@@ -78,8 +78,8 @@ struct Trace<'a, F: Family> {
     curve: Curve,
     /// The last point, solved.
     last: At<F::Member>,
-    /// The unit tangent in the units of (2): the chord of the last step (at the start, along
-    /// `q`).
+    /// The unit tangent in the units of (2): the chord of the last step (at the start,
+    /// orthogonal to the gradient of the test function).
     t: (f64, f64),
     /// The slope `dh/d offset` of the last corrector's secant.
     slope: Option<f64>,
@@ -87,6 +87,9 @@ struct Trace<'a, F: Family> {
     drift: Option<Vec<f64>>,
     /// The rate of change of the tracked eigenvalue along the curve over the last step.
     rate: Option<c64>,
+    /// The rate of change of `w^2` along the curve over the last step: a step that fails where
+    /// it predicts `w^2 = 0` within two steps may have met a Bogdanov-Takens point.
+    w2_rate: Option<f64>,
     step: StepControl,
 }
 
@@ -104,7 +107,8 @@ struct Next {
 
 impl<'a, F: Family> Trace<'a, F> {
     /// The curve's first point, `start` (with its Lyapunov coefficient, if asked for), the
-    /// tangent along `q` in `direction`.
+    /// tangent orthogonal to the gradient of the test function there, moving `q` in
+    /// `direction` ([`Tracer::tangent_at`]).
     fn start(
         tracer: Tracer<'a, F>,
         start: CurvePoint,
@@ -118,9 +122,16 @@ impl<'a, F: Family> Trace<'a, F> {
             u: start.u.clone(),
             spectrum: start.spectrum.clone(),
             eigenvalue: start.eigenvalue,
+            w2: start.eigenvalue.im * start.eigenvalue.im,
             lyapunov: start.lyapunov.clone(),
         };
         let last = tracer.with_lyapunov(last);
+        // Along the curve from the start; along `q` (the corrector's first slope unknown) only
+        // where the gradient of the test function cannot be had.
+        let (t, slope) = match tracer.tangent_at(&last, direction) {
+            Ok((t, slope)) => (t, Some(slope)),
+            Err(_) => ((0.0, direction.signum()), None),
+        };
         let start = CurvePoint {
             lyapunov: last.lyapunov.clone(),
             ..start
@@ -134,10 +145,11 @@ impl<'a, F: Family> Trace<'a, F> {
                 stop: Stop::MaxPoints,
             },
             last,
-            t: (0.0, direction.signum()),
-            slope: None,
+            t,
+            slope,
             drift: None,
             rate: None,
+            w2_rate: None,
             step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
         }
     }
@@ -157,6 +169,19 @@ impl<'a, F: Family> Trace<'a, F> {
             Ok(c) => c,
             Err(e) => return self.failed(e, &next, observer),
         };
+        // A point the corrector carried past the end of the range (the normal of a step has a
+        // part along `q`): the step again, shortened to land on the end.
+        let settings = self.tracer.settings;
+        let q_end = if next.line.t.1 > 0.0 {
+            settings.q_max
+        } else {
+            settings.q_min
+        };
+        if !next.ending && (corrected.at.q - q_end) * next.line.t.1 > 0.0 {
+            let to_end = (q_end - self.last.q) / (next.line.t.1 * self.tracer.q_unit);
+            self.step.set(to_end);
+            return ControlFlow::Continue(());
+        }
         let new = self.tracer.with_lyapunov(corrected.at);
         let (dp, dq) = (
             (new.p - self.last.p) / next.line.p_unit,
@@ -230,6 +255,7 @@ impl<'a, F: Family> Trace<'a, F> {
                 p_unit,
                 t,
                 n: if ending { (1.0, 0.0) } else { (-t.1, t.0) },
+                pair: false,
             },
             sigma,
             ending,
@@ -266,7 +292,9 @@ impl<'a, F: Family> Trace<'a, F> {
             })
     }
 
-    /// After a step that failed with `e`: where the tracked pair turned real within it, the
+    /// After a step that failed with `e`: where the tracked pair turned real within it, or
+    /// `w^2` was to vanish within two such steps at its last rate (near the point the
+    /// equilibrium exists only close to the curve, and the corrector's trials off it fail), the
     /// curve ends at a Bogdanov-Takens point there, if one can be pinned down (else the step is
     /// only too long); otherwise a shorter step, also where the family ends (to come as near
     /// that end as the smallest step allows).
@@ -276,14 +304,17 @@ impl<'a, F: Family> Trace<'a, F> {
         next: &Next,
         observer: &mut impl Observer<CurvePoint, Special>,
     ) -> ControlFlow<Rc<F::Member>> {
-        if matches!(e, Error::Engine(EngineError::PairBecameReal { .. }))
-            && let Some(previous) = self.curve.points.iter().rev().nth(1)
+        let vanishing = self
+            .w2_rate
+            .is_some_and(|r| self.last.w2 + r * 2.0 * next.sigma <= 0.0);
+        if (vanishing || matches!(e, Error::Engine(EngineError::PairBecameReal { .. })))
             && let Ok((special, member)) = locate_bogdanov_takens(
                 &self.tracer,
-                previous,
                 &self.last,
                 &next.line,
+                next.sigma,
                 self.s_last(),
+                self.slope,
             )
         {
             let _ = observer.event(&special);
@@ -376,6 +407,7 @@ impl<'a, F: Family> Trace<'a, F> {
         );
         self.slope = Some(slope);
         self.rate = Some((new.eigenvalue - last.eigenvalue) / length);
+        self.w2_rate = Some((new.w2 - last.w2) / length);
         self.t = t_new;
         self.step.adapt(evaluations);
         self.last = new;
