@@ -6,7 +6,6 @@
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::model::Model;
-use helixbif::model::observables::height;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::problem::steady;
 
@@ -199,7 +198,7 @@ fn solve_default_at_0_3_rad_per_s() {
     assert!(quadratic_tail(&solution.state.report.history, 10.0));
     assert!((o.omega - 0.3).abs() < 1e-15);
     // The rest height reported is the one of the rest state's nodes, in metres.
-    assert!((o.h0 - height(&solution.rest.config.x) * model.scales.length).abs() < 1e-15);
+    assert!((o.h0 - model.height(&solution.rest.config.x) * model.scales.length).abs() < 1e-15);
 }
 
 /// Extension of an open-coiled helical spring of `turns` turns, radius `R` and pitch angle

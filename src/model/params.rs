@@ -52,10 +52,13 @@ pub struct FluidParams {
     /// RPY blob radius `a` (m); default `e^(3/2) r0 / 4`. Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blob_radius: Option<f64>,
-    /// RPY quadrature points per blob radius (default
-    /// [`crate::model::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): fewer is cheaper (the kernels cost
-    /// the square) and less accurate (the rigid helix's thrust at N = 120 moves by 0.30% at 2,
-    /// 0.10% at 4, 0.026% at 8, against 16: `tests/rpy.rs`). Only with `model = "rpy"`.
+    /// RPY quadrature points per blob radius, about (default
+    /// [`crate::model::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): each edge gets the power of two
+    /// of two-point Gauss cells nearest to this many points per blob radius, so the points stay
+    /// where they are when the spacing is halved. Fewer is cheaper (the kernels cost the square)
+    /// and less accurate: the error is second order in the spacing and the same at every `N` of a
+    /// halving ladder (`omega_b` of the representative helix 7.7e-5 rad/s above its limit in the
+    /// points at 8, 1.9e-5 at 16; docs/model.md section 9). Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub points_per_blob: Option<f64>,
 }
@@ -178,6 +181,43 @@ pub struct Discretization {
     /// sweep). Resolved into `nodes` when the study is loaded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_turn: Option<f64>,
+    /// Where the clamped first edge lies (docs/model.md section 2): from the clamp point down
+    /// (`"first"`, default) or centred on it (`"centred"`, RPY only).
+    #[serde(default, skip_serializing_if = "ClampEdge::is_first")]
+    pub clamp_edge: ClampEdge,
+}
+
+/// How the clamp is imposed on the polygon (docs/model.md section 2). Either way `x_0`, `x_1`
+/// and `theta^0` are held: the clamped edge fixes the tangent at its midpoint.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClampEdge {
+    /// The reference: node 0 at the clamp point, the clamped edge the rod's first `h`. The
+    /// tangent is then held at `s = h/2`: the discrete rod is clamped half an edge below the
+    /// clamp, a first-order error in the spacing (the sag at rest converges at observed order
+    /// 1.76 .. 1.34 from N = 60 to 1889 on the representative helix).
+    #[default]
+    First,
+    /// The clamped edge centred on the clamp point: nodes at `s_i = (i - 1/2) h`,
+    /// `h = L/(N - 3/2)`, so the tangent is held at `s = 0` and node 1 at `s = h/2`; the half edge
+    /// above the clamp is no part of the rod for the fluid, which sees the clamp point
+    /// `(x_0 + x_1)/2` as its first node (the sag converges at order 2.00). Only with
+    /// `fluid.model = "rpy"`.
+    Centred,
+}
+
+impl ClampEdge {
+    fn is_first(&self) -> bool {
+        *self == ClampEdge::First
+    }
+
+    /// The clamp point of a configuration: node 0, or the midpoint of the clamped edge.
+    pub fn clamp_point(self, x: &[nalgebra::Vector3<f64>]) -> nalgebra::Vector3<f64> {
+        match self {
+            ClampEdge::First => x[0],
+            ClampEdge::Centred => 0.5 * (x[0] + x[1]),
+        }
+    }
 }
 
 /// Everything that defines the physical problem, in SI units.
@@ -244,6 +284,7 @@ impl Physical {
             discretization: Discretization {
                 nodes: 60,
                 per_turn: None,
+                clamp_edge: ClampEdge::First,
             },
         }
     }
@@ -354,6 +395,26 @@ impl Physical {
                     self.discretization.nodes
                 ),
             ));
+        }
+        if self.discretization.clamp_edge == ClampEdge::Centred {
+            if self.fluid.model != FluidModel::Rpy {
+                return Err(Error::input(
+                    "discretization.clamp_edge",
+                    "\"centred\" needs fluid.model = \"rpy\" (the Lighthill line has its own \
+                     first-order terms and an admissible node range, docs/model.md section 10)",
+                ));
+            }
+            if let ShapeParams::Helix {
+                clamp: HelixClamp::Axis,
+                ..
+            } = self.shape
+            {
+                return Err(Error::input(
+                    "discretization.clamp_edge",
+                    "\"centred\" places the nodes of a helix held at its own end, an arc or a \
+                     straight rod; with shape.clamp = \"axis\" it must stay \"first\"",
+                ));
+            }
         }
         self.validate_fluid_model()
     }
