@@ -9,7 +9,7 @@ use helixbif::model::fluid::{
     Fluid, FluidModel, Lighthill, Quadrature, Resistance, Rpy, rpy::POINTS_PER_BLOB,
     rpy_blob_radius, stack_vectors,
 };
-use helixbif::model::params::Physical;
+use helixbif::model::params::{ClampEdge, Physical};
 use helixbif::model::shape::{natural_nodes, rod_nodes};
 use helixbif::model::{Model, admissible_max_nodes};
 use helixbif::study::Study;
@@ -179,14 +179,10 @@ fn derivative_matches_finite_differences() {
     }
     // The rod's mobility with the clamped edge centred on the clamp (`T^{-1} A(T x) T^{-T}`).
     let (x0, r0) = helix(16);
-    let natural = rod_nodes(
-        &Physical::representative().shape,
-        16,
-        helixbif::model::params::ClampEdge::Centred,
-    )
-    .into_iter()
-    .map(|p| p / Physical::representative().shape.reference_length())
-    .collect::<Vec<_>>();
+    let natural = rod_nodes(&Physical::representative().shape, 16, ClampEdge::Centred)
+        .into_iter()
+        .map(|p| p / Physical::representative().shape.reference_length())
+        .collect::<Vec<_>>();
     let amplitude = 0.1 * arc_length(&x0) / 15.0;
     let x: Vec<Vector3<f64>> = natural
         .iter()
@@ -197,7 +193,7 @@ fn derivative_matches_finite_differences() {
         rpy_blob_radius(r0),
         POINTS_PER_BLOB,
         &natural,
-        helixbif::model::params::ClampEdge::Centred,
+        ClampEdge::Centred,
     );
     let y: Vec<Vector3<f64>> = (0..x.len()).map(|_| rng.vector()).collect();
     let b = model.mobility_derivative(&x, &y);
@@ -474,6 +470,27 @@ fn study_file_selects_the_fluid_model() {
     };
     assert_eq!((per_turn("rpy"), per_turn("lighthill")), (121, 85));
     assert_eq!(default_ladder(&study.physical()), vec![400, 799, 1597]);
+
+    // The clamped edge follows the fluid model unless set (docs/model.md section 2): centred
+    // on the RPY line, on the first edge on Lighthill's and for a helix held on its axis; an
+    // explicit value overrides it, and the refused combination names the key.
+    let clamp = |items: &[&str]| Study::load(None, &set(items)).map(|s| s.physical().clamp_edge());
+    assert_eq!(clamp(&["fluid.model=\"rpy\""]).unwrap(), ClampEdge::Centred);
+    assert_eq!(clamp(&[]).unwrap(), ClampEdge::First);
+    assert_eq!(
+        clamp(&["fluid.model=\"rpy\"", "discretization.clamp_edge=\"first\""]).unwrap(),
+        ClampEdge::First
+    );
+    assert_eq!(
+        clamp(&["fluid.model=\"rpy\"", "shape.clamp=\"axis\""]).unwrap(),
+        ClampEdge::First
+    );
+    let mut axis = Study::load(None, &set(&["fluid.model=\"rpy\"", "shape.clamp=\"axis\""]))
+        .unwrap()
+        .physical();
+    axis.discretization.clamp_edge = Some(ClampEdge::Centred);
+    let refused = Model::new(&axis).unwrap_err().to_string();
+    assert!(refused.contains("discretization.clamp_edge") && refused.contains("\"first\""));
 
     let lighthill = Study::load(None, &set(&["discretization.nodes=90"])).unwrap();
     assert!(matches!(

@@ -51,15 +51,11 @@ impl Model {
         let scales = physical.scales();
         let ell = scales.length;
         let ei = physical.bending_stiffness();
-        let discretization = &physical.discretization;
-        let natural: Vec<Vector3<f64>> = rod_nodes(
-            &physical.shape,
-            discretization.nodes,
-            discretization.clamp_edge,
-        )
-        .into_iter()
-        .map(|p| p / ell)
-        .collect();
+        let clamp = physical.clamp_edge();
+        let natural: Vec<Vector3<f64>> = rod_nodes(&physical.shape, nodes, clamp)
+            .into_iter()
+            .map(|p| p / ell)
+            .collect();
         let stiffness = Stiffness {
             ea: physical.stretching_stiffness() * ell * ell / ei,
             ei: 1.0,
@@ -72,13 +68,7 @@ impl Model {
             rod,
             chart,
             weight: physical.weight_per_length() * ell.powi(3) / ei,
-            fluid: Fluid::from_params(
-                &physical.fluid,
-                physical.rod.r0,
-                ell,
-                &natural,
-                discretization.clamp_edge,
-            ),
+            fluid: Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &natural, clamp),
             natural,
         })
     }
@@ -180,7 +170,7 @@ fn check_memory(nodes: usize) -> Result<()> {
 /// True when the mobility matrix of the natural shape with `nodes` nodes is positive definite.
 fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
     let ell = physical.shape.reference_length();
-    let clamp = physical.discretization.clamp_edge;
+    let clamp = physical.clamp_edge();
     let x: Vec<Vector3<f64>> = rod_nodes(&physical.shape, nodes, clamp)
         .into_iter()
         .map(|p| p / ell)

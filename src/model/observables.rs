@@ -47,7 +47,7 @@ impl Model {
     /// ([`crate::model::params::ClampEdge`]).
     pub fn height(&self, x: &[Vector3<f64>]) -> f64 {
         let lowest = x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-        self.physical.discretization.clamp_edge.clamp_point(x).z - lowest
+        self.physical.clamp_edge().clamp_point(x).z - lowest
     }
 
     /// Observables of the state `x` at `omegabar`, with `h0` the height at rest (solver units).

@@ -181,34 +181,42 @@ pub struct Discretization {
     /// sweep). Resolved into `nodes` when the study is loaded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_turn: Option<f64>,
-    /// Where the clamped first edge lies (docs/model.md section 2): from the clamp point down
-    /// (`"first"`, default) or centred on it (`"centred"`, RPY only).
-    #[serde(default, skip_serializing_if = "ClampEdge::is_first")]
-    pub clamp_edge: ClampEdge,
+    /// Where the clamped first edge lies (docs/model.md section 2): `"first"` (from the clamp
+    /// point down, the published discretization) or `"centred"` (centred on the clamp point:
+    /// the error of `fluid.model = "rpy"` is then of second order alone). Unset, it follows the
+    /// fluid model ([`Physical::clamp_edge`]): `"centred"` with `"rpy"` (`"first"` for a helix
+    /// with `shape.clamp = "axis"`), `"first"` with `"lighthill"`. `"centred"` is refused with
+    /// `"lighthill"` and with the axis clamp.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clamp_edge: Option<ClampEdge>,
 }
 
 /// How the clamp is imposed on the polygon (docs/model.md section 2). Either way `x_0`, `x_1`
 /// and `theta^0` are held: the clamped edge fixes the tangent at its midpoint.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ClampEdge {
     /// The reference: node 0 at the clamp point, the clamped edge the rod's first `h`. The
     /// tangent is then held at `s = h/2`: the discrete rod is clamped half an edge below the
     /// clamp, a first-order error in the spacing (the sag at rest converges at observed order
-    /// 1.76 .. 1.34 from N = 60 to 1889 on the representative helix).
-    #[default]
+    /// 1.76 .. 1.34 from N = 60 to 1889 on the representative helix). The default with
+    /// `fluid.model = "lighthill"`.
     First,
     /// The clamped edge centred on the clamp point: nodes at `s_i = (i - 1/2) h`,
     /// `h = L/(N - 3/2)`, so the tangent is held at `s = 0` and node 1 at `s = h/2`; the half edge
     /// above the clamp is no part of the rod for the fluid, which sees the clamp point
     /// `(x_0 + x_1)/2` as its first node (the sag converges at order 2.00). Only with
-    /// `fluid.model = "rpy"`.
+    /// `fluid.model = "rpy"`, whose default it is.
     Centred,
 }
 
 impl ClampEdge {
-    fn is_first(&self) -> bool {
-        *self == ClampEdge::First
+    /// The value's name in a study file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ClampEdge::First => "first",
+            ClampEdge::Centred => "centred",
+        }
     }
 
     /// The clamp point of a configuration: node 0, or the midpoint of the clamped edge.
@@ -284,9 +292,34 @@ impl Physical {
             discretization: Discretization {
                 nodes: 60,
                 per_turn: None,
-                clamp_edge: ClampEdge::First,
+                clamp_edge: None,
             },
         }
+    }
+
+    /// Where the clamped edge lies (docs/model.md section 2): `discretization.clamp_edge` if
+    /// given, else the fluid model's default: [`ClampEdge::Centred`] on the RPY line (its error
+    /// is then of second order alone, section 10), except for a helix held on its axis, and
+    /// [`ClampEdge::First`] on Lighthill's (the published model).
+    pub fn clamp_edge(&self) -> ClampEdge {
+        self.discretization.clamp_edge.unwrap_or(
+            if self.fluid.model == FluidModel::Rpy && !self.axis_clamped() {
+                ClampEdge::Centred
+            } else {
+                ClampEdge::First
+            },
+        )
+    }
+
+    /// A helix held on its axis (`shape.clamp = "axis"`).
+    fn axis_clamped(&self) -> bool {
+        matches!(
+            self.shape,
+            ShapeParams::Helix {
+                clamp: HelixClamp::Axis,
+                ..
+            }
+        )
     }
 
     /// Checks every field against its allowed range; the error names the field.
@@ -396,23 +429,21 @@ impl Physical {
                 ),
             ));
         }
-        if self.discretization.clamp_edge == ClampEdge::Centred {
-            if self.fluid.model != FluidModel::Rpy {
+        if self.discretization.clamp_edge == Some(ClampEdge::Centred) {
+            let refused = if self.fluid.model != FluidModel::Rpy {
+                Some("fluid.model = \"lighthill\"")
+            } else if self.axis_clamped() {
+                Some("shape.clamp = \"axis\"")
+            } else {
+                None
+            };
+            if let Some(with) = refused {
                 return Err(Error::input(
                     "discretization.clamp_edge",
-                    "\"centred\" needs fluid.model = \"rpy\" (the Lighthill line has its own \
-                     first-order terms and an admissible node range, docs/model.md section 10)",
-                ));
-            }
-            if let ShapeParams::Helix {
-                clamp: HelixClamp::Axis,
-                ..
-            } = self.shape
-            {
-                return Err(Error::input(
-                    "discretization.clamp_edge",
-                    "\"centred\" places the nodes of a helix held at its own end, an arc or a \
-                     straight rod; with shape.clamp = \"axis\" it must stay \"first\"",
+                    format!(
+                        "\"centred\" is not supported with {with}: allowed there is \"first\" \
+                         (\"centred\" needs fluid.model = \"rpy\" and a rod held at its own end)"
+                    ),
                 ));
             }
         }
