@@ -109,6 +109,12 @@ fn bad_input_exits_2_with_one_line_naming_the_field() {
         ("shape.foo=1", "foo"),
         ("discretization.nodes=120", "discretization.nodes"),
         ("newton.tol=0", "newton.tol"),
+        // The centred clamp is RPY's; Lighthill's line (the default here) allows "first" only.
+        (
+            "discretization.clamp_edge=centred",
+            "discretization.clamp_edge",
+        ),
+        ("discretization.clamp_edge=middle", "clamp_edge"),
     ];
     for (set, field) in cases {
         let (code, stdout, stderr) = helixbif(&[

@@ -30,7 +30,6 @@ use helixbif::engine::newton::{NewtonSettings, System, norm};
 use helixbif::engine::stability::spectrum;
 use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
-use helixbif::model::observables::height;
 use helixbif::model::params::Physical;
 use helixbif::model::rod::frame::Chart;
 use helixbif::model::rod::frame::rechart;
@@ -447,7 +446,8 @@ fn post_buckling_motion_far_from_the_natural_chart() {
         run.rejected,
         run.newton_iterations,
         largest.to_degrees(),
-        height(&steady.config(&run.last.u_chart).x) / height(&rest.config.x)
+        steady.model.height(&steady.config(&run.last.u_chart).x)
+            / steady.model.height(&rest.config.x)
     );
     assert_eq!(run.last.t, t_end);
     assert!(largest > 120f64.to_radians(), "{}", largest.to_degrees());

@@ -7,7 +7,7 @@ use crate::engine::arclength::{Branch, Limits, Point, follow};
 use crate::engine::events::Event;
 use crate::engine::stop::Observer;
 use crate::model::Model;
-use crate::model::observables::{Observables, height};
+use crate::model::observables::Observables;
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
 use crate::problem::rod::{Parameter, RodProblem, omega_scale};
@@ -72,5 +72,5 @@ pub fn observables_at(
     omegabar: f64,
 ) -> Result<Observables> {
     let x = Steady::new(model, omegabar).config(u).x;
-    model.steady_observables(omegabar, &x, height(&rest.config.x))
+    model.steady_observables(omegabar, &x, model.height(&rest.config.x))
 }

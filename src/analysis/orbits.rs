@@ -25,7 +25,7 @@ use crate::engine::periodic::flow::carried;
 use crate::engine::periodic::orbit::Orbit;
 use crate::model::Model;
 use crate::model::observables::moving_forces;
-use crate::model::observables::{height, thrust_and_torque};
+use crate::model::observables::thrust_and_torque;
 use crate::model::steady::Steady;
 use crate::problem::twist::natural_chart_unknowns;
 
@@ -80,7 +80,7 @@ fn observed(dynamics: &RodDynamics, orbit: &Orbit, h0: f64) -> Result<Vec<[f64; 
             let forces = moving_forces(model, u, chart, orbit.p)?;
             let x = Steady::new(model, orbit.p).config(u).x;
             let (f, t) = thrust_and_torque(&x, &forces);
-            Ok([height(&x) / h0, f, t])
+            Ok([model.height(&x) / h0, f, t])
         })
         .collect()
 }

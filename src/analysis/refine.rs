@@ -17,13 +17,13 @@ use crate::engine::events::EventKind;
 use crate::engine::newton;
 use crate::engine::stop::Observer;
 use crate::model::fluid::FluidModel;
-use crate::model::params::Physical;
+use crate::model::params::{ClampEdge, Physical};
 use crate::model::rod::Config;
 use crate::model::rod::frame::rechart;
 use crate::model::steady::Steady;
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::extrapolation::{
-    DiscretizationError, Extrapolated, discretization_error, extrapolate,
+    DiscretizationError, Extrapolated, Orders, discretization_error, extrapolate_with,
 };
 use crate::problem::carry::{carry, carry_config};
 use crate::problem::rod::{Parameter, RodProblem, omega_scale};
@@ -42,7 +42,7 @@ pub trait RungObserver: Observer<Point, Event> {
 }
 
 /// `locate --extrapolate`: `omega_b` over a ladder of node counts and its limit with the known
-/// orders (docs/model.md section 10, [`extrapolate`]).
+/// orders (docs/model.md section 10, [`extrapolate_with`], [`error_orders`]).
 #[derive(Serialize)]
 pub struct Ladder {
     pub nodes: Vec<usize>,
@@ -134,6 +134,21 @@ pub fn default_ladder(physical: &Physical) -> Vec<usize> {
     let max = max.saturating_sub(2).max(10);
     let min = (max / 2).max(8);
     (0..5).map(|k| min + (max - min) * k / 4).collect()
+}
+
+/// The known orders of `physical`'s discretization error in `N` (docs/model.md section 10): the
+/// second alone on the RPY line with the clamped edge centred on the clamp (section 9: point
+/// forces at the ends, the velocity tested at the centroids and a nested quadrature leave no
+/// first-order term of the fluid, and the centred clamp none of the rod; the observed order
+/// is 2.15, 2.07, 2.04 over `N = 60 .. 945` on the representative helix), so the error of a
+/// rung is estimated at second order, a third of the first-order estimate at each halving.
+/// First and second otherwise: the clamp on the first edge holds the tangent half an edge below
+/// the clamp, and Lighthill's point sums add first-order terms of their own.
+pub fn error_orders(physical: &Physical) -> Orders {
+    match (physical.fluid.model, physical.clamp_edge()) {
+        (FluidModel::Rpy, ClampEdge::Centred) => Orders::Second,
+        _ => Orders::FirstAndSecond,
+    }
 }
 
 /// `physical` at `nodes` nodes.
@@ -370,7 +385,8 @@ pub fn ladder(
             results.iter().map(|r| r.3.name()).collect::<Vec<_>>()
         )));
     }
-    let e: Extrapolated = extrapolate(&nodes, &omega_b)?;
+    let orders = error_orders(physical);
+    let e: Extrapolated = extrapolate_with(orders, &nodes, &omega_b)?;
     let ratio = omegabar_b[0] / omega_b[0];
     Ok(Ladder {
         nodes_max: admissible_max_nodes(physical),
@@ -381,7 +397,7 @@ pub fn ladder(
         omega_b_extrapolated: e.value,
         omega_b_error: e.error,
         omegabar_b_extrapolated: e.value * ratio,
-        model: "omega_b(N) = c0 + c1 h + c2 h^2, h = 1/(N - 1)",
+        model: orders.model(),
         coefficients: e.coefficients,
     })
 }
@@ -408,6 +424,7 @@ pub fn refine(
     let admissible = admissible_max_nodes(physical);
     let start = physical.discretization.nodes;
     let limit = admissible.map_or(max_nodes, |a| a.min(max_nodes));
+    let orders = error_orders(physical);
     if start > limit {
         // The model's own N is outside the range: refused with the usual message.
         Model::new(physical)?.check_resolution()?;
@@ -433,7 +450,7 @@ pub fn refine(
     let stopped = loop {
         let started = Instant::now();
         // A finer rung starts from the coarser one's Hopf point, at the rate the rungs so far
-        // predict (first order: the next increment half the last).
+        // predict ([`Orders::next_increment_ratio`]).
         let sequencing = finest
             .as_ref()
             .filter(|f| matches!(&f.critical, Some(c) if c.event.kind == EventKind::Hopf));
@@ -442,7 +459,8 @@ pub fn refine(
                 let (nodes, values) = rung_omegabars(&rungs, &coarse.located);
                 let k = values.len();
                 let predicted = if k >= 2 {
-                    values[k - 1] + 0.5 * (values[k - 1] - values[k - 2]) * h_ratio(&nodes, n)
+                    values[k - 1]
+                        + (values[k - 1] - values[k - 2]) * orders.next_increment_ratio(&nodes, n)
                 } else {
                     values[k - 1]
                 };
@@ -513,7 +531,7 @@ pub fn refine(
         }
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
-            let e = discretization_error(&nodes, &values)?;
+            let e = discretization_error(orders, &nodes, &values)?;
             let relative = e.error / values[values.len() - 1].abs();
             observer.estimated(relative, &e);
             estimate = Some(e);
@@ -561,14 +579,6 @@ fn rung_omegabars(rungs: &[Rung], last: &Located) -> (Vec<usize>, Vec<f64>) {
         .iter()
         .filter_map(|r| r.omega_b.map(|w| (r.nodes, w * ratio)))
         .unzip()
-}
-
-/// The ratio of the step `h = 1/(N - 1)` from the last of `nodes` to `next`, over the one
-/// before, for the prediction of the next increment (1 when the spacing halves each time).
-fn h_ratio(nodes: &[usize], next: usize) -> f64 {
-    let h = |n: usize| 1.0 / (n as f64 - 1.0);
-    let k = nodes.len();
-    (h(nodes[k - 1]) - h(next)) / (h(nodes[k - 2]) - h(nodes[k - 1]))
 }
 
 /// The node counts and `omega_b` of rungs that all found one.

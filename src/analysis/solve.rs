@@ -8,7 +8,7 @@ use crate::engine::events::EventKind;
 use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::engine::stop::Silent;
 use crate::model::Model;
-use crate::model::observables::{Observables, height};
+use crate::model::observables::Observables;
 use crate::model::steady::Steady;
 use crate::problem;
 use crate::problem::rod::Parameter;
@@ -99,7 +99,7 @@ pub fn solve_at(model: &Model, omegabar: f64, settings: &NewtonSettings) -> Resu
     let state = ramp(model, &rest, Parameter::Omega, omegabar, settings)
         .map_err(|e| unreachable(model, &rest, omegabar, e))?;
     let observables =
-        model.steady_observables(omegabar, &state.config.x, height(&rest.config.x))?;
+        model.steady_observables(omegabar, &state.config.x, model.height(&rest.config.x))?;
     Ok(Solution {
         fpbar_rigid: model.rigid_thrust(omegabar)?,
         state,

@@ -15,7 +15,7 @@ use crate::model::fluid::Fluid;
 use crate::model::params::{Physical, Scales};
 use crate::model::rod::frame::Chart;
 use crate::model::rod::{Config, Rod, Stiffness};
-use crate::model::shape::natural_nodes;
+use crate::model::shape::rod_nodes;
 use crate::numerics::process::available_memory;
 use crate::{Error, Result};
 
@@ -51,11 +51,11 @@ impl Model {
         let scales = physical.scales();
         let ell = scales.length;
         let ei = physical.bending_stiffness();
-        let natural: Vec<Vector3<f64>> =
-            natural_nodes(&physical.shape, physical.discretization.nodes)
-                .into_iter()
-                .map(|p| p / ell)
-                .collect();
+        let clamp = physical.clamp_edge();
+        let natural: Vec<Vector3<f64>> = rod_nodes(&physical.shape, nodes, clamp)
+            .into_iter()
+            .map(|p| p / ell)
+            .collect();
         let stiffness = Stiffness {
             ea: physical.stretching_stiffness() * ell * ell / ei,
             ei: 1.0,
@@ -68,7 +68,7 @@ impl Model {
             rod,
             chart,
             weight: physical.weight_per_length() * ell.powi(3) / ei,
-            fluid: Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &natural),
+            fluid: Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &natural, clamp),
             natural,
         })
     }
@@ -170,11 +170,12 @@ fn check_memory(nodes: usize) -> Result<()> {
 /// True when the mobility matrix of the natural shape with `nodes` nodes is positive definite.
 fn natural_mobility_is_definite(physical: &Physical, nodes: usize) -> bool {
     let ell = physical.shape.reference_length();
-    let x: Vec<Vector3<f64>> = natural_nodes(&physical.shape, nodes)
+    let clamp = physical.clamp_edge();
+    let x: Vec<Vector3<f64>> = rod_nodes(&physical.shape, nodes, clamp)
         .into_iter()
         .map(|p| p / ell)
         .collect();
-    Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &x)
+    Fluid::from_params(&physical.fluid, physical.rod.r0, ell, &x, clamp)
         .resistance(&x, "")
         .is_ok()
 }

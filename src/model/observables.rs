@@ -34,12 +34,6 @@ pub struct Observables {
     pub hbar: f64,
 }
 
-/// Vertical distance from the clamp to the lowest node (solver units).
-pub fn height(x: &[Vector3<f64>]) -> f64 {
-    let lowest = x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
-    x[0].z - lowest
-}
-
 /// Propulsive force and motor torque (solver units) of the nodal forces `forces` at `x`.
 pub(crate) fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> (f64, f64) {
     let fp = -forces.iter().map(|f| f.z).sum::<f64>();
@@ -48,6 +42,14 @@ pub(crate) fn thrust_and_torque(x: &[Vector3<f64>], forces: &[Vector3<f64>]) -> 
 }
 
 impl Model {
+    /// Vertical distance from the clamp point to the lowest node (solver units): node 0, or the
+    /// midpoint of the clamped edge when it is centred on the clamp
+    /// ([`crate::model::params::ClampEdge`]).
+    pub fn height(&self, x: &[Vector3<f64>]) -> f64 {
+        let lowest = x.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+        self.physical.clamp_edge().clamp_point(x).z - lowest
+    }
+
     /// Observables of the state `x` at `omegabar`, with `h0` the height at rest (solver units).
     pub fn observables(
         &self,
@@ -58,7 +60,7 @@ impl Model {
     ) -> Observables {
         let s = &self.scales;
         let (fp, tp) = thrust_and_torque(x, forces);
-        let h = height(x);
+        let h = self.height(x);
         Observables {
             omega: s.omega_from_bar(omegabar),
             omegabar,

@@ -53,10 +53,13 @@ pub struct FluidParams {
     /// RPY blob radius `a` (m); default `e^(3/2) r0 / 4`. Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blob_radius: Option<f64>,
-    /// RPY quadrature points per blob radius (default
-    /// [`crate::model::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): fewer is cheaper (the kernels cost
-    /// the square) and less accurate (the rigid helix's thrust at N = 120 moves by 0.30% at 2,
-    /// 0.10% at 4, 0.026% at 8, against 16: `tests/rpy.rs`). Only with `model = "rpy"`.
+    /// RPY quadrature points per blob radius, about (default
+    /// [`crate::model::fluid::rpy::POINTS_PER_BLOB`] = 8; 2..64): each edge gets the power of two
+    /// of two-point Gauss cells nearest to this many points per blob radius, so the points stay
+    /// where they are when the spacing is halved. Fewer is cheaper (the kernels cost the square)
+    /// and less accurate: the error is second order in the spacing and the same at every `N` of a
+    /// halving ladder (`omega_b` of the representative helix 7.7e-5 rad/s above its limit in the
+    /// points at 8, 1.9e-5 at 16; docs/model.md section 9). Only with `model = "rpy"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub points_per_blob: Option<f64>,
 }
@@ -175,6 +178,51 @@ pub struct Discretization {
     /// sweep). Resolved into `nodes` when the study is loaded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_turn: Option<f64>,
+    /// Where the clamped first edge lies (docs/model.md section 2): `"first"` (from the clamp
+    /// point down, the published discretization) or `"centred"` (centred on the clamp point:
+    /// the error of `fluid.model = "rpy"` is then of second order alone). Unset, it follows the
+    /// fluid model ([`Physical::clamp_edge`]): `"centred"` with `"rpy"` (`"first"` for a helix
+    /// with `shape.clamp = "axis"`), `"first"` with `"lighthill"`. `"centred"` is refused with
+    /// `"lighthill"` and with the axis clamp.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clamp_edge: Option<ClampEdge>,
+}
+
+/// How the clamp is imposed on the polygon (docs/model.md section 2). Either way `x_0`, `x_1`
+/// and `theta^0` are held: the clamped edge fixes the tangent at its midpoint.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClampEdge {
+    /// The reference: node 0 at the clamp point, the clamped edge the rod's first `h`. The
+    /// tangent is then held at `s = h/2`: the discrete rod is clamped half an edge below the
+    /// clamp, a first-order error in the spacing (the sag at rest converges at observed order
+    /// 1.76 .. 1.34 from N = 60 to 1889 on the representative helix). The default with
+    /// `fluid.model = "lighthill"`.
+    First,
+    /// The clamped edge centred on the clamp point: nodes at `s_i = (i - 1/2) h`,
+    /// `h = L/(N - 3/2)`, so the tangent is held at `s = 0` and node 1 at `s = h/2`; the half edge
+    /// above the clamp is no part of the rod for the fluid, which sees the clamp point
+    /// `(x_0 + x_1)/2` as its first node (the sag converges at order 2.00). Only with
+    /// `fluid.model = "rpy"`, whose default it is.
+    Centred,
+}
+
+impl ClampEdge {
+    /// The value's name in a study file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ClampEdge::First => "first",
+            ClampEdge::Centred => "centred",
+        }
+    }
+
+    /// The clamp point of a configuration: node 0, or the midpoint of the clamped edge.
+    pub fn clamp_point(self, x: &[nalgebra::Vector3<f64>]) -> nalgebra::Vector3<f64> {
+        match self {
+            ClampEdge::First => x[0],
+            ClampEdge::Centred => 0.5 * (x[0] + x[1]),
+        }
+    }
 }
 
 /// Everything that defines the physical problem, in SI units.
@@ -242,6 +290,7 @@ impl Physical {
             discretization: Discretization {
                 nodes: 60,
                 per_turn: None,
+                clamp_edge: None,
             },
         }
     }
@@ -252,6 +301,31 @@ impl Physical {
         let mut p = Self::representative();
         p.fluid.model = FluidModel::Lighthill;
         p
+    }
+
+    /// Where the clamped edge lies (docs/model.md section 2): `discretization.clamp_edge` if
+    /// given, else the fluid model's default: [`ClampEdge::Centred`] on the RPY line (its error
+    /// is then of second order alone, section 10), except for a helix held on its axis, and
+    /// [`ClampEdge::First`] on Lighthill's (the published model).
+    pub fn clamp_edge(&self) -> ClampEdge {
+        self.discretization.clamp_edge.unwrap_or(
+            if self.fluid.model == FluidModel::Rpy && !self.axis_clamped() {
+                ClampEdge::Centred
+            } else {
+                ClampEdge::First
+            },
+        )
+    }
+
+    /// A helix held on its axis (`shape.clamp = "axis"`).
+    fn axis_clamped(&self) -> bool {
+        matches!(
+            self.shape,
+            ShapeParams::Helix {
+                clamp: HelixClamp::Axis,
+                ..
+            }
+        )
     }
 
     /// Checks every field against its allowed range; the error names the field.
@@ -360,6 +434,24 @@ impl Physical {
                     self.discretization.nodes
                 ),
             ));
+        }
+        if self.discretization.clamp_edge == Some(ClampEdge::Centred) {
+            let refused = if self.fluid.model != FluidModel::Rpy {
+                Some("fluid.model = \"lighthill\"")
+            } else if self.axis_clamped() {
+                Some("shape.clamp = \"axis\"")
+            } else {
+                None
+            };
+            if let Some(with) = refused {
+                return Err(Error::input(
+                    "discretization.clamp_edge",
+                    format!(
+                        "\"centred\" is not supported with {with}: allowed there is \"first\" \
+                         (\"centred\" needs fluid.model = \"rpy\" and a rod held at its own end)"
+                    ),
+                ));
+            }
         }
         self.validate_fluid_model()
     }

@@ -7,9 +7,9 @@
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-use crate::model::params::{HelixClamp, ShapeParams};
+use crate::model::params::{ClampEdge, HelixClamp, ShapeParams};
 
-/// Node positions of the natural shape, in SI units (m).
+/// Node positions of the natural shape, in SI units (m), node 0 at the clamp point.
 ///
 /// * helix: `X(phi) = (R cos phi, -h R sin phi, -lambda phi / (2 pi))`, `phi_i = i 2 pi (l/lambda) / (N-1)`;
 ///   its axis is the rotation axis and the clamp sits at `X(0) = (R, 0, 0)`; with the axis clamp
@@ -26,34 +26,67 @@ pub fn natural_nodes(shape: &ShapeParams, nodes: usize) -> Vec<Vector3<f64>> {
     }
     let steps = (nodes - 1) as f64;
     (0..nodes)
-        .map(|i| {
-            let u = i as f64 / steps;
-            match *shape {
-                ShapeParams::Helix {
-                    l,
-                    lambda,
-                    radius,
-                    handedness,
-                    ..
-                } => {
-                    let phi = u * 2.0 * PI * l / lambda;
-                    Vector3::new(
-                        radius * phi.cos(),
-                        -handedness.sign() * radius * phi.sin(),
-                        -lambda * phi / (2.0 * PI),
-                    )
-                }
-                ShapeParams::Arc { length, radius } => {
-                    let a = u * length / radius;
-                    Vector3::new(radius * (1.0 - a.cos()), 0.0, -radius * a.sin())
-                }
-                ShapeParams::Straight { length, alpha_deg } => {
-                    let a = alpha_deg.to_radians();
-                    u * length * Vector3::new(a.sin(), 0.0, -a.cos())
-                }
-            }
-        })
+        .map(|i| curve_point(shape, i as f64 / steps))
         .collect()
+}
+
+/// The natural nodes for the clamp discretization `clamp` ([`ClampEdge`]): [`natural_nodes`],
+/// or with the clamped first edge centred on the clamp point, nodes at the fractions
+/// `u_i = (i - 1/2)/(N - 3/2)` of the shape's parameter (`phi` for a helix, `s` otherwise), so
+/// that the last node is the free end and the midpoint of the clamped edge lies at `u = 0`
+/// (exactly for the straight rod, to `O(h^2)` on a curve: `X` continued above the clamp).
+///
+/// # Panics
+/// For [`ClampEdge::Centred`] with the axis clamp (refused by [`crate::model::params::Physical::validate`]).
+pub fn rod_nodes(shape: &ShapeParams, nodes: usize, clamp: ClampEdge) -> Vec<Vector3<f64>> {
+    match clamp {
+        ClampEdge::First => natural_nodes(shape, nodes),
+        ClampEdge::Centred => {
+            assert!(
+                !matches!(
+                    shape,
+                    ShapeParams::Helix {
+                        clamp: HelixClamp::Axis,
+                        ..
+                    }
+                ),
+                "a centred clamped edge is not defined for the axis clamp"
+            );
+            let steps = (nodes - 1) as f64 - 0.5;
+            (0..nodes)
+                .map(|i| curve_point(shape, (i as f64 - 0.5) / steps))
+                .collect()
+        }
+    }
+}
+
+/// The point at the fraction `u` of the natural curve (the helix, arc or straight rod from its
+/// clamp at `u = 0` to its free end at `u = 1`).
+fn curve_point(shape: &ShapeParams, u: f64) -> Vector3<f64> {
+    match *shape {
+        ShapeParams::Helix {
+            l,
+            lambda,
+            radius,
+            handedness,
+            ..
+        } => {
+            let phi = u * 2.0 * PI * l / lambda;
+            Vector3::new(
+                radius * phi.cos(),
+                -handedness.sign() * radius * phi.sin(),
+                -lambda * phi / (2.0 * PI),
+            )
+        }
+        ShapeParams::Arc { length, radius } => {
+            let a = u * length / radius;
+            Vector3::new(radius * (1.0 - a.cos()), 0.0, -radius * a.sin())
+        }
+        ShapeParams::Straight { length, alpha_deg } => {
+            let a = alpha_deg.to_radians();
+            u * length * Vector3::new(a.sin(), 0.0, -a.cos())
+        }
+    }
 }
 
 /// A helix held on the rotation axis: node 0 above the origin and node 1 at the origin (the
@@ -124,6 +157,40 @@ mod tests {
         assert!((x[40].z + 0.2).abs() < 1e-14);
         let w = voronoi_lengths(&x);
         assert!((w.iter().sum::<f64>() - polygon).abs() < 1e-14);
+    }
+
+    #[test]
+    fn centred_clamp_puts_the_clamped_edge_across_the_clamp_point() {
+        let shape = ShapeParams::Helix {
+            l: 0.2,
+            lambda: 0.05,
+            radius: 0.0159,
+            handedness: Handedness::Right,
+            clamp: HelixClamp::Helix,
+        };
+        let x = rod_nodes(&shape, 41, ClampEdge::Centred);
+        assert_eq!(x.len(), 41);
+        let chords: Vec<f64> = x.windows(2).map(|p| (p[1] - p[0]).norm()).collect();
+        assert!(chords.iter().all(|c| (c - chords[0]).abs() < 1e-14));
+        // Node 0 above the clamp, the free end at the helix's end, the clamp point between
+        // nodes 0 and 1 (to O(h^2): the chord's midpoint lies inside the helix).
+        assert!(x[0].z > 0.0 && (x[40].z + 0.2).abs() < 1e-14);
+        let clamp = ClampEdge::Centred.clamp_point(&x);
+        assert!((clamp - Vector3::new(0.0159, 0.0, 0.0)).norm() < 0.1 * chords[0]);
+        assert_eq!(
+            rod_nodes(&shape, 41, ClampEdge::First),
+            natural_nodes(&shape, 41)
+        );
+        let rod = rod_nodes(
+            &ShapeParams::Straight {
+                length: 0.12,
+                alpha_deg: 15.0,
+            },
+            13,
+            ClampEdge::Centred,
+        );
+        assert!(ClampEdge::Centred.clamp_point(&rod).norm() < 1e-16);
+        assert!((rod[12].norm() - 0.12).abs() < 1e-14);
     }
 
     #[test]

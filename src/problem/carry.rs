@@ -2,8 +2,9 @@
 //! refinement of docs/model.md section 10): positions and twist interpolated along the natural
 //! arclength, to be corrected by Newton's method on the new mesh.
 //!
-//! With `s_i` the natural arclength of node `i` (the sum of the natural edge lengths before it,
-//! over the contour length), the positions are the cubic Hermite interpolant through the old
+//! With `s_i` the natural arclength of node `i` from the clamp point (the sum of the natural
+//! edge lengths before it, less half the first with the clamped edge centred on the clamp, over
+//! the length from the clamp to the free end), the positions are the cubic Hermite interpolant through the old
 //! nodes with the Catmull-Rom slopes `x'_k = (x_{k+1} - x_{k-1}) / (s_{k+1} - s_{k-1})`
 //! (one-sided at the ends), third-order accurate in the old spacing; the twist angles, measured
 //! in each model's natural chart, are interpolated linearly at the edges' midpoints. The clamp
@@ -19,18 +20,26 @@ use nalgebra::Vector3;
 
 use crate::model::Model;
 use crate::model::dofs::Layout;
+use crate::model::params::ClampEdge;
 use crate::model::rod::Config;
 use crate::model::rod::frame::{Chart, rechart};
 use crate::model::steady::Steady;
 
-/// The natural arclength of each node over the contour length, from 0 to 1.
+/// The natural arclength of each node from the clamp point over the rod's length from it to
+/// the free end: from 0 at node 0 to 1, or with the clamped edge centred on the clamp
+/// (docs/model.md section 2) from `-lbar_0/2` over the rest, so that a point of the rod has
+/// the same value on every mesh.
 fn node_arclengths(model: &Model) -> Vec<f64> {
     let mut s = vec![0.0];
     for l in &model.rod.rest_lengths {
         s.push(s[s.len() - 1] + l);
     }
-    let total = s[s.len() - 1];
-    s.iter().map(|v| v / total).collect()
+    let clamp = match model.physical.clamp_edge() {
+        ClampEdge::First => 0.0,
+        ClampEdge::Centred => 0.5 * model.rod.rest_lengths[0],
+    };
+    let total = s[s.len() - 1] - clamp;
+    s.iter().map(|v| (v - clamp) / total).collect()
 }
 
 /// The index `k` of the interval `[s_k, s_{k+1}]` of the increasing `s` that holds `t`.

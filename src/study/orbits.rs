@@ -21,7 +21,6 @@ use crate::engine::periodic::branch::{
     Checkpoint, OrbitBranchSettings, OrbitEvent, OrbitEventKind, OrbitStop,
 };
 use crate::model::Model;
-use crate::model::observables::height;
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::study::Study;
 use crate::study::branch::run_branch;
@@ -185,7 +184,7 @@ pub fn run_orbits(
     let lyapunov = hopf_criticality(model, &critical.event, &critical.chart)?;
     let (dynamics, start) = hopf_start(model, &critical, lyapunov.q.clone());
     let rest = rest_state(model, &study.newton)?;
-    let h0 = height(&rest.config.x);
+    let h0 = model.height(&rest.config.x);
     let s = model.scales;
     let bar = progress::spinner("orbits");
     bar.set_message("the first orbits from the Hopf point");

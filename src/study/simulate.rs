@@ -23,8 +23,8 @@ use crate::analysis::solve::rest_state;
 use crate::analysis::solve::solve_at;
 use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
+use crate::model::observables::Observables;
 use crate::model::observables::moving_forces;
-use crate::model::observables::{Observables, height};
 use crate::model::steady::Steady;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
@@ -289,7 +289,7 @@ pub fn run_simulate(
     let scales = model.scales;
     let omegabar = scales.omega_to_bar(opts.omega);
     let rest = rest_state(model, &opts.newton)?;
-    let h0 = height(&rest.config.x);
+    let h0 = model.height(&rest.config.x);
     let steady = Steady::new(model, 0.0);
     let rate = if !opts.from_steady && opts.from_orbit.is_none() && opts.ramp_time > 0.0 {
         Rate::Ramp {

@@ -41,6 +41,7 @@ pub fn straight_rod(length: f64, r0: f64, alpha_deg: f64, nodes: usize) -> Physi
         discretization: Discretization {
             nodes,
             per_turn: None,
+            clamp_edge: Default::default(),
         },
     }
 }

@@ -10,7 +10,6 @@ use crate::analysis::solve::solve_at;
 use crate::engine::newton::NewtonSettings;
 use crate::model::Model;
 use crate::model::dofs::Layout;
-use crate::model::observables::height;
 use crate::model::steady::Steady;
 use crate::{Error, Result};
 
@@ -185,7 +184,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
     let t_end = ramp_time + settings.hold_time;
     let window = settings.window;
     let rest = rest_state(model, &settings.newton)?;
-    let h0 = height(&rest.config.x);
+    let h0 = model.height(&rest.config.x);
     let steady = solve_at(model, omega, &settings.newton)?;
     let hbar_steady = steady.observables.hbar;
     let x_steady: Vec<f64> = steady.state.config.x[Layout::CLAMPED_NODES..]
@@ -227,7 +226,7 @@ pub fn trial(model: &Model, omega: f64, settings: &BisectSettings) -> Result<Tri
         t_end,
         &dynamics,
         |s| {
-            hbar_end = height(&problem.config(&s.u).x) / h0;
+            hbar_end = model.height(&problem.config(&s.u).x) / h0;
             let d = (s.u[..nx]
                 .iter()
                 .zip(&x_steady)

@@ -86,7 +86,7 @@ pub use rpy::{Rpy, rpy_blob_radius};
 
 use crate::Result;
 use crate::error::ModelError;
-use crate::model::params::FluidParams;
+use crate::model::params::{ClampEdge, FluidParams};
 use faer::Mat;
 use nalgebra::Vector3;
 
@@ -124,13 +124,16 @@ pub enum Fluid {
 
 impl Fluid {
     /// The dimensionless fluid (`mu = 1`, lengths in units of `ell`) of a rod of radius `r0`
-    /// (SI, as `ell`) whose natural node positions (dimensionless) are `natural`: the RPY
-    /// quadrature is chosen from the natural edges ([`Rpy::for_polygon`]).
+    /// (SI, as `ell`) whose natural node positions (dimensionless) are `natural`, clamped as
+    /// `clamp` says: the RPY quadrature is chosen from the natural edges ([`Rpy::for_rod`]).
+    /// (Lighthill's line is used with [`ClampEdge::First`] only, see
+    /// [`crate::model::params::Physical::validate`].)
     pub(crate) fn from_params(
         params: &FluidParams,
         r0: f64,
         ell: f64,
         natural: &[Vector3<f64>],
+        clamp: ClampEdge,
     ) -> Self {
         match params.model {
             FluidModel::Lighthill => Fluid::Lighthill(Lighthill {
@@ -141,7 +144,7 @@ impl Fluid {
             FluidModel::Rpy => {
                 let a = params.blob_radius.unwrap_or_else(|| rpy_blob_radius(r0));
                 let per_blob = params.points_per_blob.unwrap_or(rpy::POINTS_PER_BLOB);
-                Fluid::Rpy(Rpy::for_polygon(1.0, a / ell, per_blob, natural))
+                Fluid::Rpy(Rpy::for_rod(1.0, a / ell, per_blob, natural, clamp))
             }
         }
     }

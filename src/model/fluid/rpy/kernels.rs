@@ -1,0 +1,405 @@
+//! The quadrature kernels of the RPY line (the [module documentation](super)): the kernel `M`
+//! and its derivative at the quadrature points, summed edge pair by edge pair, in lanes of
+//! [`LANES`] edges, in a baseline copy and one compiled for AVX2 and FMA.
+
+use super::super::lanes::{LANES, Lanes};
+use super::{Discretisation, EdgeRows, Rpy};
+use nalgebra::{Matrix3, Vector3};
+use std::f64::consts::PI;
+
+/// Whether the processor has AVX2 and FMA (detected at run time, once): the quadrature kernels
+/// then run in a copy compiled for them, where the lane operations of [`Lanes`] are inlined and
+/// carried out in one AVX register each (the baseline copy uses two SSE2 registers). The sums are
+/// the same: no operation is fused (Rust contracts no `a * b + c` into an FMA by itself), so
+/// both copies give the same bits (`tests::both_kernel_copies_give_the_same_bits`).
+#[cfg(target_arch = "x86_64")]
+fn wide_registers() -> bool {
+    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+}
+
+/// `[f(0), f(1), f(2)]`, written out: in the kernels' inner loops `array::map` was left as a
+/// call that copies its result (seen in profiles as `try_map` and `memmove`).
+#[inline(always)]
+fn components(f: impl Fn(usize) -> Lanes) -> [Lanes; 3] {
+    [f(0), f(1), f(2)]
+}
+
+/// The quadrature points transposed for the kernels: entry `q * stride + k` belongs to point `q`
+/// of edge `k`, so that one point of `LANES` consecutive edges is one contiguous read. The rows
+/// are padded with `LANES - 1` weightless, forceless points at the origin, so any `LANES`
+/// consecutive edges can be read; they contribute exact zeros.
+pub(super) struct PointLanes {
+    pub(super) stride: usize,
+    /// Positions `y_p`, by component.
+    pub(super) pos: [Vec<f64>; 3],
+    /// `[c_p (1 - xi_q), c_p xi_q]`, as [`Discretisation::pw`].
+    pub(super) pw: [Vec<f64>; 2],
+}
+
+impl PointLanes {
+    /// `values(p)` of every point `p = k Q + q`, transposed and padded.
+    pub(super) fn transpose<const C: usize>(
+        edges: usize,
+        q: usize,
+        values: impl Fn(usize) -> [f64; C],
+    ) -> (usize, [Vec<f64>; C]) {
+        let stride = edges + LANES - 1;
+        let mut out: [Vec<f64>; C] = std::array::from_fn(|_| vec![0.0; q * stride]);
+        for k in 0..edges {
+            for i in 0..q {
+                for (column, v) in out.iter_mut().zip(values(k * q + i)) {
+                    column[i * stride + k] = v;
+                }
+            }
+        }
+        (stride, out)
+    }
+}
+
+/// `alpha`, `beta`, `alpha'`, `beta'` and `beta / r` of `M(r) = alpha I + beta rhat rhat^T`, and
+/// `1/r` (0 at `r = 0`), in each lane.
+pub(super) struct Radial {
+    pub(super) alpha: Lanes,
+    pub(super) beta: Lanes,
+    pub(super) dalpha: Lanes,
+    pub(super) dbeta: Lanes,
+    pub(super) beta_over_r: Lanes,
+    pub(super) inv: Lanes,
+}
+
+impl Rpy {
+    /// `M(0) = I / (6 pi mu a)`: the self-mobility of a blob.
+    pub(super) fn self_mobility(&self) -> f64 {
+        1.0 / (6.0 * PI * self.mu * self.blob_radius)
+    }
+
+    /// [`Radial`] at the distances `r`: both branches evaluated, each lane's chosen. At
+    /// `r = 0` the near branch gives `M = I / (6 pi mu a)`, and `1/r` is set to 0 so that
+    /// `rhat = 0`.
+    #[inline(always)]
+    pub(super) fn radial(&self, r: Lanes) -> Radial {
+        let a = self.blob_radius;
+        let k = 1.0 / (8.0 * PI * self.mu);
+        let m0 = self.self_mobility();
+        let slope = 3.0 * m0 / (32.0 * a);
+        let (k2_3, k2_1, k6_1) = (2.0 * a * a * k / 3.0, 2.0 * a * a * k, 6.0 * a * a * k);
+        let zero = Lanes::ZERO;
+        let inv = r.gt(zero).select(1.0 / r, zero);
+        let inv2 = inv * inv;
+        let far = r.ge(Lanes::splat(2.0 * a));
+        let beta_over_r = inv2 * (k - k2_1 * inv2);
+        Radial {
+            alpha: far.select(inv * (k + k2_3 * inv2), m0 - 3.0 * slope * r),
+            beta: far.select(beta_over_r * r, slope * r),
+            dalpha: far.select(-inv2 * (k + k2_1 * inv2), Lanes::splat(-3.0 * slope)),
+            dbeta: far.select(-inv2 * (k - k6_1 * inv2), Lanes::splat(slope)),
+            beta_over_r: far.select(beta_over_r, Lanes::splat(slope)),
+            inv,
+        }
+    }
+
+    pub(super) fn discretise(&self, x: &[Vector3<f64>]) -> Discretisation {
+        let n = x.len();
+        assert_eq!(
+            n,
+            self.nodes(),
+            "RPY mobility built for {} nodes, given {n}",
+            self.nodes()
+        );
+        let q = self.points_per_edge();
+        let pos: Vec<Vector3<f64>> = x
+            .windows(2)
+            .flat_map(|e| self.rule.xi.iter().map(|xi| e[0] * (1.0 - xi) + e[1] * *xi))
+            .collect();
+        let (stride, [x, y, z]) = PointLanes::transpose(n - 1, q, |p| pos[p].into());
+        let (_, weights) = PointLanes::transpose(n - 1, q, |p| self.basis.pw[p]);
+        Discretisation {
+            pos,
+            lanes: PointLanes {
+                stride,
+                pos: [x, y, z],
+                pw: weights,
+            },
+        }
+    }
+
+    /// `M(r)` and, with `g`, `D(r, g) = d(M(r) g)/dr` (0 at `r = 0`) at one separation, from
+    /// [`Rpy::radial`]: the rows and columns of the point forces at the ends.
+    pub(super) fn kernel(&self, r: Vector3<f64>, g: Vector3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
+        let c = self.radial(Lanes::splat(r.norm()));
+        let [alpha, beta, dalpha, dbeta, beta_over_r, inv] =
+            [c.alpha, c.beta, c.dalpha, c.dbeta, c.beta_over_r, c.inv].map(|v| v.0[0]);
+        let rhat = r * inv;
+        let rr = rhat * rhat.transpose();
+        let m = Matrix3::identity() * alpha + rr * beta;
+        let rg = rhat.dot(&g);
+        let d = g * rhat.transpose() * dalpha
+            + rr * (dbeta * rg)
+            + (rhat * g.transpose() + Matrix3::identity() * rg - rr * (2.0 * rg)) * beta_over_r;
+        (m, d)
+    }
+
+    /// [`Rpy::edge_pairs_kernel`], compiled for AVX2 and FMA where the processor has them
+    /// (see [`wide_registers`]).
+    pub(super) fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+        #[cfg(target_arch = "x86_64")]
+        if wide_registers() {
+            // SAFETY: the processor has AVX2 and FMA, checked at run time.
+            return unsafe { self.edge_pairs_avx2(d, k) };
+        }
+        self.edge_pairs_kernel(d, k)
+    }
+
+    /// [`Rpy::edge_pairs_kernel`] for processors with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn edge_pairs_avx2(
+        &self,
+        d: &Discretisation,
+        k: usize,
+    ) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+        self.edge_pairs_kernel(d, k)
+    }
+
+    /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
+    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
+    /// [`LANES`] edges `k2` at a time, the sums kept per lane as a scalar times `I` plus a
+    /// symmetric matrix (`[alpha sum, xx, xy, xz, yy, yz, zz]`), the form of
+    /// `M = alpha I + (beta/r^2) r r^T`.
+    #[inline(always)]
+    pub(super) fn edge_pairs_kernel(
+        &self,
+        d: &Discretisation,
+        k: usize,
+    ) -> Vec<[[Matrix3<f64>; 2]; 2]> {
+        let q = self.points_per_edge();
+        let edges = self.nodes() - 1;
+        let lanes = &d.lanes;
+        let mut out = Vec::with_capacity(edges - k);
+        for k2 in (k..edges).step_by(LANES) {
+            // s[a][b] per lane, in the same seven-number form.
+            let mut s = [[[Lanes::ZERO; 7]; 2]; 2];
+            for p in k * q..(k + 1) * q {
+                let y = d.pos[p];
+                let y = components(|c| Lanes::splat(y[c]));
+                let mut sums = [[Lanes::ZERO; 7]; 2];
+                for i in 0..q {
+                    let at = i * lanes.stride + k2;
+                    let r = components(|c| y[c] - Lanes::load(&lanes.pos[c], at));
+                    let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
+                    let c = radial.beta_over_r * radial.inv;
+                    let rr = [
+                        r[0] * r[0],
+                        r[0] * r[1],
+                        r[0] * r[2],
+                        r[1] * r[1],
+                        r[1] * r[2],
+                        r[2] * r[2],
+                    ];
+                    for (sum, pw) in sums.iter_mut().zip(&lanes.pw) {
+                        let w = Lanes::load(pw, at);
+                        sum[0] += w * radial.alpha;
+                        let cw = c * w;
+                        for (t, v) in sum[1..].iter_mut().zip(&rr) {
+                            *t += cw * *v;
+                        }
+                    }
+                }
+                for (sa, weight) in s.iter_mut().zip(self.basis.pw[p]) {
+                    let weight = Lanes::splat(weight);
+                    for (sab, sum) in sa.iter_mut().zip(&sums) {
+                        for (t, v) in sab.iter_mut().zip(sum) {
+                            *t += weight * *v;
+                        }
+                    }
+                }
+            }
+            let s = s.map(|sa| sa.map(|sab| sab.map(|t| t.0)));
+            for l in 0..LANES.min(edges - k2) {
+                out.push(s.map(|sa| {
+                    sa.map(|t| {
+                        Matrix3::new(
+                            t[0][l] + t[1][l],
+                            t[2][l],
+                            t[3][l],
+                            t[2][l],
+                            t[0][l] + t[4][l],
+                            t[5][l],
+                            t[3][l],
+                            t[5][l],
+                            t[0][l] + t[6][l],
+                        )
+                    })
+                }));
+            }
+        }
+        out
+    }
+
+    /// The contributions of the points on edge `k` to the rows `k, k + 1` of `B_e` (see
+    /// [`Rpy::mobility_derivative`]), with `forces` the point forces `G` by component in the
+    /// layout of [`PointLanes`]. [`LANES`] edges `k2` at a time: per lane, the sums over the
+    /// points `p2` of edge `k2` of `D(y_p - y_p2, G_p2)`, plain and weighted by `xi_q2`.
+    #[inline(always)]
+    pub(super) fn edge_rows_kernel(
+        &self,
+        d: &Discretisation,
+        forces: &[Vec<f64>; 3],
+        k: usize,
+    ) -> EdgeRows {
+        let q = self.points_per_edge();
+        let n = self.nodes();
+        let edges = n - 1;
+        let lanes = &d.lanes;
+        let w = &self.basis.w;
+        let mut out = EdgeRows {
+            b: [vec![Matrix3::zeros(); n], vec![Matrix3::zeros(); n]],
+        };
+        let points = k * q..(k + 1) * q;
+        // P_pi of each point p of edge k for its rows i = k, k + 1.
+        let p_nodes: Vec<[f64; 2]> = points
+            .clone()
+            .map(|p| [self.basis.pw[p][0] / w[k], self.basis.pw[p][1] / w[k + 1]])
+            .collect();
+        // Per point p, across all edges k2: the sum of D, per lane.
+        let mut own = vec![[Lanes::ZERO; 9]; q];
+        for k2 in (0..edges).step_by(LANES) {
+            // Per row i = k + ia, across the points p: P_pi [D - xi D, xi D].
+            let mut rows = [[Lanes::ZERO; 18]; 2];
+            for (ip, p) in points.clone().enumerate() {
+                let y = components(|c| Lanes::splat(d.pos[p][c]));
+                let mut acc = [Lanes::ZERO; 18];
+                for (i, &xi2) in self.rule.xi.iter().enumerate() {
+                    let at = i * lanes.stride + k2;
+                    let r = components(|j| y[j] - Lanes::load(&lanes.pos[j], at));
+                    let c = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
+                    let rhat = components(|j| r[j] * c.inv);
+                    let g = components(|j| Lanes::load(&forces[j], at));
+                    // D = u rhat^T + rhat v^T + (beta/r)(rhat.G) I.
+                    let rg = rhat[0] * g[0] + rhat[1] * g[1] + rhat[2] * g[2];
+                    let diagonal = c.beta_over_r * rg;
+                    let along = (c.dbeta - 2.0 * c.beta_over_r) * rg;
+                    let u = components(|j| g[j] * c.dalpha);
+                    let v = components(|j| g[j] * c.beta_over_r + rhat[j] * along);
+                    let xi2 = Lanes::splat(xi2);
+                    for a in 0..3 {
+                        for b in 0..3 {
+                            let mut dm = u[a] * rhat[b] + rhat[a] * v[b];
+                            if a == b {
+                                dm += diagonal;
+                            }
+                            acc[3 * a + b] += dm;
+                            acc[9 + 3 * a + b] += dm * xi2;
+                        }
+                    }
+                }
+                for j in 0..9 {
+                    own[ip][j] += acc[j];
+                }
+                for (row, &pi) in rows.iter_mut().zip(&p_nodes[ip]) {
+                    let pi = Lanes::splat(pi);
+                    for j in 0..9 {
+                        row[j] += pi * (acc[j] - acc[9 + j]);
+                        row[9 + j] += pi * acc[9 + j];
+                    }
+                }
+            }
+            let rows = rows.map(|row| row.map(|t| t.0));
+            for l in 0..LANES.min(edges - k2) {
+                let at = k2 + l;
+                for (ia, row) in rows.iter().enumerate() {
+                    for jb in 0..2 {
+                        out.b[ia][at + jb] -= Matrix3::from_fn(|a, b| row[9 * jb + 3 * a + b][l]);
+                    }
+                }
+            }
+        }
+        for (p_node, (&xi, own)) in p_nodes.iter().zip(self.rule.xi.iter().zip(&own)) {
+            let own = Matrix3::from_fn(|a, b| own[3 * a + b].sum());
+            let phi = [1.0 - xi, xi];
+            for (ia, &pi) in p_node.iter().enumerate() {
+                for (jb, phib) in phi.iter().enumerate() {
+                    out.b[ia][k + jb] += own * (pi * phib);
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Rpy::edge_rows_kernel`], compiled for AVX2 and FMA where the processor has them (see
+    /// [`wide_registers`]).
+    pub(super) fn edge_rows(
+        &self,
+        d: &Discretisation,
+        forces: &[Vec<f64>; 3],
+        k: usize,
+    ) -> EdgeRows {
+        #[cfg(target_arch = "x86_64")]
+        if wide_registers() {
+            // SAFETY: the processor has AVX2 and FMA, checked at run time.
+            return unsafe { self.edge_rows_avx2(d, forces, k) };
+        }
+        self.edge_rows_kernel(d, forces, k)
+    }
+
+    /// [`Rpy::edge_rows_kernel`] for processors with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn edge_rows_avx2(
+        &self,
+        d: &Discretisation,
+        forces: &[Vec<f64>; 3],
+        k: usize,
+    ) -> EdgeRows {
+        self.edge_rows_kernel(d, forces, k)
+    }
+
+    /// The point forces `G_p = sum_j P_pj z_j` of the edges' points, by component, in the
+    /// layout of [`PointLanes`].
+    pub(super) fn point_forces(&self, z: &[Vector3<f64>]) -> [Vec<f64>; 3] {
+        let (q, w) = (self.points_per_edge(), &self.basis.w);
+        let (_, forces) = PointLanes::transpose(self.nodes() - 1, q, |p| {
+            let (k, pw) = (p / q, self.basis.pw[p]);
+            (z[k] * (pw[0] / w[k]) + z[k + 1] * (pw[1] / w[k + 1])).into()
+        });
+        forces
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The kernels compiled for AVX2 and FMA give the same bits as the baseline ones, on a
+    /// configuration with near and far pairs (a helix turned in on itself).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn both_kernel_copies_give_the_same_bits() {
+        use nalgebra::Vector3;
+        if !super::wide_registers() {
+            return;
+        }
+        let x: Vec<Vector3<f64>> = (0..23)
+            .map(|i| {
+                let t = 0.4 * i as f64;
+                Vector3::new(
+                    0.1 * t.cos(),
+                    0.1 * t.sin(),
+                    -0.011 * i as f64 + 0.002 * t.sin(),
+                )
+            })
+            .collect();
+        let y: Vec<Vector3<f64>> = (0..x.len())
+            .map(|i| Vector3::new(1.0, (i as f64).sin(), 0.3 - 0.01 * i as f64))
+            .collect();
+        let rpy = super::Rpy::for_polygon(1.0, 0.012, 8.0, &x);
+        let d = rpy.discretise(&x);
+        let forces = rpy.point_forces(&y);
+        for k in 0..x.len() - 1 {
+            // SAFETY: the processor has AVX2 and FMA (checked above).
+            let wide = unsafe { rpy.edge_pairs_avx2(&d, k) };
+            assert_eq!(wide, rpy.edge_pairs_kernel(&d, k), "edge {k}");
+            let wide = unsafe { rpy.edge_rows_avx2(&d, &forces, k) };
+            let base = rpy.edge_rows_kernel(&d, &forces, k);
+            assert_eq!(wide.b, base.b);
+        }
+    }
+}
