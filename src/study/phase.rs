@@ -24,6 +24,7 @@ use crate::model::params::Field;
 use crate::model::params::ShapeParams;
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
 use crate::study::boundary::{family, run_family};
+use crate::study::figures::{FPBAR_LABEL, typeset};
 use crate::study::output::{CsvWriter, Provenance, Table};
 use crate::study::progress;
 use crate::{Error, Result};
@@ -338,7 +339,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     let mut overlays = match &curve {
         Ok(lines) => lines.clone(),
         Err(_) => vec![Series {
-            label: "stability boundary (first loss of each column)".into(),
+            label: "stability boundary (first loss in each column)".into(),
             x: bx.clone(),
             y: by.clone(),
             style: Style::Line,
@@ -347,7 +348,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         }],
     };
     overlays.push(Series {
-        label: "first loss of stability of a column (locate at its own N)".into(),
+        label: "first loss of stability (own N)".into(),
         x: bx,
         y: by,
         style: Style::Markers(MarkerShape::Circle),
@@ -361,7 +362,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         for f in placed {
             // The exact range as a vertical segment, the central value as a marker on it.
             overlays.push(Series {
-                label: format!("{} (range)", f.label),
+                label: format!("{} (range)", typeset(&f.label)),
                 x: vec![f.lambda_over_l, f.lambda_over_l],
                 y: vec![f.low, f.high],
                 style: Style::Line,
@@ -380,10 +381,10 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     }
     write_heatmap(
         &Heatmap {
-            title: format!("{}: propulsive force, m = {m:.3}", study.name),
-            x_label: "lambda/l (-)".into(),
-            y_label: "log10(omegabar (R/lambda)^m) (-)".into(),
-            colorbar_label: "Fpbar = Fp l^2/EI (-)".into(),
+            title: format!("Propulsive force over the phase plane (m = {m:.3})"),
+            x_label: "λ/ℓ (–)".into(),
+            y_label: "log₁₀(ω̄ (R/λ)ᵐ) (–)".into(),
+            colorbar_label: FPBAR_LABEL.into(),
             x: values.clone(),
             y: ys,
             z,
