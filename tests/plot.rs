@@ -5,108 +5,17 @@
 //! `<text>` elements holding the string verbatim, a solid curve is one `<polyline>` in the series
 //! colour, a dashed curve is one short `<polyline>` per dash (no `stroke-dasharray`).
 
-use std::path::PathBuf;
+mod svg;
 
 use helixbif::Error;
 use helixbif::plot::{
-    DASH_PX, Figure, Heatmap, Layout, Marker, MarkerShape, PNG_SCALE, Rect, Scale, Series, Style,
+    Figure, Heatmap, Layout, Marker, MarkerShape, PNG_SCALE, Rect, Scale, Series, Style,
     missing_glyphs, png_path, render_figure, render_heatmap, render_panels, write_figure,
     write_heatmap, write_panels,
 };
 use roxmltree::{Document, Node};
-
-/// Okabe–Ito colours of the first series, as the SVG writes them.
-const BLUE: &str = "#0072B2";
-const VERMILLION: &str = "#D55E00";
-const GREEN: &str = "#009E73";
-/// Colour of the "unstable (dashed)" legend sample.
-const NEUTRAL: &str = "#555555";
-
-fn out(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("plot-{name}.svg"))
-}
-
-fn read(name: &str) -> String {
-    std::fs::read_to_string(out(name)).expect("figure was written")
-}
-
-fn parse(svg: &str) -> Document<'_> {
-    Document::parse(svg).expect("the SVG is well-formed XML")
-}
-
-fn elements<'a, 'i>(doc: &'a Document<'i>, tag: &str) -> Vec<Node<'a, 'i>> {
-    doc.descendants()
-        .filter(|n| n.is_element() && n.tag_name().name() == tag)
-        .collect()
-}
-
-/// The content of every `<text>` element, trimmed.
-fn texts(doc: &Document) -> Vec<String> {
-    elements(doc, "text")
-        .iter()
-        .map(|n| n.text().unwrap_or("").trim().to_owned())
-        .collect()
-}
-
-fn count_text(doc: &Document, wanted: &str) -> usize {
-    texts(doc).iter().filter(|t| *t == wanted).count()
-}
-
-fn attr(n: &Node, name: &str) -> f64 {
-    n.attribute(name)
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("<{}> has a numeric {name}", n.tag_name().name()))
-}
-
-type Line = Vec<(f64, f64)>;
-
-/// The vertices of every `<polyline>` stroked in `color`.
-fn polylines(doc: &Document, color: &str) -> Vec<Line> {
-    elements(doc, "polyline")
-        .iter()
-        .filter(|n| n.attribute("stroke") == Some(color))
-        .map(|n| {
-            n.attribute("points")
-                .unwrap_or("")
-                .split_whitespace()
-                .map(|p| {
-                    let (x, y) = p.split_once(',').expect("x,y pair");
-                    (x.parse().unwrap(), y.parse().unwrap())
-                })
-                .collect()
-        })
-        .collect()
-}
-
-fn length(line: &Line) -> f64 {
-    line.windows(2)
-        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-        .sum()
-}
-
-/// A dash is at most `DASH_PX` long; vertices are rounded to whole pixels, hence the slack.
-fn is_dash(line: &Line) -> bool {
-    length(line) <= f64::from(DASH_PX) + 1.5
-}
-
-fn is_horizontal_pair(line: &Line) -> bool {
-    line.len() == 2 && line[0].1 == line[1].1
-}
-
-fn is_vertical_pair(line: &Line) -> bool {
-    line.len() == 2 && line[0].0 == line[1].0
-}
-
-fn line(label: &str, x: Vec<f64>, y: Vec<f64>, stable: Option<Vec<bool>>) -> Series {
-    Series {
-        label: label.into(),
-        x,
-        y,
-        style: Style::Line,
-        stable,
-        err: None,
-    }
-}
+use std::path::PathBuf;
+use svg::*;
 
 /// Number of points of a branch, and where each branch loses stability.
 const N: usize = 21;
@@ -214,7 +123,7 @@ fn check_branch(doc: &Document, color: &str, k: usize) {
         .iter()
         .flat_map(|d| d.iter().map(|p| p.0))
         .fold(f64::MIN, f64::max);
-    let pattern = f64::from(DASH_PX + helixbif::plot::GAP_PX);
+    let pattern = f64::from(helixbif::plot::DASH_PX + helixbif::plot::GAP_PX);
     assert!(
         reach >= last_point_px - pattern - 1.0,
         "{color}: dashes reach the last point ({reach} vs {last_point_px})"
@@ -389,6 +298,7 @@ fn phase_diagram(nan_cells: &[(usize, usize)]) -> Heatmap {
                 err: Some(vec![0.1, 0.05]),
             },
         ],
+        smooth_y: false,
     }
 }
 
@@ -764,7 +674,7 @@ fn png_size(svg: &std::path::Path) -> (u32, u32) {
 /// Markers like the collapse figure's, a dashed power law through them and the fit's
 /// annotation: the first point sits in the upper left, where the annotation would go first.
 fn collapse_like() -> Figure {
-    let x: Vec<f64> = vec![0.2, 0.25, 0.318, 0.4];
+    let x: Vec<f64> = vec![0.2, 0.25, 0.32, 0.4];
     let law = |x: f64| 0.7 * x.powf(-3.19);
     let markers = |label: &str, shape, f: f64| Series {
         label: label.into(),
@@ -912,7 +822,24 @@ fn a_plot_full_of_data_puts_its_legend_and_annotation_below() {
 #[test]
 fn side_views_have_equal_scales() {
     let drawing = render_panels(&[rod_view("a", "x"), rod_view("b", "y")], (1000, 800)).unwrap();
-    for layout in &drawing.layouts {
+    // Two views of one rod with one legend, on the second: both plot areas have one height and
+    // one scale, whether or not the legend went below its plot.
+    let one_legend = [
+        Figure {
+            hide_legend: true,
+            ..rod_view("a", "x")
+        },
+        rod_view("b", "y"),
+    ];
+    let shared = render_panels(&one_legend, (1000, 800)).unwrap();
+    let [first, second] = &shared.layouts[..] else {
+        panic!("two panels");
+    };
+    assert!(first.legend.is_none() && second.legend.is_some());
+    assert_eq!(first.plot_area.height(), second.plot_area.height());
+    assert!((first.px_per_unit.1 / second.px_per_unit.1 - 1.0).abs() < 0.01);
+    check_boxes_clear(second, (1000, 800), "second view");
+    for layout in drawing.layouts.iter().chain(&shared.layouts) {
         let (sx, sy) = layout.px_per_unit;
         assert!(
             (sx / sy - 1.0).abs() < 0.01,
@@ -1043,4 +970,46 @@ fn what_lies_beyond_the_axes_is_cut_at_the_frame() {
         }
     }
     assert!(texts(&doc).iter().any(|t| t == "3.0"), "{:?}", texts(&doc));
+}
+
+#[test]
+fn a_map_smoothed_along_y_shades_between_row_centres_and_keeps_columns_apart() {
+    // Two columns, three rows; z grows with the row in one column and falls in the other.
+    let map = |smooth_y: bool| Heatmap {
+        x_label: "λ/ℓ (–)".into(),
+        y_label: "y (–)".into(),
+        x: vec![0.0, 1.0],
+        y: vec![0.0, 1.0, 2.0],
+        z: vec![vec![0.0, 10.0], vec![5.0, 5.0], vec![10.0, 0.0]],
+        smooth_y,
+        ..Heatmap::default()
+    };
+    // The distinct colours of the map's cells (rects left of the colour bar).
+    let colours = |drawing: &helixbif::plot::Drawing| {
+        let right = f64::from(drawing.layouts[0].plot_area.x1);
+        let doc = parse(&drawing.svg);
+        let mut c: Vec<String> = elements(&doc, "rect")
+            .iter()
+            .filter(|n| n.attribute("opacity") == Some("1") && attr(n, "x") < right)
+            .filter_map(|n| n.attribute("fill"))
+            .filter(|fill| *fill != "none" && *fill != "#FFFFFF")
+            .map(str::to_owned)
+            .collect();
+        c.sort();
+        c.dedup();
+        c.len()
+    };
+    let (blocky, smooth) = (
+        render_heatmap(&map(false)).unwrap(),
+        render_heatmap(&map(true)).unwrap(),
+    );
+    assert_eq!(colours(&blocky), 3, "the three values");
+    assert!(
+        colours(&smooth) > 50,
+        "{} colours when smoothed",
+        colours(&smooth)
+    );
+    // The map still fills its plot area, and nothing else moved.
+    assert_eq!(smooth.layouts[0].plot_area, blocky.layouts[0].plot_area);
+    assert_eq!(smooth.layouts[0].data, blocky.layouts[0].data);
 }

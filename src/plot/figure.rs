@@ -71,6 +71,11 @@ pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
     if let Some(text) = &fig.annotation {
         plot.annotate(text)?;
     }
+    if fig.hide_legend {
+        plot.entries.clear();
+        plot.special_entries.clear();
+        plot.any_unstable = false;
+    }
     plot.finish(2)
 }
 
@@ -136,22 +141,37 @@ pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
 pub(crate) fn tick_budget(area: &Area) -> (usize, usize) {
     let (w, h) = area.dim_in_pixel();
     let fit = |len: u32, reserved: f64, per_tick: f64| {
-        ((f64::from(len) - reserved) / per_tick).clamp(3.0, 8.0) as usize
+        ((f64::from(len) - reserved) / per_tick).clamp(3.0, MAX_TICKS as f64) as usize
     };
     (fit(w, 150.0, 100.0), fit(h, 120.0, 60.0))
 }
 
+/// Most ticks an axis gets.
+const MAX_TICKS: usize = 8;
+
 /// The x axis with the most ticks (up to `max_ticks`) whose labels do not overlap across the
-/// width of `area`, built by `make(max_ticks)`.
+/// width of `area`, built by `make(max_ticks)`; with at least two if their labels fit.
 pub(crate) fn fit_x(make: impl Fn(usize) -> Axis, max_ticks: usize, area: &Area) -> Axis {
     let width = f64::from(area.dim_in_pixel().0) - 150.0;
+    let fits = |axis: &Axis| {
+        let needed = axis.ticks().len() as f64 * (axis.widest_label() + 2) as f64;
+        needed * CHAR_WIDTH * TICK_PX <= width
+    };
     let mut axis = make(max_ticks);
     for n in (2..max_ticks).rev() {
-        let needed = axis.ticks().len() as f64 * (axis.widest_label() + 2) as f64;
-        if needed * CHAR_WIDTH * TICK_PX <= width {
+        if fits(&axis) {
             break;
         }
         axis = make(n);
+    }
+    // A budget of a few ticks can leave a single one (steps of 1, 2, 5: −4.4..4.4 with at most
+    // 3 ticks gets only 0); then more are allowed, as long as their labels fit.
+    if axis.ticks().len() < 2
+        && let Some(more) = (max_ticks + 1..=MAX_TICKS)
+            .map(&make)
+            .find(|a| a.ticks().len() >= 2 && fits(a))
+    {
+        axis = more;
     }
     axis
 }

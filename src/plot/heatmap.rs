@@ -133,6 +133,7 @@ fn draw_cells(
     let (fw, fh) = frame.dim_in_pixel();
     let inside = Rect::spanning((bx, by), (bx + fw as i32 - 1, by + fh as i32 - 1));
     let mut cells = Vec::new();
+    let mut covered = Vec::new();
     // Rows from the top of the image down and columns from left to right, so each cell's
     // overlap falls under the cell drawn next.
     let mut rows: Vec<usize> = (0..map.y.len()).collect();
@@ -146,6 +147,8 @@ fn draw_cells(
     if !left_first {
         columns.reverse();
     }
+    // Pixel row of the centre of each row of the map.
+    let centre: Vec<i32> = map.y.iter().map(|&y| pixel(x_edges[0], y).1).collect();
     for &i in &rows {
         for &j in &columns {
             let z = map.z[i][j];
@@ -162,7 +165,43 @@ fn draw_cells(
                 x1: (cell.x1 + 1).min(inside.x1),
                 y1: (cell.y1 + 1).min(inside.y1),
             };
-            cells.push((grown, viridis(z_axis.fraction(z))));
+            if !map.smooth_y {
+                cells.push((grown, viridis(z_axis.fraction(z))));
+                covered.push(grown);
+                continue;
+            }
+            // The value at pixel row `py`: towards the neighbouring row on its side.
+            let at = |py: i32| {
+                let toward = [i.wrapping_sub(1), i + 1]
+                    .into_iter()
+                    .filter(|&k| k < map.y.len())
+                    .find(|&k| (centre[k] - centre[i]) * (py - centre[i]) > 0);
+                match toward.map(|k| (k, map.z[k][j])) {
+                    Some((k, zk)) if zk.is_finite() => {
+                        let t = f64::from(py - centre[i]) / f64::from(centre[k] - centre[i]);
+                        z + t.clamp(0.0, 1.0) * (zk - z)
+                    }
+                    _ => z,
+                }
+            };
+            // Runs of pixel rows of one colour, each one pixel taller than it is (the next run
+            // covers the extra pixel).
+            let mut py = grown.y0;
+            while py < grown.y1 {
+                let color = viridis(z_axis.fraction(at(py)));
+                let mut end = py + 1;
+                while end < grown.y1 && viridis(z_axis.fraction(at(end))) == color {
+                    end += 1;
+                }
+                let strip = Rect {
+                    y0: py,
+                    y1: end.min(grown.y1),
+                    ..grown
+                };
+                cells.push((strip, color));
+                py = end;
+            }
+            covered.push(grown);
         }
     }
     for (rect, color) in cells {
@@ -172,6 +211,8 @@ fn draw_cells(
                 color.filled(),
             ))
             .map_err(drawing_error)?;
+    }
+    for rect in covered {
         plot.cover(rect);
     }
     Ok(())

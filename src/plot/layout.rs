@@ -91,6 +91,9 @@ pub struct Layout {
 pub(crate) struct Below {
     pub legend: Option<(i32, i32)>,
     pub annotation: Option<(i32, i32)>,
+    /// The strip's least height, whatever it holds: side-by-side panels all get the tallest
+    /// strip of any of them, so their plot areas keep one height.
+    pub reserve: i32,
 }
 
 impl Below {
@@ -98,11 +101,12 @@ impl Below {
     pub fn height(&self) -> i32 {
         let boxes = [self.legend, self.annotation];
         let heights: Vec<i32> = boxes.iter().flatten().map(|b| b.1).collect();
-        if heights.is_empty() {
+        let held = if heights.is_empty() {
             0
         } else {
             heights.iter().sum::<i32>() + GAP_BELOW_PX * (heights.len() as i32 + 1)
-        }
+        };
+        held.max(self.reserve)
     }
 
     /// Whether `other` asks to put below anything this does not.
@@ -116,6 +120,7 @@ impl Below {
         Below {
             legend: other.legend.or(self.legend),
             annotation: other.annotation.or(self.annotation),
+            reserve: self.reserve.max(other.reserve),
         }
     }
 }

@@ -149,6 +149,8 @@ pub struct Figure {
     /// One unit spans as many pixels along x as along y (linear axes only), the range of the
     /// axis with the longer unit widened to match: for shapes in space.
     pub equal_scale: bool,
+    /// No legend, e.g. on all but one of panels that show the same curves.
+    pub hide_legend: bool,
     /// The y range shown, instead of one fitted to the data; whatever lies beyond it is cut at
     /// the frame (lines are drawn up to it, markers beyond it are left out).
     pub y_range: Option<(f64, f64)>,
@@ -171,6 +173,10 @@ pub struct Heatmap {
     /// Curves drawn over the map (e.g. a stability boundary) and labelled points/ranges (Markers
     /// series with err bars allowed).
     pub overlays: Vec<Series>,
+    /// Colours interpolated linearly along y between the centres of neighbouring rows of a
+    /// column (where both are finite), one pixel row at a time: for a map sampled finely in y,
+    /// whose rows would otherwise show as bands. Columns stay apart.
+    pub smooth_y: bool,
 }
 
 /// Size of the SVG written by [`write_figure`] and [`write_heatmap`], in pixels.
@@ -276,6 +282,7 @@ type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 ///
 /// Drawn first with nothing below; while a legend or annotation found no free place inside its
 /// plot, drawn again with it below (at most once more per kind of box, so at most three times).
+/// Side-by-side panels all get a strip as tall as the tallest any of them needs.
 fn render(
     size: (u32, u32),
     panels: usize,
@@ -292,7 +299,15 @@ fn render(
             layouts
         };
         match legend::more_below(&below, &layouts) {
-            Some(more) => below = more,
+            Some(mut more) => {
+                // Panels side by side keep plot areas of one height (one scale for two views
+                // of one object): each gets the tallest strip of any of them.
+                let tallest = more.iter().map(Below::height).max().unwrap_or(0);
+                for b in &mut more {
+                    b.reserve = tallest;
+                }
+                below = more;
+            }
             None => return Ok(Drawing { svg, layouts }),
         }
     }
