@@ -389,6 +389,9 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
             y: ys,
             z,
             overlays,
+            // Rows are samples of each column's branch, fine in y; columns are the study's few
+            // values of lambda/l, kept apart.
+            smooth_y: true,
         },
         &dir.join("phase.svg"),
     )?;

@@ -67,7 +67,22 @@ fn side_views(title: &str, curves: &[(String, Vec<Vector3<f64>>, Style)]) -> [Fi
             .collect(),
         ..Figure::default()
     };
-    [view("seen along y", 0, "x"), view("seen along x", 1, "y")]
+    // One legend for both views, on the second.
+    [
+        Figure {
+            hide_legend: true,
+            ..view("seen along y", 0, "x")
+        },
+        view("seen along x", 1, "y"),
+    ]
+}
+
+/// An event's name as a title writes it: "Hopf point", "fold", "branch point".
+fn event_in_words(name: &str) -> String {
+    match name {
+        "hopf" => "Hopf point".into(),
+        other => other.replace('_', " "),
+    }
 }
 
 /// Size of the two side views together: each panel taller than wide, as the rod hangs.
@@ -198,7 +213,13 @@ pub(crate) fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
         ),
     ];
     write_panels(
-        &side_views(&format!("Critical mode ({})", located.kind), &mode_curves),
+        &side_views(
+            &format!(
+                "Critical mode ({})",
+                event_in_words(&located.kind.to_string())
+            ),
+            &mode_curves,
+        ),
         &dir.join("mode.svg"),
         SIDE_VIEWS_SIZE,
     )?;
