@@ -150,11 +150,14 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
 
 /// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
 fn interpolate(points: &[(f64, f64, bool)], omegabar: f64) -> f64 {
+    // A rate within rounding of a branch's end (the map's first and last rows are at the ends
+    // of the branches' range, through log10 and back) still lies on the branch.
+    let tol = 1e-9 * omegabar.abs();
     points
         .windows(2)
-        .find(|w| w[0].0 <= omegabar && omegabar <= w[1].0)
+        .find(|w| w[0].0 - tol <= omegabar && omegabar <= w[1].0 + tol)
         .map_or(f64::NAN, |w| {
-            let t = (omegabar - w[0].0) / (w[1].0 - w[0].0);
+            let t = ((omegabar - w[0].0) / (w[1].0 - w[0].0)).clamp(0.0, 1.0);
             w[0].1 + t * (w[1].1 - w[0].1)
         })
 }
@@ -305,6 +308,20 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(*v), b.max(*v))
         });
+    // The top row at the highest rate every column reaches: the branches all stop just past
+    // `omega_max`, each a little further, and a row above the lowest of these ends would be
+    // blank in every column but one.
+    let hi = columns
+        .iter()
+        .filter_map(|c| {
+            c.points
+                .iter()
+                .filter(|p| p.0 > 0.0)
+                .map(|p| (p.0 * c.r_over_lambda.powf(m)).log10())
+                .reduce(f64::max)
+        })
+        .fold(hi, f64::min)
+        .max(lo);
     let ys: Vec<f64> = (0..*rows)
         .map(|i| lo + (hi - lo) * i as f64 / (*rows - 1) as f64)
         .collect();
@@ -461,4 +478,18 @@ fn boundary_curve(
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interpolate;
+
+    #[test]
+    fn a_rate_within_rounding_of_a_branch_end_lies_on_the_branch() {
+        let points = [(0.0, 0.0, true), (10.0, 2.0, true), (997.5, 28.8, true)];
+        // The last row of the map: the largest rate through log10 and back, a few ulps off.
+        assert_eq!(interpolate(&points, 997.5 * (1.0 + 1e-12)), 28.8);
+        assert!((interpolate(&points, 5.0) - 1.0).abs() < 1e-12);
+        assert!(interpolate(&points, 997.5 * (1.0 + 1e-6)).is_nan());
+    }
 }
