@@ -863,3 +863,54 @@ fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
     assert_eq!(v["orbit"]["cycles"].as_array().unwrap().len(), 0, "{v}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `run` in text mode prints the report of the command its study's kind runs: for a branch
+/// study, the same events, line for line, as `branch` on the same study (not a JSON dump).
+#[test]
+fn run_prints_the_text_report_of_the_command_it_runs() {
+    let dir = temp_dir("cli-run-text");
+    let study = dir.join("branch.toml");
+    let base = std::fs::read_to_string("studies/representative.toml")
+        .unwrap()
+        .replace("nodes = 60", "nodes = 20");
+    std::fs::write(
+        &study,
+        format!("{base}\n[branch]\nomega_max = 2.0\n\n[study]\nkind = \"branch\"\n"),
+    )
+    .unwrap();
+    let run = |args: &[&str]| {
+        let (code, stdout, stderr) = helixbif(args);
+        assert_eq!(code, 0, "{args:?}: {stderr}");
+        stdout
+    };
+    let (run_out, branch_out) = (dir.join("run"), dir.join("branch"));
+    let ran = run(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        run_out.to_str().unwrap(),
+    ]);
+    let branched = run(&[
+        "branch",
+        study.to_str().unwrap(),
+        "--out",
+        branch_out.to_str().unwrap(),
+    ]);
+    assert!(!ran.contains('{'), "a JSON dump:\n{ran}");
+    let events = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.starts_with("  "))
+            .map(str::to_owned)
+            .collect()
+    };
+    assert!(
+        !events(&branched).is_empty(),
+        "the branch finds events:\n{branched}"
+    );
+    assert_eq!(
+        events(&ran),
+        events(&branched),
+        "run:\n{ran}\nbranch:\n{branched}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -5,107 +5,17 @@
 //! `<text>` elements holding the string verbatim, a solid curve is one `<polyline>` in the series
 //! colour, a dashed curve is one short `<polyline>` per dash (no `stroke-dasharray`).
 
-use std::path::PathBuf;
+mod svg;
 
 use helixbif::Error;
 use helixbif::plot::{
-    DASH_PX, Figure, Heatmap, Marker, MarkerShape, Scale, Series, Style, write_figure,
+    Figure, Heatmap, Layout, Marker, MarkerShape, PNG_SCALE, Rect, Scale, Series, Style,
+    missing_glyphs, png_path, render_figure, render_heatmap, render_panels, write_figure,
     write_heatmap, write_panels,
 };
 use roxmltree::{Document, Node};
-
-/// Okabe–Ito colours of the first series, as the SVG writes them.
-const BLUE: &str = "#0072B2";
-const VERMILLION: &str = "#D55E00";
-const GREEN: &str = "#009E73";
-/// Colour of the "unstable (dashed)" legend sample.
-const NEUTRAL: &str = "#555555";
-
-fn out(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("plot-{name}.svg"))
-}
-
-fn read(name: &str) -> String {
-    std::fs::read_to_string(out(name)).expect("figure was written")
-}
-
-fn parse(svg: &str) -> Document<'_> {
-    Document::parse(svg).expect("the SVG is well-formed XML")
-}
-
-fn elements<'a, 'i>(doc: &'a Document<'i>, tag: &str) -> Vec<Node<'a, 'i>> {
-    doc.descendants()
-        .filter(|n| n.is_element() && n.tag_name().name() == tag)
-        .collect()
-}
-
-/// The content of every `<text>` element, trimmed.
-fn texts(doc: &Document) -> Vec<String> {
-    elements(doc, "text")
-        .iter()
-        .map(|n| n.text().unwrap_or("").trim().to_owned())
-        .collect()
-}
-
-fn count_text(doc: &Document, wanted: &str) -> usize {
-    texts(doc).iter().filter(|t| *t == wanted).count()
-}
-
-fn attr(n: &Node, name: &str) -> f64 {
-    n.attribute(name)
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("<{}> has a numeric {name}", n.tag_name().name()))
-}
-
-type Line = Vec<(f64, f64)>;
-
-/// The vertices of every `<polyline>` stroked in `color`.
-fn polylines(doc: &Document, color: &str) -> Vec<Line> {
-    elements(doc, "polyline")
-        .iter()
-        .filter(|n| n.attribute("stroke") == Some(color))
-        .map(|n| {
-            n.attribute("points")
-                .unwrap_or("")
-                .split_whitespace()
-                .map(|p| {
-                    let (x, y) = p.split_once(',').expect("x,y pair");
-                    (x.parse().unwrap(), y.parse().unwrap())
-                })
-                .collect()
-        })
-        .collect()
-}
-
-fn length(line: &Line) -> f64 {
-    line.windows(2)
-        .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
-        .sum()
-}
-
-/// A dash is at most `DASH_PX` long; vertices are rounded to whole pixels, hence the slack.
-fn is_dash(line: &Line) -> bool {
-    length(line) <= f64::from(DASH_PX) + 1.5
-}
-
-fn is_horizontal_pair(line: &Line) -> bool {
-    line.len() == 2 && line[0].1 == line[1].1
-}
-
-fn is_vertical_pair(line: &Line) -> bool {
-    line.len() == 2 && line[0].0 == line[1].0
-}
-
-fn line(label: &str, x: Vec<f64>, y: Vec<f64>, stable: Option<Vec<bool>>) -> Series {
-    Series {
-        label: label.into(),
-        x,
-        y,
-        style: Style::Line,
-        stable,
-        err: None,
-    }
-}
+use std::path::PathBuf;
+use svg::*;
 
 /// Number of points of a branch, and where each branch loses stability.
 const N: usize = 21;
@@ -213,7 +123,7 @@ fn check_branch(doc: &Document, color: &str, k: usize) {
         .iter()
         .flat_map(|d| d.iter().map(|p| p.0))
         .fold(f64::MIN, f64::max);
-    let pattern = f64::from(DASH_PX + helixbif::plot::GAP_PX);
+    let pattern = f64::from(helixbif::plot::DASH_PX + helixbif::plot::GAP_PX);
     assert!(
         reach >= last_point_px - pattern - 1.0,
         "{color}: dashes reach the last point ({reach} vs {last_point_px})"
@@ -388,6 +298,7 @@ fn phase_diagram(nan_cells: &[(usize, usize)]) -> Heatmap {
                 err: Some(vec![0.1, 0.05]),
             },
         ],
+        smooth_y: false,
     }
 }
 
@@ -718,4 +629,387 @@ fn a_legend_that_would_hide_data_in_every_corner_goes_to_the_middle_of_a_side() 
         x_top < x_label,
         "legend at x = {x_top}, the middle at {x_label}"
     );
+}
+
+// ---- What a reader of a paper relies on: legends and annotations over no data, the formulas
+// ---- in Unicode, equal scales for shapes, and a PNG beside every SVG.
+
+/// Checks that the legend and the annotation of `layout` cover none of the data's boxes nor
+/// each other, and lie inside the image of `size`.
+fn check_boxes_clear(layout: &Layout, size: (i32, i32), what: &str) {
+    let image = Rect::sized((0, 0), size);
+    for (name, boxed) in [("legend", layout.legend), ("annotation", layout.annotation)] {
+        let Some(b) = boxed else { continue };
+        assert!(image.contains(&b), "{what}: {name} {b:?} outside the image");
+        if let Some(d) = layout.data.iter().find(|d| d.intersects(&b)) {
+            panic!("{what}: {name} {b:?} covers data at {d:?}");
+        }
+    }
+    if let (Some(l), Some(a)) = (layout.legend, layout.annotation) {
+        assert!(
+            !l.intersects(&a),
+            "{what}: legend {l:?} over the annotation {a:?}"
+        );
+    }
+}
+
+/// Decodes the PNG beside `svg` and returns its size.
+fn png_size(svg: &std::path::Path) -> (u32, u32) {
+    let file = std::fs::File::open(png_path(svg)).expect("the PNG was written beside the SVG");
+    let decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let mut reader = decoder.read_info().expect("the PNG decodes");
+    let mut buf = vec![0; reader.output_buffer_size().expect("a sane size")];
+    let info = reader
+        .next_frame(&mut buf)
+        .expect("the PNG's pixels decode");
+    let pixels = &buf[..info.buffer_size()];
+    assert!(
+        pixels.iter().any(|&b| b < 128),
+        "{}: the PNG has dark pixels (axes, text)",
+        svg.display()
+    );
+    (info.width, info.height)
+}
+
+/// Markers like the collapse figure's, a dashed power law through them and the fit's
+/// annotation: the first point sits in the upper left, where the annotation would go first.
+fn collapse_like() -> Figure {
+    let x: Vec<f64> = vec![0.2, 0.25, 0.32, 0.4];
+    let law = |x: f64| 0.7 * x.powf(-3.19);
+    let markers = |label: &str, shape, f: f64| Series {
+        label: label.into(),
+        x: x.clone(),
+        y: x.iter().map(|x| law(*x) * f).collect(),
+        style: Style::Markers(shape),
+        stable: None,
+        err: None,
+    };
+    let fx: Vec<f64> = (0..=60)
+        .map(|i| 0.2 * 2f64.powf(f64::from(i) / 60.0))
+        .collect();
+    Figure {
+        title: "Collapse of ω̄_b on one power law of R/λ".into(),
+        x_label: "R/λ (–)".into(),
+        y_label: "ω̄_b / C(λ/ℓ) (–)".into(),
+        x_scale: Scale::Log,
+        y_scale: Scale::Log,
+        series: vec![
+            markers("λ/ℓ = 0.125", MarkerShape::Circle, 1.0),
+            markers("λ/ℓ = 0.1875", MarkerShape::Square, 1.04),
+            markers("λ/ℓ = 0.25", MarkerShape::Triangle, 0.97),
+            Series {
+                label: "(R/λ)⁻ᵐ, m = 3.186".into(),
+                x: fx.clone(),
+                y: fx.iter().map(|x| law(*x)).collect(),
+                style: Style::Dashed,
+                stable: None,
+                err: None,
+            },
+        ],
+        annotation: Some("m = 3.186, 95 % CI [2.945, 3.426]".into()),
+        ..Figure::default()
+    }
+}
+
+/// A rod hanging along z, 22 units long and 3 wide: the proportions of the shapes study.
+fn rod_view(title: &str, horizontal: &str) -> Figure {
+    let s: Vec<f64> = (0..=120).map(|i| f64::from(i) / 120.0).collect();
+    let helix = |label: &str, r: f64, phase: f64| Series {
+        label: label.into(),
+        x: s.iter()
+            .map(|s| r * (2.0 * std::f64::consts::PI * 7.0 * s + phase).cos())
+            .collect(),
+        y: s.iter().map(|s| -22.0 * s).collect(),
+        style: Style::Line,
+        stable: None,
+        err: None,
+    };
+    Figure {
+        title: title.into(),
+        x_label: format!("{horizontal} (cm)"),
+        y_label: "z (cm)".into(),
+        series: vec![
+            helix("ω = 0 rad/s", 1.5, 0.0),
+            helix("ω = 0.2 rad/s", 1.3, 0.5),
+            helix("ω = 0.4 rad/s", 1.1, 1.0),
+        ],
+        equal_scale: true,
+        ..Figure::default()
+    }
+}
+
+#[test]
+fn legends_and_annotations_cover_no_data_in_any_figure_kind() {
+    let drawings = [
+        (
+            "branch",
+            render_figure(&branch_figure()).unwrap(),
+            (800, 600),
+        ),
+        (
+            "collapse",
+            render_figure(&collapse_like()).unwrap(),
+            (800, 600),
+        ),
+        (
+            "heatmap",
+            render_heatmap(&phase_diagram(&[])).unwrap(),
+            (800, 600),
+        ),
+        (
+            "side views",
+            render_panels(&[rod_view("a", "x"), rod_view("b", "y")], (1000, 800)).unwrap(),
+            (1000, 800),
+        ),
+    ];
+    for (what, drawing, size) in &drawings {
+        for layout in &drawing.layouts {
+            assert!(!layout.data.is_empty(), "{what}: data boxes recorded");
+            assert!(layout.legend.is_some(), "{what}: a legend");
+            check_boxes_clear(layout, *size, what);
+        }
+    }
+    // The fit's annotation avoids the first point, in the upper left.
+    let collapse = &drawings[1].1.layouts[0];
+    assert!(collapse.annotation.is_some());
+    // The heat map fills its plot area, so its legend goes below it.
+    let map = &drawings[2].1.layouts[0];
+    assert!(map.legend_below);
+    let legend = map.legend.unwrap();
+    assert!(
+        legend.y0 > map.plot_area.y1,
+        "{legend:?} below {:?}",
+        map.plot_area
+    );
+}
+
+#[test]
+fn a_plot_full_of_data_puts_its_legend_and_annotation_below() {
+    // A dense cloud of markers over the whole plot area.
+    let grid: Vec<(f64, f64)> = (0..40)
+        .flat_map(|i| (0..30).map(move |j| (f64::from(i), f64::from(j))))
+        .collect();
+    let cloud = |label: &str, shift: f64| Series {
+        label: label.into(),
+        x: grid.iter().map(|p| p.0 + shift).collect(),
+        y: grid.iter().map(|p| p.1 + shift).collect(),
+        style: Style::Markers(MarkerShape::Circle),
+        stable: None,
+        err: None,
+    };
+    let fig = Figure {
+        title: "Crowded".into(),
+        x_label: "x (m)".into(),
+        y_label: "y (m)".into(),
+        series: vec![cloud("first", 0.0), cloud("second", 0.5)],
+        annotation: Some("fit: none".into()),
+        ..Figure::default()
+    };
+    let drawing = render_figure(&fig).unwrap();
+    let layout = &drawing.layouts[0];
+    assert!(layout.legend_below && layout.annotation_below, "{layout:?}");
+    check_boxes_clear(layout, (800, 600), "crowded");
+    for b in [layout.legend.unwrap(), layout.annotation.unwrap()] {
+        assert!(b.y0 > layout.plot_area.y1, "{b:?} below the plot");
+    }
+    // Both are still in the SVG, the legend with its markers.
+    let doc = parse(&drawing.svg);
+    for label in ["first", "second", "fit: none"] {
+        assert_eq!(count_text(&doc, label), 1, "text {label:?}");
+    }
+}
+
+#[test]
+fn side_views_have_equal_scales() {
+    let drawing = render_panels(&[rod_view("a", "x"), rod_view("b", "y")], (1000, 800)).unwrap();
+    // Two views of one rod with one legend, on the second: both plot areas have one height and
+    // one scale, whether or not the legend went below its plot.
+    let one_legend = [
+        Figure {
+            hide_legend: true,
+            ..rod_view("a", "x")
+        },
+        rod_view("b", "y"),
+    ];
+    let shared = render_panels(&one_legend, (1000, 800)).unwrap();
+    let [first, second] = &shared.layouts[..] else {
+        panic!("two panels");
+    };
+    assert!(first.legend.is_none() && second.legend.is_some());
+    assert_eq!(first.plot_area.height(), second.plot_area.height());
+    assert!((first.px_per_unit.1 / second.px_per_unit.1 - 1.0).abs() < 0.01);
+    check_boxes_clear(second, (1000, 800), "second view");
+    for layout in drawing.layouts.iter().chain(&shared.layouts) {
+        let (sx, sy) = layout.px_per_unit;
+        assert!(
+            (sx / sy - 1.0).abs() < 0.01,
+            "{sx} px per cm along x, {sy} along z"
+        );
+        // The rod, 22 cm long, fills most of the height.
+        assert!(sy * 22.0 > 0.8 * f64::from(layout.plot_area.height()));
+    }
+    // Without equal scales the x axis would stretch 3 cm over the panel's width.
+    let stretched = Figure {
+        equal_scale: false,
+        ..rod_view("c", "x")
+    };
+    let (sx, sy) = render_figure(&stretched).unwrap().layouts[0].px_per_unit;
+    assert!(sx > 3.0 * sy);
+}
+
+#[test]
+fn unicode_math_is_written_verbatim_and_the_font_has_every_glyph() {
+    let labels = [
+        "ω (rad/s)",
+        "F̄ₚ = Fₚℓ²/EI (–)",
+        "η = Fₚℓ/Tₚ (–)",
+        "h̄ = h/h₀ (–)",
+        "ω̄_b = ω_b μℓ⁴/EI (–)",
+        "m_loc = −d ln ω̄_b / d ln (R/λ) (–)",
+        "log₁₀(ω̄ (R/λ)ᵐ) (–)",
+        "(R/λ)⁻ᵐ, m = 3.186",
+        "λ/ℓ = 0.125",
+        "simulation: time average ± std",
+        "E r₀⁴/(μ ℓ⁴) (1/s)",
+    ];
+    for label in labels {
+        assert!(
+            missing_glyphs(label).is_empty(),
+            "{label:?}: {:?}",
+            missing_glyphs(label)
+        );
+    }
+    let fig = Figure {
+        title: labels[6].into(),
+        x_label: labels[0].into(),
+        y_label: labels[1].into(),
+        series: vec![
+            line(labels[2], vec![0.0, 1.0], vec![0.0, 1.0], None),
+            line(labels[3], vec![0.0, 1.0], vec![1.0, 0.0], None),
+        ],
+        annotation: Some(labels[4].into()),
+        ..Figure::default()
+    };
+    let path = out("unicode");
+    write_figure(&fig, &path).unwrap();
+    let svg = read("unicode");
+    let doc = parse(&svg);
+    for label in &labels[..5] {
+        assert_eq!(count_text(&doc, label), 1, "text {label:?}");
+    }
+    assert_eq!(png_size(&path), (800 * PNG_SCALE, 600 * PNG_SCALE));
+}
+
+#[test]
+fn every_figure_kind_is_written_as_svg_and_png() {
+    let figure = out("png-figure");
+    write_figure(&collapse_like(), &figure).unwrap();
+    assert_eq!(png_size(&figure), (800 * PNG_SCALE, 600 * PNG_SCALE));
+    let map = out("png-heatmap");
+    write_heatmap(&phase_diagram(&[(1, 1)]), &map).unwrap();
+    assert_eq!(png_size(&map), (800 * PNG_SCALE, 600 * PNG_SCALE));
+    let panels = out("png-panels");
+    write_panels(
+        &[rod_view("a", "x"), rod_view("b", "y")],
+        &panels,
+        (1000, 800),
+    )
+    .unwrap();
+    assert_eq!(png_size(&panels), (1000 * PNG_SCALE, 800 * PNG_SCALE));
+}
+
+#[test]
+fn what_lies_beyond_the_axes_is_cut_at_the_frame() {
+    // A heat map whose overlay range reaches far above and below the map, and a figure whose y
+    // range leaves out a spike: nothing is drawn outside the plot area.
+    let mut map = phase_diagram(&[]);
+    map.overlays
+        .push(line("range", vec![4.0, 4.0], vec![-3.0, 5.0], None));
+    let drawing = render_heatmap(&map).unwrap();
+    let layout = &drawing.layouts[0];
+    let area = layout.plot_area.inflate(2);
+    let doc = parse(&drawing.svg);
+    let range_color = "#CC79A7"; // the third overlay colour
+    let lines = polylines(&doc, range_color);
+    assert!(!lines.is_empty());
+    for l in lines.iter().filter(|l| l.len() == 2 && l[0].0 == l[1].0) {
+        for &(x, y) in l {
+            let p = Rect::spanning((x as i32, y as i32), (x as i32, y as i32));
+            assert!(area.contains(&p), "{l:?} leaves the plot area {area:?}");
+        }
+    }
+    // The map itself fills the plot area from frame to frame.
+    let covered = |x: i32, y: i32| {
+        layout
+            .data
+            .iter()
+            .any(|d| d.contains(&Rect::spanning((x, y), (x, y))))
+    };
+    let a = layout.plot_area;
+    for (x, y) in [(a.x0, a.y0), (a.x1, a.y0), (a.x0, a.y1), (a.x1, a.y1)] {
+        assert!(covered(x, y), "corner ({x}, {y}) of the map");
+    }
+
+    let mut y: Vec<f64> = (0..20).map(|i| 3.0 + 0.05 * f64::from(i)).collect();
+    y[18] = -190.0;
+    let spiky = Figure {
+        x_label: "R/λ (–)".into(),
+        y_label: "m_loc (–)".into(),
+        series: vec![line("m_loc", (0..20).map(f64::from).collect(), y, None)],
+        y_range: Some((2.5, 4.5)),
+        ..Figure::default()
+    };
+    let drawing = render_figure(&spiky).unwrap();
+    let layout = &drawing.layouts[0];
+    let doc = parse(&drawing.svg);
+    let area = layout.plot_area.inflate(2);
+    for l in polylines(&doc, BLUE) {
+        for (x, y) in l {
+            let p = Rect::spanning((x as i32, y as i32), (x as i32, y as i32));
+            assert!(area.contains(&p), "({x}, {y}) outside {area:?}");
+        }
+    }
+    assert!(texts(&doc).iter().any(|t| t == "3.0"), "{:?}", texts(&doc));
+}
+
+#[test]
+fn a_map_smoothed_along_y_shades_between_row_centres_and_keeps_columns_apart() {
+    // Two columns, three rows; z grows with the row in one column and falls in the other.
+    let map = |smooth_y: bool| Heatmap {
+        x_label: "λ/ℓ (–)".into(),
+        y_label: "y (–)".into(),
+        x: vec![0.0, 1.0],
+        y: vec![0.0, 1.0, 2.0],
+        z: vec![vec![0.0, 10.0], vec![5.0, 5.0], vec![10.0, 0.0]],
+        smooth_y,
+        ..Heatmap::default()
+    };
+    // The distinct colours of the map's cells (rects left of the colour bar).
+    let colours = |drawing: &helixbif::plot::Drawing| {
+        let right = f64::from(drawing.layouts[0].plot_area.x1);
+        let doc = parse(&drawing.svg);
+        let mut c: Vec<String> = elements(&doc, "rect")
+            .iter()
+            .filter(|n| n.attribute("opacity") == Some("1") && attr(n, "x") < right)
+            .filter_map(|n| n.attribute("fill"))
+            .filter(|fill| *fill != "none" && *fill != "#FFFFFF")
+            .map(str::to_owned)
+            .collect();
+        c.sort();
+        c.dedup();
+        c.len()
+    };
+    let (blocky, smooth) = (
+        render_heatmap(&map(false)).unwrap(),
+        render_heatmap(&map(true)).unwrap(),
+    );
+    assert_eq!(colours(&blocky), 3, "the three values");
+    assert!(
+        colours(&smooth) > 50,
+        "{} colours when smoothed",
+        colours(&smooth)
+    );
+    // The map still fills its plot area, and nothing else moved.
+    assert_eq!(smooth.layouts[0].plot_area, blocky.layouts[0].plot_area);
+    assert_eq!(smooth.layouts[0].data, blocky.layouts[0].data);
 }

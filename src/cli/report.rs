@@ -14,11 +14,16 @@ use helixbif::engine::curve::SpecialKind;
 use helixbif::model::fluid::FluidModel;
 use helixbif::numerics::fit::PowerLaw;
 use helixbif::study::boundary::BoundaryReport;
+use helixbif::study::boundary::BoundaryStudy;
 use helixbif::study::branch::BranchReport;
+use helixbif::study::dynamics::AverageRow;
+use helixbif::study::figures::Fitted;
 use helixbif::study::locate::LocateResult;
 use helixbif::study::orbits::OrbitsReport;
 use helixbif::study::output::LeftOut;
+use helixbif::study::phase::{CurveOutcome, PhaseResult};
 use helixbif::study::run::StudyResult;
+use helixbif::study::shapes::{CriticalMode, ShapesResult};
 use helixbif::study::simulate::SimulateReport;
 use helixbif::study::slurm::{SlurmScripts, SlurmSubmission};
 use helixbif::study::sweep::SweepSummary;
@@ -374,6 +379,9 @@ pub struct RunReport {
     pub result: StudyResult,
 }
 
+/// The text of `run`: a line naming the study, its kind, the time and the folder, then the
+/// report of the command the kind runs (`branch`, `locate`, `sweep`, `boundary`, `orbits`), or
+/// the kind's own summary (`phase`, `shapes`, `dynamics`).
 impl Display for RunReport {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         writeln!(
@@ -381,9 +389,207 @@ impl Display for RunReport {
             "study `{}` ({}) done in {:.1} s; results in {}",
             self.study, self.kind, self.seconds, self.out
         )?;
-        let record = serde_json::to_value(&self.result).map_err(|_| fmt::Error)?;
-        write!(f, "{record:#}")
+        let study = self.study.as_str();
+        match &self.result {
+            StudyResult::Branch { cases } => {
+                for (k, c) in cases.iter().enumerate() {
+                    if k > 0 {
+                        writeln!(f)?;
+                    }
+                    if cases.len() == 1 {
+                        c.report.show(study, f)?;
+                    } else {
+                        c.report.show(&format!("{study}, case {}", c.case), f)?;
+                    }
+                }
+                Ok(())
+            }
+            StudyResult::Locate { result } => result.show(study, f),
+            StudyResult::Sweep { summary, fits } => {
+                summary.show(study, f)?;
+                for fit in fits.iter().flatten() {
+                    write!(f, "\n  figure {}: ", fit.figure)?;
+                    sweep_fit(&fit.fit, f)?;
+                    if !fit.left_out.is_empty() {
+                        write!(f, " ({} rows left out)", fit.left_out.len())?;
+                    }
+                }
+                Ok(())
+            }
+            StudyResult::Phase(p) => phase(p, f),
+            StudyResult::Boundary(b) => boundary_study(b, f),
+            StudyResult::Shapes(s) => shapes(s, f),
+            StudyResult::Dynamics { rows } => dynamics(rows, f),
+            StudyResult::Orbits { report, .. } => report.show(study, f),
+        }
     }
+}
+
+/// One line for the fit of a sweep figure.
+fn sweep_fit(fit: &Fitted, f: &mut Formatter<'_>) -> fmt::Result {
+    match fit {
+        Fitted::ThroughOrigin(s) => write!(
+            f,
+            "slope through the origin {:.6e}, 95% CI [{:.6e}, {:.6e}], n = {}, R^2 = {:.4}",
+            s.slope, s.slope_ci[0], s.slope_ci[1], s.n, s.r2
+        ),
+        Fitted::PowerLaw(p) => write!(
+            f,
+            "power law y = C x^p, p = {:.4}, 95% CI [{:.4}, {:.4}], C = {:.4e}, n = {}, R^2 = {:.4}",
+            p.p, p.p_ci[0], p.p_ci[1], p.c, p.n, p.r2
+        ),
+        Fitted::CommonPowerLaw(c) => {
+            write!(
+                f,
+                "common power law {} ~ C_k {}^(-m), m = {:.4}, 95% CI [{:.4}, {:.4}], n = {}, \
+                 R^2 = {:.4}",
+                c.y, c.x, c.m, c.m_ci[0], c.m_ci[1], c.n, c.r2
+            )?;
+            for s in &c.per_series_m {
+                write!(
+                    f,
+                    "\n    {} = {} alone: m = {:.4}, 95% CI [{:.4}, {:.4}]",
+                    c.series.as_deref().unwrap_or("series"),
+                    s.series,
+                    s.m,
+                    s.m_ci[0],
+                    s.m_ci[1]
+                )?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// The text of a phase study: the exponent, each column's first loss of stability, the
+/// boundary curve and the flagella left off the map.
+fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
+    write!(
+        f,
+        "phase diagram over lambda/l with vertical coordinate omegabar (R/lambda)^m, m = {:.4}",
+        p.m
+    )?;
+    for c in &p.columns {
+        let loss = match (c.omegabar_b, &c.kind) {
+            (Some(w), Some(kind)) => {
+                format!("first loss of stability ({kind}) at omegabar_b = {w:.6e}")
+            }
+            (Some(w), None) => format!("first loss of stability at omegabar_b = {w:.6e}"),
+            _ => "stable over the branch".to_owned(),
+        };
+        write!(
+            f,
+            "\n  lambda/l = {:.4}, R/lambda = {:.4}: {loss}; {} branch points",
+            c.lambda_over_l, c.r_over_lambda, c.points
+        )?;
+    }
+    match &p.boundary_curve {
+        CurveOutcome::Written { out } => write!(f, "\n  boundary curve in {out}")?,
+        CurveOutcome::Failed { error } => write!(
+            f,
+            "\n  boundary curve not followed ({error}); the columns' first losses are joined instead"
+        )?,
+    }
+    for s in &p.skipped_flagella {
+        write!(f, "\n  left off the map: {s}")?;
+    }
+    Ok(())
+}
+
+/// The text of a boundary study: each curve's report with its special points, its exponents,
+/// and the common fit.
+fn boundary_study(b: &BoundaryStudy, f: &mut Formatter<'_>) -> fmt::Result {
+    for (k, c) in b.curves.iter().enumerate() {
+        if k > 0 {
+            writeln!(f)?;
+        }
+        writeln!(f, "curve `{}`:", c.label)?;
+        if let Some(r) = &c.report {
+            r.text(f)?;
+        }
+        if let Some(e) = &c.error {
+            write!(f, "\n  FAILED: {e}")?;
+        }
+        if let Some([q, m]) = c.m_loc_smallest {
+            write!(f, "\n  m_loc = {m:.4} at the smallest q = {q:.4}")?;
+        }
+        if let Some(m) = c.m_loc_limit {
+            write!(f, "; extrapolated to q = 0: {m:.4}")?;
+        }
+        if let Some(p) = &c.fit {
+            write!(
+                f,
+                "\n  power law omegabar_b = C q^p: m = -p = {:.4}, 95% CI [{:.4}, {:.4}], n = {}",
+                -p.p, -p.p_ci[1], -p.p_ci[0], p.n
+            )?;
+        }
+    }
+    if let Some(c) = &b.common_fit {
+        write!(
+            f,
+            "\ncommon power law of the curves: m = {:.4}, 95% CI [{:.4}, {:.4}], n = {}, R^2 = {:.4}",
+            -c.p, -c.p_ci[1], -c.p_ci[0], c.n, c.r2
+        )?;
+        for (label, p, ci) in &c.per_group {
+            write!(
+                f,
+                "\n  {label} alone: m = {:.4}, 95% CI [{:.4}, {:.4}]",
+                -p, -ci[1], -ci[0]
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The text of a shapes study: the rates drawn and the critical mode.
+fn shapes(s: &ShapesResult, f: &mut Formatter<'_>) -> fmt::Result {
+    let rates: Vec<String> = s.omegas.iter().map(|w| format!("{w}")).collect();
+    write!(f, "steady shapes at omega = {} rad/s", rates.join(", "))?;
+    match &s.critical {
+        CriticalMode::None { .. } => write!(f, "\n  the branch stays stable: no critical mode"),
+        CriticalMode::Found {
+            omega_b,
+            event,
+            eigenvalue,
+        } => write!(
+            f,
+            "\n  critical mode ({event}) at omega_b = {omega_b:.8} rad/s, eigenvalue {:+.3e} \
+             {:+.4e} i /s",
+            eigenvalue[0], eigenvalue[1]
+        ),
+    }
+}
+
+/// The text of a dynamics study: one line per simulation.
+fn dynamics(rows: &[AverageRow], f: &mut Formatter<'_>) -> fmt::Result {
+    write!(
+        f,
+        "time averages (mean +- std) of the simulations from rest:"
+    )?;
+    let pm = |m: Option<f64>, s: Option<f64>| match (m, s) {
+        (Some(m), Some(s)) => format!("{m:.6} +- {s:.2e}"),
+        _ => "-".to_owned(),
+    };
+    for r in rows {
+        write!(
+            f,
+            "\n  omega = {} rad/s: {}",
+            r.omega,
+            if r.status == "ok" {
+                format!(
+                    "hbar = {}, Fpbar = {}, eta = {}; {} steps, {:.1} s",
+                    pm(r.hbar_mean, r.hbar_std),
+                    pm(r.fpbar_mean, r.fpbar_std),
+                    pm(r.eta_mean, r.eta_std),
+                    r.steps,
+                    r.seconds
+                )
+            } else {
+                r.status.clone()
+            }
+        )?;
+    }
+    Ok(())
 }
 
 /// What `helixbif merge` reports.

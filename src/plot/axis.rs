@@ -77,10 +77,22 @@ impl Axis {
         shows(self.scale, v)
     }
 
-    /// `v` if it can be drawn, else the lower end of the axis: where a band or error bar that
-    /// reaches below zero on a log axis is cut.
-    pub(crate) fn or_bottom(&self, v: f64) -> f64 {
-        if self.shows(v) { v } else { self.lo }
+    /// Whether `v` can be drawn and lies within the visible range.
+    pub(crate) fn contains(&self, v: f64) -> bool {
+        self.shows(v) && (-1e-9..=1.0 + 1e-9).contains(&self.fraction(v))
+    }
+
+    /// The value at `t` of the axis' length (0 at `lo`, 1 at `hi`): the inverse of
+    /// [`Axis::fraction`].
+    pub(crate) fn at_fraction(&self, t: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => self.lo + t * (self.hi - self.lo),
+            Scale::Log => (self.lo.ln() + t * (self.hi.ln() - self.lo.ln())).exp(),
+        }
+    }
+
+    pub(crate) fn scale(&self) -> Scale {
+        self.scale
     }
 
     /// The point half-way between `a` and `b` as seen on the axis (geometric mean on a log axis).
@@ -410,7 +422,6 @@ mod tests {
         let axis = Axis::fit(Scale::Log, [-5.0, 0.0, 10.0, 100.0], 0.0, 8);
         assert_eq!(axis.bounds(), (10.0, 100.0));
         assert!(!axis.shows(0.0));
-        assert_eq!(axis.or_bottom(-1.0), 10.0);
         assert!((axis.midpoint(10.0, 1000.0) - 100.0).abs() < 1e-9);
     }
 

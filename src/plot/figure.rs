@@ -1,32 +1,31 @@
 //! Drawing a [`Figure`], and the [`Plot`] that both figures and heat maps draw through: axes,
-//! series, special points, annotation and a legend placed where it hides the least data.
+//! series, special points, and the boxes covered by data, which the legend and the annotation
+//! (see `legend.rs`) must not cover.
 
 use plotters::chart::{ChartBuilder, ChartContext};
-use plotters::element::{Circle, DashedPathElement, DynElement, EmptyElement, IntoDynElement};
+use plotters::element::{Circle, DashedPathElement, EmptyElement};
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axis::{Axis, PADDING};
 use super::geometry::{self, Point};
+use super::layout::{Below, Layout, Rect, stroke_boxes};
+use super::legend::{LegendEntry, Sample};
 use super::style::{
-    ANNOTATION_PX, AXIS_LABEL_PX, BAND_OPACITY, CAP_PX, CHAR_WIDTH, DASH_PX, GAP_PX, Glyph,
-    LEGEND_PX, LINE_WIDTH, MARKER_PX, NEUTRAL, SAMPLE_PX, SPECIAL_GLYPHS, SPECIAL_PX, TICK_PX,
-    TITLE_PX, font, series_color,
+    AXIS_LABEL_PX, BAND_OPACITY, CAP_PX, CHAR_WIDTH, DASH_PX, GAP_PX, GRID_OPACITY, Glyph,
+    LINE_WIDTH, MARKER_PX, SPECIAL_GLYPHS, SPECIAL_PX, TICK_PX, TITLE_PX, font, series_color,
 };
-use super::{Area, Figure, Marker, Series, Style, drawing_error};
+use super::{Area, Figure, Marker, Scale, Series, Style, drawing_error};
 use crate::Result;
 
 /// A position in SVG pixels (`plotters`' backend coordinate).
-type Pixel = (i32, i32);
-
-/// Text of the single legend entry that explains dashed (unstable) runs.
-const UNSTABLE_LABEL: &str = "unstable (dashed)";
+pub(crate) type Pixel = (i32, i32);
 
 /// Length of the tick marks `plotters` draws; tick labels sit twice this far from the axis.
 pub(crate) const TICK_MARK_PX: i32 = 5;
 
-/// Draws `fig` filling `area`.
-pub(crate) fn draw(area: &Area, fig: &Figure) -> Result<()> {
+/// Draws `fig` filling `area`, with room below the plot for what `below` holds; returns where
+/// everything went.
+pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
     let (xs, ys) = fig.series.iter().map(geometry::extent).fold(
         (Vec::new(), Vec::new()),
         |(mut xs, mut ys), (x, y)| {
@@ -36,17 +35,35 @@ pub(crate) fn draw(area: &Area, fig: &Figure) -> Result<()> {
         },
     );
     let xs = xs.into_iter().chain(fig.markers.iter().map(|m| m.x));
-    let ys = ys.into_iter().chain(fig.markers.iter().map(|m| m.y));
+    let ys: Vec<f64> = match fig.y_range {
+        Some((lo, hi)) => vec![lo, hi],
+        None => ys
+            .into_iter()
+            .chain(fig.markers.iter().map(|m| m.y))
+            .collect(),
+    };
+    let y_padding = if fig.y_range.is_some() { 0.0 } else { PADDING };
     let area = titled(area, &fig.title)?;
-    let (x_ticks, y_ticks) = tick_budget(&area);
-    let x_axis = fit_x(
+    let (chart_area, strip) = split_below(&area, &below);
+    let (x_ticks, y_ticks) = tick_budget(&chart_area);
+    let mut x_axis = fit_x(
         |n| Axis::fit(fig.x_scale, xs.clone(), PADDING, n),
         x_ticks,
-        &area,
+        &chart_area,
     );
-    let y_axis = Axis::fit(fig.y_scale, ys, PADDING, y_ticks);
+    let mut y_axis = Axis::fit(fig.y_scale, ys, y_padding, y_ticks);
+    if fig.equal_scale && fig.x_scale == Scale::Linear && fig.y_scale == Scale::Linear {
+        (x_axis, y_axis) = equal_scales(&chart_area, x_axis, y_axis, (&fig.x_label, &fig.y_label));
+    }
 
-    let mut plot = Plot::new(&area, x_axis, y_axis, (&fig.x_label, &fig.y_label), true)?;
+    let mut plot = Plot::new(
+        &chart_area,
+        x_axis,
+        y_axis,
+        (&fig.x_label, &fig.y_label),
+        true,
+    )?;
+    plot.below(&area, strip, below);
     for (i, s) in fig.series.iter().enumerate() {
         plot.draw_series(s, series_color(i))?;
     }
@@ -54,7 +71,61 @@ pub(crate) fn draw(area: &Area, fig: &Figure) -> Result<()> {
     if let Some(text) = &fig.annotation {
         plot.annotate(text)?;
     }
+    if fig.hide_legend {
+        plot.entries.clear();
+        plot.special_entries.clear();
+        plot.any_unstable = false;
+    }
     plot.finish(2)
+}
+
+/// `area` split into the part for the chart and, when `below` holds anything, a strip at the
+/// bottom for it.
+pub(crate) fn split_below<'b>(area: &Area<'b>, below: &Below) -> (Area<'b>, Option<Area<'b>>) {
+    let height = below.height();
+    if height <= 0 {
+        return (area.clone(), None);
+    }
+    let (_, h) = area.dim_in_pixel();
+    let (top, strip) = area.split_vertically(h.saturating_sub(height as u32));
+    (top, Some(strip))
+}
+
+/// The axes widened so one unit spans as many pixels along x as along y on `area`: the axis
+/// whose unit is longer gets a wider range around the same centre. Iterated because new tick
+/// labels can change the margins and so the plot area.
+fn equal_scales(area: &Area, mut x: Axis, mut y: Axis, labels: (&str, &str)) -> (Axis, Axis) {
+    let (data_x, data_y) = (x.bounds(), y.bounds());
+    let (x_ticks, y_ticks) = tick_budget(area);
+    let (aw, ah) = area.dim_in_pixel();
+    for _ in 0..8 {
+        let frame = Frame::of(&x, &y, labels);
+        let (w, h) = frame.plot_size((aw, ah));
+        let (sx, sy) = (w / (data_x.1 - data_x.0), h / (data_y.1 - data_y.0));
+        if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
+            break;
+        }
+        let s = sx.min(sy);
+        let around = |(lo, hi): (f64, f64), px: f64| {
+            let (mid, half) = (0.5 * lo + 0.5 * hi, 0.5 * px / s);
+            [mid - half, mid + half]
+        };
+        let new_x = fit_x(
+            |n| Axis::fit(Scale::Linear, around(data_x, w), 0.0, n),
+            x_ticks,
+            area,
+        );
+        let new_y = Axis::fit(Scale::Linear, around(data_y, h), 0.0, y_ticks);
+        let settled = new_x.bounds() == x.bounds()
+            && new_y.bounds() == y.bounds()
+            && new_x.ticks() == x.ticks()
+            && new_y.ticks() == y.ticks();
+        (x, y) = (new_x, new_y);
+        if settled {
+            break;
+        }
+    }
+    (x, y)
 }
 
 /// `area` below `title`, or all of it when there is no title.
@@ -70,22 +141,37 @@ pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
 pub(crate) fn tick_budget(area: &Area) -> (usize, usize) {
     let (w, h) = area.dim_in_pixel();
     let fit = |len: u32, reserved: f64, per_tick: f64| {
-        ((f64::from(len) - reserved) / per_tick).clamp(3.0, 8.0) as usize
+        ((f64::from(len) - reserved) / per_tick).clamp(3.0, MAX_TICKS as f64) as usize
     };
     (fit(w, 150.0, 100.0), fit(h, 120.0, 60.0))
 }
 
+/// Most ticks an axis gets.
+const MAX_TICKS: usize = 8;
+
 /// The x axis with the most ticks (up to `max_ticks`) whose labels do not overlap across the
-/// width of `area`, built by `make(max_ticks)`.
+/// width of `area`, built by `make(max_ticks)`; with at least two if their labels fit.
 pub(crate) fn fit_x(make: impl Fn(usize) -> Axis, max_ticks: usize, area: &Area) -> Axis {
     let width = f64::from(area.dim_in_pixel().0) - 150.0;
+    let fits = |axis: &Axis| {
+        let needed = axis.ticks().len() as f64 * (axis.widest_label() + 2) as f64;
+        needed * CHAR_WIDTH * TICK_PX <= width
+    };
     let mut axis = make(max_ticks);
     for n in (2..max_ticks).rev() {
-        let needed = axis.ticks().len() as f64 * (axis.widest_label() + 2) as f64;
-        if needed * CHAR_WIDTH * TICK_PX <= width {
+        if fits(&axis) {
             break;
         }
         axis = make(n);
+    }
+    // A budget of a few ticks can leave a single one (steps of 1, 2, 5: −4.4..4.4 with at most
+    // 3 ticks gets only 0); then more are allowed, as long as their labels fit.
+    if axis.ticks().len() < 2
+        && let Some(more) = (max_ticks + 1..=MAX_TICKS)
+            .map(&make)
+            .find(|a| a.ticks().len() >= 2 && fits(a))
+    {
+        axis = more;
     }
     axis
 }
@@ -100,59 +186,22 @@ pub(crate) fn x_label_area(x_label: &str) -> u32 {
     (TICK_PX + f64::from(2 * TICK_MARK_PX) + desc + 10.0) as u32
 }
 
-/// How a legend entry's sample is drawn.
-#[derive(Clone, Copy)]
-enum Sample {
-    Line(RGBColor),
-    Dashed(RGBColor),
-    Glyph(Glyph, RGBColor, i32),
+/// The margins and label areas of a chart, sized from its tick labels and axis labels, so the
+/// plot area can be known before the chart is built (for equal scales).
+pub(crate) struct Frame {
+    right: u32,
+    x_area: u32,
+    y_area: u32,
 }
 
-impl Sample {
-    /// The sample whose left end is at `(x, y)` in pixels.
-    fn element<'e, DB: DrawingBackend + 'e>(self, (x, y): Pixel) -> DynElement<'e, DB, Pixel> {
-        let stroke = |c: RGBColor| c.stroke_width(LINE_WIDTH);
-        let line = vec![(x, y), (x + SAMPLE_PX, y)];
-        match self {
-            Sample::Line(c) => PathElement::new(line, stroke(c)).into_dyn(),
-            Sample::Dashed(c) => {
-                DashedPathElement::new(line, DASH_PX, GAP_PX, stroke(c)).into_dyn()
-            }
-            Sample::Glyph(g, c, r) => g.at((x + SAMPLE_PX / 2, y), r, c),
-        }
-    }
-}
+/// Fixed margins of a chart: above, below and left of it (the right one depends on the last x
+/// tick label).
+const MARGIN_TOP: u32 = 15;
+const MARGIN_BOTTOM: u32 = 5;
+const MARGIN_LEFT: u32 = 5;
 
-struct LegendEntry {
-    label: String,
-    sample: Sample,
-}
-
-/// A chart being drawn: the axes, the legend entries collected so far, and the pixels covered by
-/// data (sampled along curves) so the legend can go where it covers the least.
-pub(crate) struct Plot<'a, 'b> {
-    chart: ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>,
-    x: Axis,
-    y: Axis,
-    entries: Vec<LegendEntry>,
-    special_entries: Vec<LegendEntry>,
-    any_unstable: bool,
-    annotated: bool,
-    ink: Vec<Pixel>,
-}
-
-impl<'a, 'b> Plot<'a, 'b> {
-    /// Axes with tick labels and axis labels on `area`; grid lines at the ticks when `grid`.
-    ///
-    /// The label areas are sized from the actual tick labels and the margins leave room for the
-    /// last x label, so no text is cut off.
-    pub fn new(
-        area: &'a Area<'b>,
-        x: Axis,
-        y: Axis,
-        (x_label, y_label): (&str, &str),
-        grid: bool,
-    ) -> Result<Self> {
+impl Frame {
+    pub fn of(x: &Axis, y: &Axis, (x_label, y_label): (&str, &str)) -> Self {
         let desc = |label: &str| {
             if label.is_empty() {
                 0.0
@@ -166,13 +215,62 @@ impl<'a, 'b> Plot<'a, 'b> {
             + 8.0;
         let last_x_label = x.ticks().last().map_or(0, |(_, l)| l.chars().count());
         let right = (last_x_label as f64 * CHAR_WIDTH * TICK_PX / 2.0 + 8.0).max(20.0);
+        Frame {
+            right: right as u32,
+            x_area: x_label_area(x_label),
+            y_area: y_area as u32,
+        }
+    }
+
+    /// Width and height of the plot area on an area of `size` pixels.
+    pub fn plot_size(&self, (w, h): (u32, u32)) -> (f64, f64) {
+        let w = f64::from(w) - f64::from(MARGIN_LEFT + self.right + self.y_area);
+        let h = f64::from(h) - f64::from(MARGIN_TOP + MARGIN_BOTTOM + self.x_area);
+        (w.max(1.0), h.max(1.0))
+    }
+}
+
+/// A chart being drawn: the axes, the legend entries collected so far, and the boxes covered by
+/// data so the legend and the annotation can go where they cover none.
+pub(crate) struct Plot<'a, 'b> {
+    pub(super) chart: ChartContext<'a, SVGBackend<'b>, Cartesian2d<Axis, Axis>>,
+    x: Axis,
+    y: Axis,
+    pub(super) entries: Vec<LegendEntry>,
+    pub(super) special_entries: Vec<LegendEntry>,
+    pub(super) any_unstable: bool,
+    /// Boxes covering the data drawn so far, in pixels of the SVG.
+    pub(super) data: Vec<Rect>,
+    /// The whole panel below its title, for drawing the legend and annotation anywhere on it.
+    pub(super) canvas: Option<Area<'b>>,
+    /// The strip below the plot and what goes into it.
+    pub(super) strip: Option<Area<'b>>,
+    pub(super) below: Below,
+    /// The annotation's lines, drawn by [`Plot::finish`].
+    pub(super) annotation: Vec<String>,
+    pub(super) layout: Layout,
+}
+
+impl<'a, 'b> Plot<'a, 'b> {
+    /// Axes with tick labels and axis labels on `area`; grid lines at the ticks when `grid`.
+    ///
+    /// The label areas are sized from the actual tick labels and the margins leave room for the
+    /// last x label, so no text is cut off.
+    pub fn new(
+        area: &'a Area<'b>,
+        x: Axis,
+        y: Axis,
+        labels: (&str, &str),
+        grid: bool,
+    ) -> Result<Self> {
+        let frame = Frame::of(&x, &y, labels);
         let chart = ChartBuilder::on(area)
-            .margin_top(15)
-            .margin_bottom(5)
-            .margin_left(5)
-            .margin_right(right as u32)
-            .x_label_area_size(x_label_area(x_label))
-            .y_label_area_size(y_area as u32)
+            .margin_top(MARGIN_TOP)
+            .margin_bottom(MARGIN_BOTTOM)
+            .margin_left(MARGIN_LEFT)
+            .margin_right(frame.right)
+            .x_label_area_size(frame.x_area)
+            .y_label_area_size(frame.y_area)
             .build_cartesian_2d(x.clone(), y.clone())
             .map_err(drawing_error)?;
         let mut plot = Plot {
@@ -182,11 +280,54 @@ impl<'a, 'b> Plot<'a, 'b> {
             entries: Vec::new(),
             special_entries: Vec::new(),
             any_unstable: false,
-            annotated: false,
-            ink: Vec::new(),
+            data: Vec::new(),
+            canvas: None,
+            strip: None,
+            below: Below::default(),
+            annotation: Vec::new(),
+            layout: Layout::default(),
         };
-        plot.draw_axes(x_label, y_label, grid)?;
+        plot.layout.plot_area = plot.plot_rect();
+        plot.layout.px_per_unit = (plot.px_per_unit(true), plot.px_per_unit(false));
+        plot.draw_axes(labels.0, labels.1, grid)?;
         Ok(plot)
+    }
+
+    /// Where the legend and annotation may be drawn: `canvas` (the panel below its title), and
+    /// `strip` at its bottom for what `below` puts below the plot.
+    pub fn below(&mut self, canvas: &Area<'b>, strip: Option<Area<'b>>, below: Below) {
+        self.canvas = Some(canvas.clone());
+        self.strip = strip;
+        self.below = below;
+    }
+
+    /// The plot area in pixels of the SVG.
+    fn plot_rect(&self) -> Rect {
+        let area = self.chart.plotting_area();
+        let (x0, y0) = area.get_base_pixel();
+        let (w, h) = area.dim_in_pixel();
+        Rect::spanning((x0, y0), (x0 + w as i32 - 1, y0 + h as i32 - 1))
+    }
+
+    /// Pixels per data unit along x (`true`) or y on a linear axis; NaN on a log axis.
+    fn px_per_unit(&self, along_x: bool) -> f64 {
+        let (axis, other) = if along_x {
+            (&self.x, &self.y)
+        } else {
+            (&self.y, &self.x)
+        };
+        if axis.scale() != Scale::Linear {
+            return f64::NAN;
+        }
+        let (lo, hi) = axis.bounds();
+        let at = other.bounds().0;
+        let point = |v: f64| if along_x { (v, at) } else { (at, v) };
+        let (a, b) = (
+            self.chart.backend_coord(&point(lo)),
+            self.chart.backend_coord(&point(hi)),
+        );
+        let px = if along_x { b.0 - a.0 } else { a.1 - b.1 };
+        f64::from(px.abs()) / (hi - lo)
     }
 
     fn draw_axes(&mut self, x_label: &str, y_label: &str, grid: bool) -> Result<()> {
@@ -199,7 +340,7 @@ impl<'a, 'b> Plot<'a, 'b> {
             .label_style(font(TICK_PX))
             .axis_desc_style(font(AXIS_LABEL_PX))
             .axis_style(BLACK.stroke_width(1))
-            .bold_line_style(BLACK.mix(0.12).stroke_width(1));
+            .bold_line_style(BLACK.mix(GRID_OPACITY).stroke_width(1));
         if !grid {
             mesh.disable_mesh();
         }
@@ -217,13 +358,22 @@ impl<'a, 'b> Plot<'a, 'b> {
         &mut self.chart
     }
 
+    /// Notes that `rect` (pixels of the SVG) is covered by data.
+    pub(crate) fn cover(&mut self, rect: Rect) {
+        self.data.push(rect);
+    }
+
     /// Draws one series in `color` (see [`Series`] for the rules) and notes its legend entry.
+    /// Whatever lies outside the axes' ranges is cut at the frame.
     pub(crate) fn draw_series(&mut self, s: &Series, color: RGBColor) -> Result<()> {
         let stroke = color.stroke_width(LINE_WIDTH);
         let sample = match s.style {
             Style::Line | Style::Dashed => {
                 let bands = geometry::bands(s, &self.x, &self.y);
                 let band_fill = color.mix(BAND_OPACITY).filled();
+                for band in &bands {
+                    self.cover_band(band);
+                }
                 self.chart
                     .draw_series(bands.into_iter().map(|b| Polygon::new(b, band_fill)))
                     .map_err(drawing_error)?;
@@ -265,7 +415,31 @@ impl<'a, 'b> Plot<'a, 'b> {
         Ok(())
     }
 
-    /// Vertical bars with caps (the caps are fixed in pixels, so they are anchored at the ends).
+    /// Notes the area of a band (upper edge forwards, lower edge backwards) as covered, slice by
+    /// slice between neighbouring points.
+    fn cover_band(&mut self, band: &[Point]) {
+        let n = band.len() / 2;
+        let pixels: Vec<Pixel> = band.iter().map(|p| self.chart.backend_coord(p)).collect();
+        for k in 0..n.saturating_sub(1) {
+            let corners = [
+                pixels[k],
+                pixels[k + 1],
+                pixels[2 * n - 1 - k],
+                pixels[2 * n - 2 - k],
+            ];
+            let (xs, ys): (Vec<i32>, Vec<i32>) = corners.into_iter().unzip();
+            let rect = Rect {
+                x0: *xs.iter().min().unwrap_or(&0),
+                y0: *ys.iter().min().unwrap_or(&0),
+                x1: *xs.iter().max().unwrap_or(&0),
+                y1: *ys.iter().max().unwrap_or(&0),
+            };
+            self.data.push(rect);
+        }
+    }
+
+    /// Vertical bars with caps (the caps are fixed in pixels, so they are anchored at the ends);
+    /// an end cut at the frame gets no cap.
     fn draw_error_bars(&mut self, bars: &[geometry::ErrorBar], stroke: ShapeStyle) -> Result<()> {
         let bar = |b: &geometry::ErrorBar| PathElement::new(vec![(b.x, b.lo), (b.x, b.hi)], stroke);
         self.chart
@@ -273,7 +447,8 @@ impl<'a, 'b> Plot<'a, 'b> {
             .map_err(drawing_error)?;
         let ends = bars.iter().flat_map(|b| {
             let lower = (!b.cut).then_some((b.x, b.lo));
-            lower.into_iter().chain([(b.x, b.hi)])
+            let upper = (!b.cut_hi).then_some((b.x, b.hi));
+            lower.into_iter().chain(upper)
         });
         let cap = |at: Point| {
             EmptyElement::at(at) + PathElement::new(vec![(-CAP_PX, 0), (CAP_PX, 0)], stroke)
@@ -282,7 +457,12 @@ impl<'a, 'b> Plot<'a, 'b> {
             .draw_series(ends.map(cap))
             .map_err(drawing_error)?;
         for b in bars {
-            self.record_line(&[(b.x, b.lo), (b.x, b.hi)]);
+            let (lo, hi) = (
+                self.chart.backend_coord(&(b.x, b.lo)),
+                self.chart.backend_coord(&(b.x, b.hi)),
+            );
+            self.data
+                .push(Rect::spanning(lo, hi).inflate(CAP_PX.max(LINE_WIDTH as i32)));
         }
         Ok(())
     }
@@ -303,14 +483,15 @@ impl<'a, 'b> Plot<'a, 'b> {
                 .draw(&glyph.at(*p, r, color))
                 .map_err(drawing_error)?;
             let pixel = self.chart.backend_coord(p);
-            self.ink.push(pixel);
+            self.data
+                .push(Rect::spanning(pixel, pixel).inflate(glyph.reach(r)));
         }
         Ok(())
     }
 
     /// Draws the special points in black, one glyph per distinct label (in order of first
     /// appearance), each label once in the legend.
-    fn draw_special_points(&mut self, markers: &[Marker]) -> Result<()> {
+    pub(crate) fn draw_special_points(&mut self, markers: &[Marker]) -> Result<()> {
         let mut groups: Vec<(&str, Vec<Point>)> = Vec::new();
         for m in markers {
             let i = match groups.iter().position(|(label, _)| *label == m.label) {
@@ -320,7 +501,7 @@ impl<'a, 'b> Plot<'a, 'b> {
                     groups.len() - 1
                 }
             };
-            if self.x.shows(m.x) && self.y.shows(m.y) {
+            if self.x.contains(m.x) && self.y.contains(m.y) {
                 groups[i].1.push((m.x, m.y));
             }
         }
@@ -337,151 +518,9 @@ impl<'a, 'b> Plot<'a, 'b> {
         Ok(())
     }
 
-    /// Writes `text` (one line per `\n`) in the upper-left corner of the plot area, on a
-    /// translucent white box so it stays legible over data.
-    fn annotate(&mut self, text: &str) -> Result<()> {
-        let lines: Vec<&str> = text.lines().collect();
-        if lines.iter().all(|l| l.trim().is_empty()) {
-            return Ok(());
-        }
-        let area = self.chart.plotting_area().strip_coord_spec();
-        let line_px = 1.3 * ANNOTATION_PX;
-        let widest = lines.iter().map(|l| l.chars().count()).max().unwrap_or(0);
-        let (w, h) = (
-            widest as f64 * CHAR_WIDTH * ANNOTATION_PX + 12.0,
-            lines.len() as f64 * line_px + 8.0,
-        );
-        area.draw(&Rectangle::new(
-            [(4, 4), (4 + w as i32, 4 + h as i32)],
-            WHITE.mix(0.85).filled(),
-        ))
-        .map_err(drawing_error)?;
-        let style = font(ANNOTATION_PX).pos(Pos::new(HPos::Left, VPos::Top));
-        for (k, line) in lines.into_iter().enumerate() {
-            let y = 8 + (k as f64 * line_px) as i32;
-            area.draw(&Text::new(line, (10, y), &style))
-                .map_err(drawing_error)?;
-        }
-        self.annotated = true;
-        Ok(())
-    }
-
-    /// Notes the pixels covered by a curve through `points`, sampled every few pixels.
+    /// Notes the pixels covered by a curve through `points`.
     fn record_line(&mut self, points: &[Point]) {
         let pixels: Vec<Pixel> = points.iter().map(|p| self.chart.backend_coord(p)).collect();
-        if let [p] = pixels[..] {
-            self.ink.push(p);
-        }
-        for pair in pixels.windows(2) {
-            let ((x0, y0), (x1, y1)) = (pair[0], pair[1]);
-            let len = f64::from(x1 - x0).hypot(f64::from(y1 - y0));
-            let steps = (len / 4.0).ceil().clamp(1.0, 1000.0) as i32;
-            self.ink.extend(
-                (0..=steps).map(|k| (x0 + (x1 - x0) * k / steps, y0 + (y1 - y0) * k / steps)),
-            );
-        }
-    }
-
-    /// Draws the legend if it has at least `min_entries` entries (or any special point, whose
-    /// meaning only the legend gives): series in order, then "unstable (dashed)" if any series
-    /// has an unstable run, then the special points.
-    ///
-    /// The legend is laid out here rather than by `plotters`' series labels, so its box is the
-    /// one [`Plot::legend_corner`] placed, and samples can be any element.
-    pub(crate) fn finish(mut self, min_entries: usize) -> Result<()> {
-        if self.any_unstable {
-            self.entries.push(LegendEntry {
-                label: UNSTABLE_LABEL.to_owned(),
-                sample: Sample::Dashed(NEUTRAL),
-            });
-        }
-        let has_specials = !self.special_entries.is_empty();
-        self.entries.append(&mut self.special_entries);
-        if self.entries.len() < min_entries && !has_specials {
-            return Ok(());
-        }
-        let (w, h) = self.legend_size();
-        let (x0, y0) = self.legend_corner((w, h));
-        let area = self.chart.plotting_area().strip_coord_spec();
-        let frame = [(x0, y0), (x0 + w, y0 + h)];
-        area.draw(&Rectangle::new(frame, WHITE.mix(0.9).filled()))
-            .map_err(drawing_error)?;
-        area.draw(&Rectangle::new(frame, BLACK.mix(0.4).stroke_width(1)))
-            .map_err(drawing_error)?;
-        let style = font(LEGEND_PX).pos(Pos::new(HPos::Left, VPos::Center));
-        for (k, entry) in self.entries.iter().enumerate() {
-            let y = y0 + LEGEND_MARGIN + (LEGEND_ROW_PX * (k as f64 + 0.5)) as i32;
-            let x = x0 + LEGEND_MARGIN;
-            area.draw(&entry.sample.element((x, y)))
-                .map_err(drawing_error)?;
-            area.draw(&Text::new(
-                entry.label.as_str(),
-                (x + LEGEND_SAMPLE_AREA, y),
-                &style,
-            ))
-            .map_err(drawing_error)?;
-        }
-        Ok(())
-    }
-
-    /// Width and height of the legend box in pixels.
-    fn legend_size(&self) -> (i32, i32) {
-        let widest = self
-            .entries
-            .iter()
-            .map(|e| e.label.chars().count())
-            .max()
-            .unwrap_or(0);
-        let text = widest as f64 * CHAR_WIDTH * LEGEND_PX;
-        (
-            text as i32 + LEGEND_SAMPLE_AREA + 2 * LEGEND_MARGIN,
-            (self.entries.len() as f64 * LEGEND_ROW_PX) as i32 + 2 * LEGEND_MARGIN,
-        )
-    }
-
-    /// Upper-left corner (in plot-area pixels) of the legend box of size `(w, h)`: the place
-    /// where it covers the fewest data pixels among the corners of the plot area and, after
-    /// them, the middles of its sides (for data that reach into every corner); ties go to upper
-    /// right, upper left, lower right, lower left, then the middles of the left, right, top and
-    /// bottom sides, in that order. The upper left is not used when it holds the annotation.
-    fn legend_corner(&self, (w, h): (i32, i32)) -> Pixel {
-        let area = self.chart.plotting_area();
-        let (base_x, base_y) = area.get_base_pixel();
-        let (aw, ah) = area.dim_in_pixel();
-        let inset = 6;
-        let (left, top) = (inset, inset);
-        let (right, bottom) = (aw as i32 - w - inset, ah as i32 - h - inset);
-        let upper_left = (left, top);
-        let covered = |(x0, y0): Pixel| {
-            self.ink
-                .iter()
-                .filter(|&&(x, y)| {
-                    let (x, y) = (x - base_x, y - base_y);
-                    x >= x0 && x <= x0 + w && y >= y0 && y <= y0 + h
-                })
-                .count()
-        };
-        let (middle_x, middle_y) = ((left + right) / 2, (top + bottom) / 2);
-        [
-            (right, top),
-            upper_left,
-            (right, bottom),
-            (left, bottom),
-            (left, middle_y),
-            (right, middle_y),
-            (middle_x, top),
-            (middle_x, bottom),
-        ]
-        .into_iter()
-        .filter(|&corner| !(self.annotated && corner == upper_left))
-        .min_by_key(|&corner| covered(corner))
-        .unwrap_or((right, top))
+        self.data.extend(stroke_boxes(&pixels, LINE_WIDTH as i32));
     }
 }
-
-/// Padding inside the legend box, in pixels.
-const LEGEND_MARGIN: i32 = 8;
-/// Height of one legend row.
-const LEGEND_ROW_PX: f64 = 1.3 * LEGEND_PX;
-/// Width reserved for the sample in front of each legend label.
-const LEGEND_SAMPLE_AREA: i32 = SAMPLE_PX + 10;

@@ -23,14 +23,29 @@ pub(crate) struct ErrorBar {
     pub x: f64,
     pub lo: f64,
     pub hi: f64,
-    /// The lower end was cut at the bottom of a log axis, so it must not get a cap (a cap would
-    /// claim the error ends there).
+    /// The lower end was cut at the bottom of the axis (below its range, or at or below zero on
+    /// a log axis), so it must not get a cap (a cap would claim the error ends there).
     pub cut: bool,
+    /// The upper end was cut at the top of the axis.
+    pub cut_hi: bool,
 }
 
 /// Whether point `i` of `s` can be drawn on these axes.
 fn shown(s: &Series, i: usize, xa: &Axis, ya: &Axis) -> bool {
     xa.shows(s.x[i]) && ya.shows(s.y[i])
+}
+
+/// `v` moved into the range of `axis` (a value it cannot show goes to the bottom), and whether
+/// it had to be moved.
+fn clamp(axis: &Axis, v: f64) -> (f64, bool) {
+    let (lo, hi) = axis.bounds();
+    if !axis.shows(v) || v < lo {
+        (lo, true)
+    } else if v > hi {
+        (hi, true)
+    } else {
+        (v, false)
+    }
 }
 
 /// The error of point `i`, if the series has one that can be drawn.
@@ -61,7 +76,7 @@ fn stretches(n: usize, keep: impl Fn(usize) -> bool) -> Vec<Vec<usize>> {
 /// The points of `s` that can be drawn on these axes, in order.
 pub fn points(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Point> {
     (0..s.x.len())
-        .filter(|&i| shown(s, i, xa, ya))
+        .filter(|&i| xa.contains(s.x[i]) && ya.contains(s.y[i]))
         .map(|i| (s.x[i], s.y[i]))
         .collect()
 }
@@ -72,7 +87,7 @@ pub fn points(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Point> {
 /// series is dashed where `stable` is false, and where stability changes between two points the
 /// runs meet at the midpoint between them (as seen on the axes), so the curve stays connected.
 /// A run of a single point is returned as such; the caller draws it (like any run that stays on
-/// one point) as a dot, so it is not lost.
+/// one point) as a dot, so it is not lost. Runs are cut where they leave the axes' ranges.
 pub(crate) fn line_runs(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Run> {
     let dashed = |i: usize| match s.style {
         Style::Dashed => true,
@@ -101,12 +116,93 @@ pub(crate) fn line_runs(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Run> {
         }
         runs.push(run);
     }
-    runs
+    runs.into_iter()
+        .flat_map(|run| {
+            clip(&run.points, xa, ya)
+                .into_iter()
+                .map(move |points| Run {
+                    points,
+                    dashed: run.dashed,
+                })
+        })
+        .collect()
+}
+
+/// The pieces of the polyline `points` within the axes' ranges: a segment that leaves them is
+/// cut where it crosses the frame (found in axis fractions, so on log axes too).
+fn clip(points: &[Point], xa: &Axis, ya: &Axis) -> Vec<Vec<Point>> {
+    const EPS: f64 = 1e-9;
+    let frac = |p: Point| (xa.fraction(p.0), ya.fraction(p.1));
+    let inside =
+        |(u, v): (f64, f64)| (-EPS..=1.0 + EPS).contains(&u) && (-EPS..=1.0 + EPS).contains(&v);
+    if points.iter().all(|p| inside(frac(*p))) {
+        return vec![points.to_vec()];
+    }
+    if points.len() < 2 {
+        return Vec::new();
+    }
+    let back = |(u, v): (f64, f64)| (xa.at_fraction(u), ya.at_fraction(v));
+    let mut pieces = Vec::new();
+    let mut current: Vec<Point> = Vec::new();
+    for pair in points.windows(2) {
+        let (a, b) = (frac(pair[0]), frac(pair[1]));
+        let Some((t0, t1)) = liang_barsky(a, b, -EPS, 1.0 + EPS) else {
+            if current.len() >= 2 {
+                pieces.push(std::mem::take(&mut current));
+            }
+            current.clear();
+            continue;
+        };
+        let at = |t: f64| (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+        let start = if t0 > 0.0 { back(at(t0)) } else { pair[0] };
+        let end = if t1 < 1.0 { back(at(t1)) } else { pair[1] };
+        if t0 > 0.0 || current.is_empty() {
+            if current.len() >= 2 {
+                pieces.push(std::mem::take(&mut current));
+            }
+            current = vec![start];
+        }
+        current.push(end);
+        if t1 < 1.0 {
+            pieces.push(std::mem::take(&mut current));
+        }
+    }
+    if current.len() >= 2 {
+        pieces.push(current);
+    }
+    pieces
+}
+
+/// The part `t0..t1` of the segment from `a` to `b` inside the square `lo..=hi` in both
+/// coordinates (Liang–Barsky); `None` if it misses the square.
+fn liang_barsky(a: (f64, f64), b: (f64, f64), lo: f64, hi: f64) -> Option<(f64, f64)> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 - lo),
+        (dx, hi - a.0),
+        (-dy, a.1 - lo),
+        (dy, hi - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    (t0 <= t1 && t0.is_finite() && t1.is_finite()).then_some((t0, t1))
 }
 
 /// Outlines of the ±err band around a Line series: one polygon per stretch of at least two
-/// points with a drawable error (upper edge forwards, lower edge backwards). On a log axis the
-/// lower edge is cut at the bottom of the axis where y − err ≤ 0.
+/// points with a drawable error (upper edge forwards, lower edge backwards). The edges are cut at
+/// the ends of the y axis (on a log axis the lower edge at the bottom where y − err ≤ 0).
 pub fn bands(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Vec<Point>> {
     let keep = |i: usize| shown(s, i, xa, ya) && error(s, i).is_some_and(|e| ya.shows(s.y[i] + e));
     stretches(s.x.len(), keep)
@@ -115,29 +211,31 @@ pub fn bands(s: &Series, xa: &Axis, ya: &Axis) -> Vec<Vec<Point>> {
         .map(|stretch| {
             let upper = stretch
                 .iter()
-                .map(|&i| (s.x[i], s.y[i] + error(s, i).unwrap_or(0.0)));
+                .map(|&i| (s.x[i], clamp(ya, s.y[i] + error(s, i).unwrap_or(0.0)).0));
             let lower = stretch
                 .iter()
                 .rev()
-                .map(|&i| (s.x[i], ya.or_bottom(s.y[i] - error(s, i).unwrap_or(0.0))));
+                .map(|&i| (s.x[i], clamp(ya, s.y[i] - error(s, i).unwrap_or(0.0)).0));
             upper.chain(lower).collect()
         })
         .collect()
 }
 
 /// Vertical error bars of a Markers series, for the drawable points with a drawable error.
-/// On a log axis the lower end is cut at the bottom of the axis where y − err ≤ 0.
+/// Ends beyond the y axis' range are cut at its ends (on a log axis the lower end at the
+/// bottom where y − err ≤ 0).
 pub(crate) fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
     (0..s.x.len())
-        .filter(|&i| shown(s, i, xa, ya))
+        .filter(|&i| xa.contains(s.x[i]) && ya.contains(s.y[i]))
         .filter_map(|i| {
             let e = error(s, i)?;
-            let (hi, lo) = (s.y[i] + e, s.y[i] - e);
-            ya.shows(hi).then(|| ErrorBar {
+            let ((hi, cut_hi), (lo, cut)) = (clamp(ya, s.y[i] + e), clamp(ya, s.y[i] - e));
+            Some(ErrorBar {
                 x: s.x[i],
-                lo: ya.or_bottom(lo),
+                lo,
                 hi,
-                cut: !ya.shows(lo),
+                cut,
+                cut_hi,
             })
         })
         .collect()
@@ -160,6 +258,26 @@ pub(crate) fn extent(s: &Series) -> (Vec<f64>, Vec<f64>) {
 mod tests {
     use super::super::{MarkerShape, Scale};
     use super::*;
+
+    #[test]
+    fn lines_are_cut_at_the_frame() {
+        let xa = Axis::fit(Scale::Linear, [0.0, 10.0], 0.0, 5);
+        let ya = Axis::fit(Scale::Linear, [0.0, 1.0], 0.0, 5);
+        // Up through the top at x = 1.5, back in at x = 3.5, out through the right side.
+        let pieces = clip(
+            &[(0.0, 0.0), (2.0, 2.0), (3.0, 2.0), (4.0, 0.0), (12.0, 0.5)],
+            &xa,
+            &ya,
+        );
+        assert_eq!(pieces.len(), 2, "{pieces:?}");
+        let last = |p: &Vec<Point>| *p.last().unwrap();
+        // The frame is widened by 1e-9 of the axis' length, so crossings lie that close to it.
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-7;
+        assert!(near(last(&pieces[0]).0, 1.0) && near(last(&pieces[0]).1, 1.0));
+        assert!(near(pieces[1][0].0, 3.5));
+        assert!(near(last(&pieces[1]).0, 10.0));
+        assert!(clip(&[(20.0, 0.5), (30.0, 0.5)], &xa, &ya).is_empty());
+    }
 
     fn axis(scale: Scale) -> Axis {
         Axis::fit(scale, [1.0, 100.0], 0.0, 5)
@@ -223,6 +341,7 @@ mod tests {
             lo,
             hi: 25.0,
             cut,
+            cut_hi: false,
         };
         assert_eq!(
             error_bars(&s, &lin, &log),

@@ -4,8 +4,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axis::Axis;
-use super::figure::{Plot, TICK_MARK_PX, fit_x, tick_budget, titled, x_label_area};
-use super::geometry;
+use super::figure::{Plot, TICK_MARK_PX, fit_x, split_below, tick_budget, titled, x_label_area};
+use super::layout::{Below, Layout, Rect};
 use super::style::{AXIS_LABEL_PX, CHAR_WIDTH, TICK_PX, font, overlay_color};
 use super::{Area, Heatmap, Scale, drawing_error};
 use crate::Result;
@@ -26,8 +26,6 @@ const VIRIDIS: [(u8, u8, u8); 10] = [
     (0xFD, 0xE7, 0x25),
 ];
 
-/// Number of bands the colour bar is drawn with: enough to look continuous.
-const COLORBAR_STEPS: usize = 64;
 /// Width of the colour bar itself and the gap between it and the map, in pixels.
 const COLORBAR_PX: u32 = 24;
 const COLORBAR_GAP_PX: u32 = 20;
@@ -70,10 +68,13 @@ fn viridis(t: f64) -> RGBColor {
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
-/// Draws `map` filling `area`: the map with its overlays on the left, the colour bar on the
-/// right. The colour scale spans exactly the finite values of `z`.
-pub(crate) fn draw(area: &Area, map: &Heatmap) -> Result<()> {
-    let area = titled(area, &map.title)?;
+/// Draws `map` filling `area`, with room below for what `below` holds: the map with its
+/// overlays on the left, the colour bar on the right. The axes span exactly the map's cells
+/// (overlays reaching beyond them are cut at the frame); the colour scale spans exactly the
+/// finite values of `z`.
+pub(crate) fn draw(area: &Area, map: &Heatmap, below: Below) -> Result<Layout> {
+    let titled_area = titled(area, &map.title)?;
+    let (area, strip) = split_below(&titled_area, &below);
     let (x_ticks, y_ticks) = tick_budget(&area);
     let z_axis = Axis::fit(Scale::Linear, map.z.iter().flatten().copied(), 0.0, y_ticks);
     let label_px = f64::from(2 * TICK_MARK_PX)
@@ -89,35 +90,20 @@ pub(crate) fn draw(area: &Area, map: &Heatmap) -> Result<()> {
     let (main, bar) = area.split_horizontally(width.saturating_sub(bar_area_px));
 
     let (x_edges, y_edges) = (edges(&map.x), edges(&map.y));
-    let (mut xs, mut ys) = (x_edges.clone(), y_edges.clone());
-    for (x, y) in map.overlays.iter().map(geometry::extent) {
-        xs.extend(x);
-        ys.extend(y);
-    }
     let x_axis = fit_x(
-        |n| Axis::fit(Scale::Linear, xs.iter().copied(), 0.0, n),
+        |n| Axis::fit(Scale::Linear, x_edges.iter().copied(), 0.0, n),
         x_ticks,
         &main,
     );
-    let y_axis = Axis::fit(Scale::Linear, ys, 0.0, y_ticks);
+    let y_axis = Axis::fit(Scale::Linear, y_edges.iter().copied(), 0.0, y_ticks);
 
     let mut plot = Plot::new(&main, x_axis, y_axis, (&map.x_label, &map.y_label), false)?;
-    let color = |z: f64| viridis(z_axis.fraction(z));
-    let cells = map.z.iter().enumerate().flat_map(|(i, row)| {
-        let (y0, y1) = (y_edges[i], y_edges[i + 1]);
-        let x_edges = &x_edges;
-        row.iter()
-            .enumerate()
-            .filter(|(_, z)| z.is_finite())
-            .map(move |(j, &z)| {
-                Rectangle::new([(x_edges[j], y0), (x_edges[j + 1], y1)], color(z).filled())
-            })
-    });
-    plot.chart().draw_series(cells).map_err(drawing_error)?;
+    plot.below(&titled_area, strip, below);
+    draw_cells(&mut plot, map, &z_axis, (&x_edges, &y_edges))?;
     for (i, s) in map.overlays.iter().enumerate() {
         plot.draw_series(s, overlay_color(i))?;
     }
-    plot.finish(1)?;
+    let layout = plot.finish(1)?;
 
     draw_colorbar(
         &bar,
@@ -125,10 +111,114 @@ pub(crate) fn draw(area: &Area, map: &Heatmap) -> Result<()> {
         &map.colorbar_label,
         &map.x_label,
         label_px as u32,
-    )
+    )?;
+    Ok(layout)
 }
 
-/// The colour bar: `COLORBAR_STEPS` bands from the bottom to the top of `z_axis`, framed, with
+/// The cells of the map, in pixels: each reaches one pixel into its right and lower neighbours
+/// (which are drawn after it, over that pixel), so no renderer leaves a hairline seam between
+/// cells at any zoom; the map stays inside the plot area.
+fn draw_cells(
+    plot: &mut Plot,
+    map: &Heatmap,
+    z_axis: &Axis,
+    edges: (&[f64], &[f64]),
+) -> Result<()> {
+    let (x_edges, y_edges) = edges;
+    if x_edges.is_empty() || y_edges.is_empty() {
+        return Ok(());
+    }
+    let frame = plot.chart().plotting_area().strip_coord_spec();
+    let (bx, by) = frame.get_base_pixel();
+    let (fw, fh) = frame.dim_in_pixel();
+    let inside = Rect::spanning((bx, by), (bx + fw as i32 - 1, by + fh as i32 - 1));
+    let mut cells = Vec::new();
+    let mut covered = Vec::new();
+    // Rows from the top of the image down and columns from left to right, so each cell's
+    // overlap falls under the cell drawn next.
+    let mut rows: Vec<usize> = (0..map.y.len()).collect();
+    let mut columns: Vec<usize> = (0..map.x.len()).collect();
+    let pixel = |x: f64, y: f64| plot.chart.backend_coord(&(x, y));
+    let top_first = pixel(0.0, y_edges[0]).1 > pixel(0.0, y_edges[y_edges.len() - 1]).1;
+    if top_first {
+        rows.reverse();
+    }
+    let left_first = pixel(x_edges[0], 0.0).0 < pixel(x_edges[x_edges.len() - 1], 0.0).0;
+    if !left_first {
+        columns.reverse();
+    }
+    // Pixel row of the centre of each row of the map.
+    let centre: Vec<i32> = map.y.iter().map(|&y| pixel(x_edges[0], y).1).collect();
+    for &i in &rows {
+        for &j in &columns {
+            let z = map.z[i][j];
+            if !z.is_finite() {
+                continue;
+            }
+            let cell = Rect::spanning(
+                pixel(x_edges[j], y_edges[i]),
+                pixel(x_edges[j + 1], y_edges[i + 1]),
+            );
+            let grown = Rect {
+                x0: cell.x0,
+                y0: cell.y0,
+                x1: (cell.x1 + 1).min(inside.x1),
+                y1: (cell.y1 + 1).min(inside.y1),
+            };
+            if !map.smooth_y {
+                cells.push((grown, viridis(z_axis.fraction(z))));
+                covered.push(grown);
+                continue;
+            }
+            // The value at pixel row `py`: towards the neighbouring row on its side.
+            let at = |py: i32| {
+                let toward = [i.wrapping_sub(1), i + 1]
+                    .into_iter()
+                    .filter(|&k| k < map.y.len())
+                    .find(|&k| (centre[k] - centre[i]) * (py - centre[i]) > 0);
+                match toward.map(|k| (k, map.z[k][j])) {
+                    Some((k, zk)) if zk.is_finite() => {
+                        let t = f64::from(py - centre[i]) / f64::from(centre[k] - centre[i]);
+                        z + t.clamp(0.0, 1.0) * (zk - z)
+                    }
+                    _ => z,
+                }
+            };
+            // Runs of pixel rows of one colour, each one pixel taller than it is (the next run
+            // covers the extra pixel).
+            let mut py = grown.y0;
+            while py < grown.y1 {
+                let color = viridis(z_axis.fraction(at(py)));
+                let mut end = py + 1;
+                while end < grown.y1 && viridis(z_axis.fraction(at(end))) == color {
+                    end += 1;
+                }
+                let strip = Rect {
+                    y0: py,
+                    y1: end.min(grown.y1),
+                    ..grown
+                };
+                cells.push((strip, color));
+                py = end;
+            }
+            covered.push(grown);
+        }
+    }
+    for (rect, color) in cells {
+        frame
+            .draw(&Rectangle::new(
+                [(rect.x0 - bx, rect.y0 - by), (rect.x1 - bx, rect.y1 - by)],
+                color.filled(),
+            ))
+            .map_err(drawing_error)?;
+    }
+    for rect in covered {
+        plot.cover(rect);
+    }
+    Ok(())
+}
+
+/// The colour bar: one band per pixel row from the bottom to the top of `z_axis`, framed, with
 /// ticks and `label` on its right. Its vertical margins match the map's so both line up.
 fn draw_colorbar(
     area: &Area,
@@ -175,16 +265,21 @@ fn draw_colorbar(
         .map_err(drawing_error)?;
     }
 
-    // Interpolated without forming z_hi - z_lo, which overflows for extreme ranges.
-    let z_at = |k: usize| {
-        let t = k as f64 / COLORBAR_STEPS as f64;
-        z_lo * (1.0 - t) + z_hi * t
-    };
-    let bands = (0..COLORBAR_STEPS).map(|k| {
-        let t = (k as f64 + 0.5) / COLORBAR_STEPS as f64;
-        Rectangle::new([(0.0, z_at(k)), (1.0, z_at(k + 1))], viridis(t).filled())
-    });
-    chart.draw_series(bands).map_err(drawing_error)?;
+    // One band per pixel row, each one pixel taller than its row (the next band covers the
+    // extra pixel), so the bar is smooth and seamless.
+    let bar = chart.plotting_area().strip_coord_spec();
+    let (w, h) = bar.dim_in_pixel();
+    let (w, h) = (w as i32, h as i32);
+    for row in 0..h {
+        // Row 0 is the top of the bar, at z_hi.
+        let t = 1.0 - (f64::from(row) + 0.5) / f64::from(h);
+        let bottom = (row + 1).min(h - 1);
+        bar.draw(&Rectangle::new(
+            [(0, row), (w - 1, bottom)],
+            viridis(t).filled(),
+        ))
+        .map_err(drawing_error)?;
+    }
     chart
         .draw_series([Rectangle::new(
             [(0.0, z_lo), (1.0, z_hi)],

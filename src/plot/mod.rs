@@ -1,12 +1,31 @@
-//! Publication-ready SVG figures: branch diagrams, scatter plots with error bars, phase-diagram
-//! heat maps, and side-by-side panels.
+//! Publication-ready figures: branch diagrams, scatter plots with error bars, phase-diagram
+//! heat maps, and side-by-side panels, each written as an SVG and, beside it, a PNG of the same
+//! name.
 //!
 //! Everything is drawn with `plotters`' SVG backend, so text stays real `<text>` elements that
-//! journals' and editors' tools can restyle (no font files are needed to write a figure). The
-//! defaults aim at a figure that can go into a paper unchanged: white background, 16–20 px
-//! sans-serif text, axis labels with their units as given, the colour-blind-safe Okabe–Ito
-//! palette, a legend whenever there is more than one thing to tell apart, and margins sized from
-//! the actual tick labels so nothing is cut off.
+//! journals' and editors' tools can restyle. The defaults aim at a figure that can go into a
+//! paper unchanged: white background, 16–20 px sans-serif text, axis labels with their units as
+//! given (Unicode math such as ω, λ, F̄ₚ, ℓ² is written as it is), the colour-blind-safe
+//! Okabe–Ito palette, a legend whenever there is more than one thing to tell apart, with each
+//! series' own line or marker, and margins sized from the actual tick labels so nothing is cut
+//! off. All of it (font, sizes, colours, widths, dashes, markers) comes from one style module.
+//!
+//! # Legend and annotation
+//! The legend and the annotation each go in a box that covers no data: the first free one of
+//! the corners and side middles of the plot area, then of the positions along its sides; the
+//! legend avoids the annotation too. When no such place exists (a heat map fills its plot area),
+//! the figure is drawn again with a strip below the plot that holds the box. [`Layout`] tells
+//! where everything went ([`render_figure`] and its siblings return it), so tests can check that
+//! no box covers data.
+//!
+//! # PNG
+//! The PNG is the SVG rendered by `resvg` (pure Rust: `usvg` parses, `tiny-skia` rasterises,
+//! text is shaped by `harfrust`) with DejaVu Sans embedded in the binary as the only font, at
+//! [`PNG_SCALE`] pixels per SVG pixel. So the PNG shows exactly what the SVG says, combining
+//! marks and all, on any machine, with no system library or installed font (no fontconfig).
+//! `plotters`' own bitmap backend was the alternative: it would draw every figure a second time
+//! through `ab_glyph`, which places glyphs without their side bearings (a combining macron lands
+//! beside its letter, not over it) and sizes text differently from the SVG.
 //!
 //! Data are never trusted to be clean: non-finite values are skipped (a line is broken at them),
 //! on logarithmic axes non-positive values are skipped too, and a range of all-equal values is
@@ -37,15 +56,20 @@ mod axis;
 mod figure;
 mod geometry;
 mod heatmap;
+mod layout;
+mod legend;
+mod png;
 mod style;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
 use crate::{Error, Result};
 
-pub use style::{DASH_PX, GAP_PX};
+use layout::Below;
+pub use layout::{Layout, Rect};
+pub use style::{DASH_PX, GAP_PX, PNG_SCALE, missing_glyphs};
 
 /// How a curve is drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,9 +143,17 @@ pub struct Figure {
     pub y_scale: Scale,
     pub series: Vec<Series>,
     pub markers: Vec<Marker>,
-    /// Free text drawn in the upper-left corner of the plot area (e.g. "m = 0.62 +- 0.03");
+    /// Free text in a box where it covers no data, upper left if free (e.g. "m = 0.62 ± 0.03");
     /// each `\n` starts a new line.
     pub annotation: Option<String>,
+    /// One unit spans as many pixels along x as along y (linear axes only), the range of the
+    /// axis with the longer unit widened to match: for shapes in space.
+    pub equal_scale: bool,
+    /// No legend, e.g. on all but one of panels that show the same curves.
+    pub hide_legend: bool,
+    /// The y range shown, instead of one fitted to the data; whatever lies beyond it is cut at
+    /// the frame (lines are drawn up to it, markers beyond it are left out).
+    pub y_range: Option<(f64, f64)>,
 }
 
 /// A colour map over a regular grid (phase diagrams): `z[i][j]` at `(x[j], y[i])`; NaN cells left blank.
@@ -141,6 +173,10 @@ pub struct Heatmap {
     /// Curves drawn over the map (e.g. a stability boundary) and labelled points/ranges (Markers
     /// series with err bars allowed).
     pub overlays: Vec<Series>,
+    /// Colours interpolated linearly along y between the centres of neighbouring rows of a
+    /// column (where both are finite), one pixel row at a time: for a map sampled finely in y,
+    /// whose rows would otherwise show as bands. Columns stay apart.
+    pub smooth_y: bool,
 }
 
 /// Size of the SVG written by [`write_figure`] and [`write_heatmap`], in pixels.
@@ -150,9 +186,33 @@ const DEFAULT_SIZE: (u32, u32) = (800, 600);
 /// longer fit beside a usable plot area.
 const MIN_PANEL_SIZE: (u32, u32) = (300, 240);
 
-/// Several figures side by side in one SVG (e.g. two orthogonal camera views of a rod shape),
-/// each panel with its own axes. `size` is the size of the whole SVG, shared evenly.
-pub fn write_panels(panels: &[Figure], path: &Path, size: (u32, u32)) -> Result<()> {
+/// A figure drawn in memory: the SVG text and where things went on each panel.
+#[derive(Clone, Debug)]
+pub struct Drawing {
+    pub svg: String,
+    /// One layout per panel (one for a single figure or heat map).
+    pub layouts: Vec<Layout>,
+}
+
+impl Drawing {
+    /// Writes the SVG to `path` and the PNG beside it ([`png_path`]).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, &self.svg).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        png::write(&self.svg, &png_path(path))
+    }
+}
+
+/// Where the PNG of the figure written to `svg` goes: the same name with `.png`.
+pub fn png_path(svg: &Path) -> PathBuf {
+    svg.with_extension("png")
+}
+
+/// Several figures side by side (e.g. two orthogonal camera views of a rod shape), each panel
+/// with its own axes. `size` is the size of the whole figure, shared evenly.
+pub fn render_panels(panels: &[Figure], size: (u32, u32)) -> Result<Drawing> {
     if panels.is_empty() {
         return Err(Error::input("panels", "no figure to draw"));
     }
@@ -173,45 +233,84 @@ pub fn write_panels(panels: &[Figure], path: &Path, size: (u32, u32)) -> Result<
     for (i, fig) in panels.iter().enumerate() {
         fig.validate(&format!("panels[{i}]"))?;
     }
-    render(path, size, |root| {
-        for (area, fig) in root.split_evenly((1, panels.len())).iter().zip(panels) {
-            figure::draw(area, fig)?;
-        }
-        Ok(())
+    render(size, panels.len(), |root, below| {
+        root.split_evenly((1, panels.len()))
+            .iter()
+            .zip(panels)
+            .zip(below)
+            .map(|((area, fig), below)| figure::draw(area, fig, *below))
+            .collect()
     })
 }
 
-/// Writes `fig` as an SVG of [`DEFAULT_SIZE`].
-pub fn write_figure(fig: &Figure, path: &Path) -> Result<()> {
+/// `fig` drawn in memory at [`DEFAULT_SIZE`].
+pub fn render_figure(fig: &Figure) -> Result<Drawing> {
     fig.validate("figure")?;
-    render(path, DEFAULT_SIZE, |root| figure::draw(root, fig))
+    render(DEFAULT_SIZE, 1, |root, below| {
+        Ok(vec![figure::draw(root, fig, below[0])?])
+    })
 }
 
-/// Writes `map` with its colour bar as an SVG of [`DEFAULT_SIZE`].
-pub fn write_heatmap(map: &Heatmap, path: &Path) -> Result<()> {
+/// `map` with its colour bar drawn in memory at [`DEFAULT_SIZE`].
+pub fn render_heatmap(map: &Heatmap) -> Result<Drawing> {
     map.validate()?;
-    render(path, DEFAULT_SIZE, |root| heatmap::draw(root, map))
+    render(DEFAULT_SIZE, 1, |root, below| {
+        Ok(vec![heatmap::draw(root, map, below[0])?])
+    })
+}
+
+/// Writes [`render_panels`] to `path` (SVG) and its PNG beside it.
+pub fn write_panels(panels: &[Figure], path: &Path, size: (u32, u32)) -> Result<()> {
+    render_panels(panels, size)?.write(path)
+}
+
+/// Writes [`render_figure`] to `path` (SVG) and its PNG beside it.
+pub fn write_figure(fig: &Figure, path: &Path) -> Result<()> {
+    render_figure(fig)?.write(path)
+}
+
+/// Writes [`render_heatmap`] to `path` (SVG) and its PNG beside it.
+pub fn write_heatmap(map: &Heatmap, path: &Path) -> Result<()> {
+    render_heatmap(map)?.write(path)
 }
 
 /// The drawing area every figure is drawn on: a whole SVG document or one panel of it.
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 
-/// Draws into an in-memory SVG on a white background, then writes it to `path`.
+/// Draws `panels` panels into an in-memory SVG of `size` on a white background, as `draw` does
+/// with room below each plot for what the [`Below`] of its panel holds.
 ///
-/// Rendering to a string first keeps file errors apart from drawing errors, so a bad path is
-/// reported as [`Error::Io`] naming the file.
-fn render(path: &Path, size: (u32, u32), draw: impl FnOnce(&Area) -> Result<()>) -> Result<()> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        root.fill(&WHITE).map_err(drawing_error)?;
-        draw(&root)?;
-        root.present().map_err(drawing_error)?;
+/// Drawn first with nothing below; while a legend or annotation found no free place inside its
+/// plot, drawn again with it below (at most once more per kind of box, so at most three times).
+/// Side-by-side panels all get a strip as tall as the tallest any of them needs.
+fn render(
+    size: (u32, u32),
+    panels: usize,
+    draw: impl Fn(&Area, &[Below]) -> Result<Vec<Layout>>,
+) -> Result<Drawing> {
+    let mut below = vec![Below::default(); panels];
+    loop {
+        let mut svg = String::new();
+        let layouts = {
+            let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+            root.fill(&WHITE).map_err(drawing_error)?;
+            let layouts = draw(&root, &below)?;
+            root.present().map_err(drawing_error)?;
+            layouts
+        };
+        match legend::more_below(&below, &layouts) {
+            Some(mut more) => {
+                // Panels side by side keep plot areas of one height (one scale for two views
+                // of one object): each gets the tallest strip of any of them.
+                let tallest = more.iter().map(Below::height).max().unwrap_or(0);
+                for b in &mut more {
+                    b.reserve = tallest;
+                }
+                below = more;
+            }
+            None => return Ok(Drawing { svg, layouts }),
+        }
     }
-    std::fs::write(path, svg).map_err(|source| Error::Io {
-        path: path.display().to_string(),
-        source,
-    })
 }
 
 /// `plotters` reports drawing failures with its own error type; they are not the caller's input

@@ -1,10 +1,32 @@
-//! Colours, fonts, sizes and marker glyphs shared by every figure.
+//! The one style of every figure: the font (its family in the SVG, the file embedded for the PNG
+//! and for measuring text), font sizes, colours, line widths, dash patterns, marker glyphs and
+//! sizes, and the PNG's scale. Figures agree because nothing of this is set anywhere else.
 
 use plotters::element::{Circle, Cross, DynElement, EmptyElement, IntoDynElement, Polygon};
 use plotters::prelude::{DrawingBackend, Rectangle};
 use plotters::style::{Color, IntoFont, RGBColor, ShapeStyle, TextStyle};
 
+use skrifa::MetadataProvider;
+use skrifa::prelude::{FontRef, LocationRef, Size};
+
 use super::MarkerShape;
+
+/// The font of every text: DejaVu Sans 2.37 (Bitstream Vera licence, see
+/// `assets/fonts/LICENSE-DejaVu.txt`), embedded so the PNG looks the same on every machine and
+/// needs no font installed (no fontconfig). It covers what the labels use: Greek letters,
+/// combining macrons (F̄, ω̄, h̄), sub- and superscript digits and letters, ×, −, ±, ℓ.
+pub(crate) static FONT_TTF: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// The family name of [`FONT_TTF`]; the SVG asks for the generic `sans-serif`, which the PNG
+/// renderer maps to this font.
+pub(crate) const FONT_NAME: &str = "DejaVu Sans";
+
+/// The family every `<text>` of the SVG asks for.
+pub(crate) const FONT_FAMILY: &str = "sans-serif";
+
+/// Pixels of the PNG per pixel of the SVG: 2 gives a 1600×1200 image for a 800×600 figure,
+/// sharp enough to paste into a paper or a slide.
+pub const PNG_SCALE: u32 = 2;
 
 /// Length of one dash of a dashed curve, in pixels.
 pub const DASH_PX: i32 = 7;
@@ -50,9 +72,41 @@ pub(crate) const TICK_PX: f64 = 16.0;
 pub(crate) const LEGEND_PX: f64 = 16.0;
 pub(crate) const ANNOTATION_PX: f64 = 16.0;
 
-/// Width of a typical character relative to the font size, for laying out text whose rendered
-/// width the SVG backend cannot know (generous, so boxes and margins are not too tight).
+/// Width of a typical character relative to the font size, for sizing margins from tick labels
+/// (generous, so margins are not too tight); boxes around text use [`text_width`].
 pub(crate) const CHAR_WIDTH: f64 = 0.62;
+
+/// The embedded font, parsed.
+fn font_ref() -> FontRef<'static> {
+    FontRef::new(FONT_TTF).expect("the embedded font parses")
+}
+
+/// Width in pixels of `text` set in [`FONT_TTF`] at `px` pixels, the width it has in the PNG
+/// (a viewer of the SVG with another sans-serif font sets it a little narrower or wider; DejaVu
+/// Sans is among the widest, so boxes sized by it hold the text in the usual fonts too). A
+/// character the font lacks counts as [`CHAR_WIDTH`] em; combining marks add nothing.
+pub(crate) fn text_width(text: &str, px: f64) -> f64 {
+    let font = font_ref();
+    let charmap = font.charmap();
+    let metrics = font.glyph_metrics(Size::new(px as f32), LocationRef::default());
+    text.chars()
+        .map(|c| {
+            charmap
+                .map(c)
+                .and_then(|g| metrics.advance_width(g))
+                .map_or(CHAR_WIDTH * px, f64::from)
+        })
+        .sum()
+}
+
+/// The characters of `text` that the embedded font has no glyph for (they would be missing from
+/// the PNG); empty for every label the figures use.
+pub fn missing_glyphs(text: &str) -> Vec<char> {
+    let charmap = font_ref().charmap();
+    text.chars()
+        .filter(|c| !c.is_whitespace() && charmap.map(*c).is_none())
+        .collect()
+}
 
 pub(crate) const LINE_WIDTH: u32 = 2;
 /// Radius of the markers of a Markers series.
@@ -66,11 +120,25 @@ pub(crate) const BAND_OPACITY: f64 = 0.2;
 /// Length of the line drawn as a legend sample: exactly three dashes when dashed.
 pub(crate) const SAMPLE_PX: i32 = 3 * DASH_PX + 2 * GAP_PX;
 
-/// A sans-serif font whose SVG `font-size` is `px` (`plotters`' SVG backend divides the size it
+/// The figures' font whose SVG `font-size` is `px` (`plotters`' SVG backend divides the size it
 /// is given by 1.24).
 pub(crate) fn font(px: f64) -> TextStyle<'static> {
-    ("sans-serif", px * 1.24).into_font().into()
+    (FONT_FAMILY, px * 1.24).into_font().into()
 }
+
+/// Space kept between a legend or annotation box and the data, and between the box and the
+/// frame of the plot area, in pixels.
+pub(crate) const CLEARANCE_PX: i32 = 4;
+/// Padding inside the legend and annotation boxes, in pixels.
+pub(crate) const BOX_MARGIN_PX: i32 = 8;
+/// Height of one row of a legend or annotation, relative to its font size.
+pub(crate) const ROW_HEIGHT: f64 = 1.3;
+/// Opacity of the white under a legend or annotation box.
+pub(crate) const BOX_FILL_OPACITY: f64 = 0.9;
+/// Opacity of the black frame of a legend box.
+pub(crate) const BOX_FRAME_OPACITY: f64 = 0.4;
+/// Opacity of the grid lines.
+pub(crate) const GRID_OPACITY: f64 = 0.12;
 
 /// The symbol drawn at a point: the public [`MarkerShape`]s plus two shapes reserved for special
 /// points, so those never look like data.
@@ -104,6 +172,14 @@ pub(crate) const SPECIAL_GLYPHS: [Glyph; 4] = [
 ];
 
 impl Glyph {
+    /// How far the glyph of radius `r` reaches from its centre, in pixels (with its stroke).
+    pub fn reach(self, r: i32) -> i32 {
+        match self {
+            Glyph::Triangle | Glyph::TriangleDown | Glyph::Diamond => r + r / 3 + 1,
+            _ => r + 1,
+        }
+    }
+
     /// The glyph of radius `r` pixels centred on `at` (a data point or a legend position).
     pub fn at<'a, DB: DrawingBackend + 'a, C: Clone + 'a>(
         self,

@@ -19,6 +19,7 @@ use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_inte
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
+use crate::study::figures::{axis_label, short_name, typeset};
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
 use crate::study::plan::Case;
 use crate::study::progress;
@@ -334,6 +335,35 @@ pub fn run_study(
     ))
 }
 
+/// The range inside Tukey's far-out fences (first quartile − 3 IQR, third quartile + 3 IQR) of
+/// the finite `values`, shrunk to the values inside it and padded by 5 % on each side; `None`
+/// when that leaves out nothing (the axis is then fitted as usual) or there are too few values.
+fn far_out_fences(values: &[f64]) -> Option<(f64, f64)> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.len() < 4 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let quantile = |p: f64| {
+        let t = p * (v.len() - 1) as f64;
+        let (i, f) = (t.floor() as usize, t.fract());
+        v[i] + f * (v[(i + 1).min(v.len() - 1)] - v[i])
+    };
+    let (q1, q3) = (quantile(0.25), quantile(0.75));
+    let (lo, hi) = (q1 - 3.0 * (q3 - q1), q3 + 3.0 * (q3 - q1));
+    let inside: Vec<f64> = v
+        .iter()
+        .copied()
+        .filter(|x| (lo..=hi).contains(x))
+        .collect();
+    let (first, last) = (*inside.first()?, *inside.last()?);
+    if inside.len() == v.len() || last <= first {
+        return None;
+    }
+    let pad = 0.05 * (last - first);
+    Some((first - pad, last + pad))
+}
+
 /// Boundary curves drawn together (`boundary.svg`: `omegabar_b` against `q` on logarithmic
 /// axes; `m_loc.svg`: `m_loc` against `q`), a line per curve and segment, labelled by the curve's
 /// label (none for a lone unlabelled curve), the special points marked.
@@ -343,7 +373,7 @@ fn curve_figures(
     curves: &[(String, Vec<BoundaryPoint>)],
     special: &[(String, SpecialPoint)],
 ) -> Result<()> {
-    let series = |y: fn(&BoundaryPoint) -> f64| -> Vec<Series> {
+    let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64| -> Vec<Series> {
         curves
             .iter()
             .flat_map(|(label, rows)| {
@@ -352,12 +382,12 @@ fn curve_figures(
                     let on: Vec<&BoundaryPoint> = rows.iter().filter(|r| r.segment == k).collect();
                     Series {
                         label: if segments > 1 {
-                            format!("{label} (curve {})", k + 1)
+                            format!("{} (curve {})", typeset(label), k + 1)
                         } else {
-                            label.clone()
+                            typeset(label)
                         },
                         x: on.iter().map(|r| r.q).collect(),
-                        y: on.iter().map(|r| y(r)).collect(),
+                        y: (0..on.len()).map(|i| y(&on, i)).collect(),
                         style: Style::Line,
                         stable: None,
                         err: None,
@@ -375,21 +405,44 @@ fn curve_figures(
         })
         .collect();
     let omega = Figure {
-        title: "stability boundaries".into(),
-        x_label: key.to_string(),
-        y_label: "omegabar_b = omega_b mu ell^4/EI (-)".into(),
+        title: "Stability boundaries".into(),
+        x_label: axis_label(key),
+        y_label: "ω̄_b = ω_b μℓ⁴/EI (–)".into(),
         x_scale: Scale::Log,
         y_scale: Scale::Log,
-        series: series(|r| r.omegabar_b),
+        series: series(&|on, i| on[i].omegabar_b),
         markers,
         ..Figure::default()
     };
     write_figure(&omega, &dir.join("boundary.svg"))?;
+    // m_loc diverges at a turning point of a curve in q (the tangent of ln ω̄_b against ln q is
+    // vertical there and its sign flips across it), and a difference whose samples straddle one
+    // can take any value (−192 at R/λ ≈ 0.377 in exponent_m, where the turning point located
+    // last is stored after a sample already past it). Such values say only "turning point
+    // here". So a sample whose neighbours reverse the direction of q or of ω̄_b is left out
+    // (the line breaks there), and the y axis spans Tukey's far-out fences (quartiles ∓ 3
+    // interquartile ranges) of the values: every sample of a smooth stretch lies inside them,
+    // and a curve that diverges is drawn up to the frame instead of setting the scale.
+    let m_loc = series(&|on, i| {
+        let turns = |f: fn(&BoundaryPoint) -> f64| {
+            i > 0 && i + 1 < on.len() && {
+                let (a, b) = (f(on[i]) - f(on[i - 1]), f(on[i + 1]) - f(on[i]));
+                a * b < 0.0
+            }
+        };
+        if turns(|r| r.q) || turns(|r| r.omegabar_b) {
+            f64::NAN
+        } else {
+            on[i].m_loc.unwrap_or(f64::NAN)
+        }
+    });
+    let values: Vec<f64> = m_loc.iter().flat_map(|s| s.y.iter().copied()).collect();
     let exponent = Figure {
-        title: "local exponent".into(),
-        x_label: key.to_string(),
-        y_label: "m_loc = -d ln omegabar_b / d ln q (-)".into(),
-        series: series(|r| r.m_loc.unwrap_or(f64::NAN)),
+        title: "Local exponent of the stability boundaries".into(),
+        x_label: axis_label(key),
+        y_label: format!("m_loc = −d ln ω̄_b / d ln {} (–)", short_name(key)),
+        series: m_loc,
+        y_range: far_out_fences(&values),
         ..Figure::default()
     };
     write_figure(&exponent, &dir.join("m_loc.svg"))

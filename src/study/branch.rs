@@ -198,7 +198,7 @@ pub fn branch(
         tables: &tables,
         rigid: matches!(study.shape, ShapeParams::Helix { .. }),
     };
-    figures::branch_figures(dir, &study.name, &[case])?;
+    figures::branch_figures(dir, &[case])?;
     if report.stalled {
         return Err(Error::Numerical(format!(
             "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",

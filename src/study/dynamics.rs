@@ -9,6 +9,7 @@ use crate::analysis::orbits::OrbitRow;
 use crate::model::Model;
 use crate::plot::{Figure, Series, Style, write_figure};
 use crate::study::branch::BranchRow;
+use crate::study::figures::{ETA_LABEL, FPBAR_LABEL, HBAR_LABEL, OMEGA_LABEL, typeset};
 use crate::study::orbits::OrbitsOptions;
 use crate::study::output::CsvWriter;
 use crate::study::progress;
@@ -137,11 +138,11 @@ pub(crate) fn run_dynamics(
     };
     let ok: Vec<&AverageRow> = rows.iter().filter(|r| r.status == "ok").collect();
     for r in &ok {
-        mark_time_series(study, dir, r.omega, &branch.points, &orbits)?;
+        mark_time_series(dir, r.omega, &branch.points, &orbits)?;
     }
     let averaged =
         |mean: fn(&AverageRow) -> Option<f64>, std: fn(&AverageRow) -> Option<f64>| Series {
-            label: "simulation: time average +- std".into(),
+            label: "simulation: time average ± std".into(),
             x: ok.iter().map(|r| r.omega).collect(),
             y: ok.iter().map(|r| mean(r).unwrap_or(f64::NAN)).collect(),
             style: Style::Markers(crate::plot::MarkerShape::Circle),
@@ -168,7 +169,7 @@ pub(crate) fn run_dynamics(
     for (name, label, mut series, orbit) in [
         (
             "hbar.svg",
-            "hbar = h/h0 (-)",
+            HBAR_LABEL,
             vec![
                 line(branch.points.iter().map(|r| r.hbar).collect()),
                 averaged(|r| r.hbar_mean, |r| r.hbar_std),
@@ -177,7 +178,7 @@ pub(crate) fn run_dynamics(
         ),
         (
             "Fpbar.svg",
-            "Fpbar = Fp ell^2/EI (-)",
+            FPBAR_LABEL,
             vec![
                 line(branch.points.iter().map(|r| r.fpbar).collect()),
                 averaged(|r| r.fpbar_mean, |r| r.fpbar_std),
@@ -186,7 +187,7 @@ pub(crate) fn run_dynamics(
         ),
         (
             "eta.svg",
-            "eta = Fp^2/(mu omega Tp) (-)",
+            ETA_LABEL,
             vec![
                 line(branch.points.iter().map(eta_of).collect()),
                 averaged(|r| r.eta_mean, |r| r.eta_std),
@@ -201,8 +202,8 @@ pub(crate) fn run_dynamics(
         }
         write_figure(
             &Figure {
-                title: format!("{}: time averages over the steady branch", study.name),
-                x_label: "omega (rad/s)".into(),
+                title: "Time averages of simulations over the steady branch".into(),
+                x_label: OMEGA_LABEL.into(),
                 y_label: label.into(),
                 series,
                 ..Figure::default()
@@ -230,7 +231,6 @@ fn crossings(points: &[(f64, f64, bool)], omega: f64) -> Vec<(f64, bool)> {
 /// `timeseries.csv`, with the steady branch's value at that rate and the period averages of the
 /// orbits there as horizontal lines (dashed where unstable).
 fn mark_time_series(
-    study: &crate::study::Study,
     dir: &Path,
     omega: f64,
     branch: &[BranchRow],
@@ -251,7 +251,7 @@ fn mark_time_series(
     for (name, label, y, steady, orbit) in [
         (
             "timeseries_hbar.svg",
-            "hbar = h/h0 (-)",
+            HBAR_LABEL,
             rows.iter().map(|r| r.hbar).collect::<Vec<_>>(),
             branch
                 .iter()
@@ -264,7 +264,7 @@ fn mark_time_series(
         ),
         (
             "timeseries_Fpbar.svg",
-            "Fpbar = Fp ell^2/EI (-)",
+            FPBAR_LABEL,
             rows.iter().map(|r| r.fpbar).collect(),
             branch
                 .iter()
@@ -292,7 +292,10 @@ fn mark_time_series(
         }
         write_figure(
             &Figure {
-                title: format!("{}: simulation at omega = {omega} rad/s", study.name),
+                title: format!(
+                    "Simulation from rest at ω = {} rad/s",
+                    typeset(&omega.to_string())
+                ),
                 x_label: "t (s)".into(),
                 y_label: label.into(),
                 series,

@@ -55,26 +55,23 @@ fn events(
         .collect()
 }
 
-/// Writes `hbar.svg`, `Fpbar.svg`, `eta.svg` and `max_re.svg` into `dir`; returns their paths.
-pub(crate) fn branch_figures(
-    dir: &Path,
-    title: &str,
-    cases: &[DrawnBranch],
-) -> Result<Vec<PathBuf>> {
+/// Writes `hbar.svg`, `Fpbar.svg`, `eta.svg` and `max_re.svg` into `dir` (each with its PNG);
+/// returns the SVGs' paths.
+pub(crate) fn branch_figures(dir: &Path, cases: &[DrawnBranch]) -> Result<Vec<PathBuf>> {
     let label = |c: &DrawnBranch| {
         if cases.len() == 1 {
             String::from("steady branch")
         } else {
-            c.label.to_string()
+            typeset(c.label)
         }
     };
-    let x_label = "omega (rad/s)".to_string();
+    let x_label = OMEGA_LABEL.to_string();
     let mut written = Vec::new();
 
     let hbar = Figure {
-        title: format!("{title}: suspended height"),
+        title: "Suspended height of the steady rod".into(),
         x_label: x_label.clone(),
-        y_label: "hbar = h/h0 (-)".into(),
+        y_label: HBAR_LABEL.into(),
         series: cases
             .iter()
             .map(|c| line(&label(c), c.tables, |r| r.hbar))
@@ -90,7 +87,7 @@ pub(crate) fn branch_figures(
         let name = if cases.len() == 1 {
             "rigid helix".to_string()
         } else {
-            format!("{} (rigid)", c.label)
+            format!("{} (rigid)", typeset(c.label))
         };
         thrust_series.push(Series {
             style: Style::Dashed,
@@ -99,17 +96,17 @@ pub(crate) fn branch_figures(
         });
     }
     let thrust = Figure {
-        title: format!("{title}: propulsive force"),
+        title: "Propulsive force of the steady rod".into(),
         x_label: x_label.clone(),
-        y_label: "Fpbar = Fp ell^2/EI (-)".into(),
+        y_label: FPBAR_LABEL.into(),
         series: thrust_series,
         markers: events(cases, |e| e.fpbar),
         ..Figure::default()
     };
     let eta = Figure {
-        title: format!("{title}: efficiency"),
+        title: "Efficiency of the steady rod".into(),
         x_label: x_label.clone(),
-        y_label: "eta = Fp ell/Tp (-)".into(),
+        y_label: ETA_LABEL.into(),
         series: cases
             .iter()
             .map(|c| line(&label(c), c.tables, |r| r.eta.unwrap_or(f64::NAN)))
@@ -117,9 +114,9 @@ pub(crate) fn branch_figures(
         ..Figure::default()
     };
     let re = Figure {
-        title: format!("{title}: leading eigenvalue"),
+        title: "Leading eigenvalue of the steady rod".into(),
         x_label,
-        y_label: "max Re(s) (1/s)".into(),
+        y_label: MAX_RE_LABEL.into(),
         series: cases
             .iter()
             .map(|c| line(&label(c), c.tables, |r| r.max_re))
@@ -247,9 +244,9 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 "{} = {}",
                 short_name(col),
                 g.parse::<f64>()
-                    .map_or(g.to_string(), |v| format!("{v:.4}"))
+                    .map_or(typeset(g), |v| minus(&v.to_string()))
             ),
-            None => g.to_string(),
+            None => typeset(g),
         };
         let mut series: Vec<Series> = groups
             .iter()
@@ -292,8 +289,10 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 let (x, y) = curve(&|x| s.slope * x, 0.0);
                 series.push(dashed("fit through the origin", x, y));
                 annotation = Some(format!(
-                    "slope = {:.4e}\n95% CI [{:.4e}, {:.4e}]",
-                    s.slope, s.slope_ci[0], s.slope_ci[1]
+                    "slope = {}\n95 % CI [{}, {}]",
+                    sci(s.slope),
+                    sci(s.slope_ci[0]),
+                    sci(s.slope_ci[1])
                 ));
                 fit = Some(Fitted::ThroughOrigin(s));
             }
@@ -302,8 +301,10 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 let (x, y) = curve(&|x| f.c * x.powf(f.p), lo);
                 series.push(dashed("power-law fit", x, y));
                 annotation = Some(format!(
-                    "p = {:.4} [{:.4}, {:.4}] (95%)",
-                    f.p, f.p_ci[0], f.p_ci[1]
+                    "p = {}, 95 % CI [{}, {}]",
+                    minus(&format!("{:.4}", f.p)),
+                    minus(&format!("{:.4}", f.p_ci[0])),
+                    minus(&format!("{:.4}", f.p_ci[1]))
                 ));
                 fit = Some(Fitted::PowerLaw(f));
             }
@@ -316,7 +317,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 let m = -f.p;
                 let m_ci = [-f.p_ci[1], -f.p_ci[0]];
                 annotation = Some(format!(
-                    "m = {m:.4}, 95% CI [{:.4}, {:.4}]",
+                    "m = {m:.3}, 95 % CI [{:.3}, {:.3}]",
                     m_ci[0], m_ci[1]
                 ));
                 let local: Vec<_> = groups
@@ -380,13 +381,12 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 write_figure(
                     &Figure {
                         title: format!(
-                            "{}: local exponent -d ln {} / d ln {}",
-                            study.name,
+                            "Local exponent −d ln {} / d ln {}",
                             short_name(&spec.y),
                             short_name(&spec.x)
                         ),
                         x_label: axis_label(&spec.x),
-                        y_label: "m_loc (-)".into(),
+                        y_label: "m_loc (–)".into(),
                         x_scale: scale(spec.log_x),
                         series: local_series,
                         ..Figure::default()
@@ -394,7 +394,8 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                     &dir.join(format!("local_m_{k}.svg")),
                 )?;
                 write_json(&dir.join("fit.json"), &record)?;
-                // The collapse: y / N_k against x falls on one curve if the form is separable.
+                // The collapse: y / C_k against x falls on one curve if the form is separable
+                // (C_k the fitted prefactor of series k; not N, which is the node count).
                 let collapsed: Vec<Series> = groups
                     .iter()
                     .zip(&f.prefactors)
@@ -409,15 +410,19 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                     })
                     .chain(std::iter::once({
                         let (x, y) = curve(&|x| x.powf(f.p), lo);
-                        dashed(&format!("x^(-m), m = {m:.3}"), x, y)
+                        dashed(&format!("({})⁻ᵐ, m = {m:.3}", short_name(&spec.x)), x, y)
                     }))
                     .collect();
                 write_figure(
                     &Figure {
-                        title: format!("{}: collapse {} / N", study.name, short_name(&spec.y)),
+                        title: format!(
+                            "Collapse of {} on one power law of {}",
+                            short_name(&spec.y),
+                            short_name(&spec.x)
+                        ),
                         x_label: axis_label(&spec.x),
                         y_label: format!(
-                            "{} / N({}) (-)",
+                            "{} / C({}) (–)",
                             short_name(&spec.y),
                             short_name(spec.series.as_deref().unwrap_or("case"))
                         ),
@@ -442,19 +447,14 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
         }
         write_figure(
             &Figure {
-                title: format!(
-                    "{}: {} against {}",
-                    study.name,
-                    short_name(&spec.y),
-                    short_name(&spec.x)
-                ),
+                title: format!("{} against {}", short_name(&spec.y), short_name(&spec.x)),
                 x_label: axis_label(&spec.x),
                 y_label: axis_label(&spec.y),
                 x_scale: scale(spec.log_x),
                 y_scale: scale(spec.log_y),
                 series,
-                markers: Vec::new(),
                 annotation,
+                ..Figure::default()
             },
             &dir.join(format!("sweep_{k}.svg")),
         )?;
@@ -477,26 +477,129 @@ fn scale(log: bool) -> Scale {
     if log { Scale::Log } else { Scale::Linear }
 }
 
-/// An axis label with its unit, for the columns of `sweep.csv`.
-fn axis_label(column: &str) -> String {
+/// An axis label with its unit, for the columns of `sweep.csv` and the keys of a study.
+pub(crate) fn axis_label(column: &str) -> String {
     let unit = match column {
         "omega_b" | "im" => "rad/s",
-        "EI" => "N m^2",
+        "EI" => "N m²",
         "E_r0_4_over_mu_l_4" => "1/s",
         "rod.E" => "Pa",
         "rod.r0" | "shape.l" | "shape.lambda" | "shape.R" | "shape.L" => "m",
         "fluid.mu" => "Pa s",
-        _ => "-",
+        _ => "–",
     };
     format!("{} ({unit})", short_name(column))
 }
 
-/// The readable name of a column of `sweep.csv`.
-fn short_name(column: &str) -> &str {
+/// The readable name of a column of `sweep.csv` or a key of a study, in the figures' Unicode
+/// math.
+pub(crate) fn short_name(column: &str) -> String {
     match column {
-        "E_r0_4_over_mu_l_4" => "E r0^4/(mu l^4)",
-        "lambda_over_l" | "shape.lambda_over_l" => "lambda/l",
-        "R_over_lambda" | "shape.R_over_lambda" => "R/lambda",
-        other => other,
+        "E_r0_4_over_mu_l_4" => "E r₀⁴/(μ ℓ⁴)".into(),
+        "lambda_over_l" | "shape.lambda_over_l" => "λ/ℓ".into(),
+        "R_over_lambda" | "shape.R_over_lambda" => "R/λ".into(),
+        "omegabar_b" => "ω̄_b".into(),
+        "omega_b" => "ω_b".into(),
+        "rod.r0" => "r₀".into(),
+        "fluid.mu" => "μ".into(),
+        "shape.lambda" => "λ".into(),
+        "shape.l" => "ℓ".into(),
+        "im" => "Im s".into(),
+        other => typeset(other),
+    }
+}
+
+/// The axis label of the rotation rate.
+pub(crate) const OMEGA_LABEL: &str = "ω (rad/s)";
+/// The axis labels of the observables, each with the formula the code computes
+/// (`model::observables`): the suspended height, the propulsive force, the efficiency.
+pub(crate) const HBAR_LABEL: &str = "h̄ = h/h₀ (–)";
+pub(crate) const FPBAR_LABEL: &str = "F̄ₚ = Fₚℓ²/EI (–)";
+pub(crate) const ETA_LABEL: &str = "η = Fₚℓ/Tₚ (–)";
+pub(crate) const MAX_RE_LABEL: &str = "max Re s (1/s)";
+
+/// `label` (a case's label, a column's name) with the ASCII names of the quantities written as
+/// the figures write them: `lambda/l` as λ/ℓ, `omega` as ω, `omegabar` as ω̄, `mu` as μ, `+-` as
+/// ±, a hyphen before a digit as a minus sign. Whole words only, so `lambda_l_0_125` or a file
+/// name stays as it is.
+pub(crate) fn typeset(label: &str) -> String {
+    let words: [(&str, &str); 9] = [
+        ("lambda/l", "λ/ℓ"),
+        ("R/lambda", "R/λ"),
+        ("omegabar_b", "ω̄_b"),
+        ("omegabar", "ω̄"),
+        ("omega_b", "ω_b"),
+        ("omega", "ω"),
+        ("lambda", "λ"),
+        ("mu", "μ"),
+        ("eta", "η"),
+    ];
+    let is_word = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let mut out = String::new();
+    let mut rest = label;
+    'outer: while let Some(c) = rest.chars().next() {
+        let at_start = out.chars().last().is_none_or(|p| !is_word(p));
+        if at_start {
+            for (ascii, math) in words {
+                if let Some(after) = rest.strip_prefix(ascii)
+                    && !after.chars().next().is_some_and(is_word)
+                {
+                    out.push_str(math);
+                    rest = after;
+                    continue 'outer;
+                }
+            }
+        }
+        if let Some(after) = rest.strip_prefix("+-") {
+            out.push('±');
+            rest = after;
+            continue;
+        }
+        if c == '-' && at_start && rest[1..].starts_with(|d: char| d.is_ascii_digit()) {
+            out.push('−');
+        } else {
+            out.push(c);
+        }
+        rest = &rest[c.len_utf8()..];
+    }
+    out
+}
+
+/// A number in scientific notation as the axes write it: "1.234×10⁻³".
+fn sci(v: f64) -> String {
+    let s = format!("{v:.4e}");
+    let Some((mantissa, exp)) = s.split_once('e') else {
+        return s;
+    };
+    let sup: String = exp
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            d => "⁰¹²³⁴⁵⁶⁷⁸⁹"
+                .chars()
+                .nth(d.to_digit(10).unwrap_or(0) as usize)
+                .unwrap_or(d),
+        })
+        .collect();
+    minus(&format!("{mantissa}×10{sup}"))
+}
+
+/// `s` with hyphen-minus signs as real minus signs.
+fn minus(s: &str) -> String {
+    s.replace('-', "−")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_are_typeset_in_whole_words() {
+        assert_eq!(typeset("lambda/l = 0.125"), "λ/ℓ = 0.125");
+        assert_eq!(typeset("omega = -0.5 rad/s"), "ω = −0.5 rad/s");
+        assert_eq!(typeset("lambda_l_0_125"), "lambda_l_0_125");
+        assert_eq!(typeset("mean +- std"), "mean ± std");
+        assert_eq!(typeset("sometimes"), "sometimes");
+        assert_eq!(sci(-1.5e-3), "−1.5000×10⁻³");
     }
 }

@@ -24,6 +24,7 @@ use crate::model::Model;
 use crate::plot::{Figure, Marker, Series, Style, write_figure};
 use crate::study::Study;
 use crate::study::branch::run_branch;
+use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, OMEGA_LABEL};
 use crate::study::locate::run_locate_critical;
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, io_error};
 use crate::study::plan::OrbitPlan;
@@ -282,7 +283,7 @@ pub fn run_orbits(
         ),
         (
             "hbar.svg",
-            "hbar = h/h0 (-)",
+            HBAR_LABEL,
             vec![
                 steady_series(steady.points.iter().map(|r| r.hbar).collect()),
                 orbit_series(rows.iter().map(|r| r.hbar_mean).collect()),
@@ -291,7 +292,7 @@ pub fn run_orbits(
         ),
         (
             "Fpbar.svg",
-            "Fpbar = Fp ell^2/EI (-)",
+            FPBAR_LABEL,
             vec![
                 steady_series(steady.points.iter().map(|r| r.fpbar).collect()),
                 orbit_series(rows.iter().map(|r| r.fpbar_mean).collect()),
@@ -301,8 +302,8 @@ pub fn run_orbits(
     ] {
         write_figure(
             &Figure {
-                title: format!("{}: periodic orbits from the Hopf point", study.name),
-                x_label: "omega (rad/s)".into(),
+                title: "Periodic orbits from the Hopf point".into(),
+                x_label: OMEGA_LABEL.into(),
                 y_label: label.into(),
                 series,
                 markers: vec![Marker {

@@ -24,6 +24,7 @@ use crate::model::params::Field;
 use crate::model::params::ShapeParams;
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
 use crate::study::boundary::{family, run_family};
+use crate::study::figures::{FPBAR_LABEL, typeset};
 use crate::study::output::{CsvWriter, Provenance, Table};
 use crate::study::progress;
 use crate::{Error, Result};
@@ -149,11 +150,14 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
 
 /// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
 fn interpolate(points: &[(f64, f64, bool)], omegabar: f64) -> f64 {
+    // A rate within rounding of a branch's end (the map's first and last rows are at the ends
+    // of the branches' range, through log10 and back) still lies on the branch.
+    let tol = 1e-9 * omegabar.abs();
     points
         .windows(2)
-        .find(|w| w[0].0 <= omegabar && omegabar <= w[1].0)
+        .find(|w| w[0].0 - tol <= omegabar && omegabar <= w[1].0 + tol)
         .map_or(f64::NAN, |w| {
-            let t = (omegabar - w[0].0) / (w[1].0 - w[0].0);
+            let t = ((omegabar - w[0].0) / (w[1].0 - w[0].0)).clamp(0.0, 1.0);
             w[0].1 + t * (w[1].1 - w[0].1)
         })
 }
@@ -304,6 +308,20 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(*v), b.max(*v))
         });
+    // The top row at the highest rate every column reaches: the branches all stop just past
+    // `omega_max`, each a little further, and a row above the lowest of these ends would be
+    // blank in every column but one.
+    let hi = columns
+        .iter()
+        .filter_map(|c| {
+            c.points
+                .iter()
+                .filter(|p| p.0 > 0.0)
+                .map(|p| (p.0 * c.r_over_lambda.powf(m)).log10())
+                .reduce(f64::max)
+        })
+        .fold(hi, f64::min)
+        .max(lo);
     let ys: Vec<f64> = (0..*rows)
         .map(|i| lo + (hi - lo) * i as f64 / (*rows - 1) as f64)
         .collect();
@@ -338,7 +356,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     let mut overlays = match &curve {
         Ok(lines) => lines.clone(),
         Err(_) => vec![Series {
-            label: "stability boundary (first loss of each column)".into(),
+            label: "stability boundary (first loss in each column)".into(),
             x: bx.clone(),
             y: by.clone(),
             style: Style::Line,
@@ -347,7 +365,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         }],
     };
     overlays.push(Series {
-        label: "first loss of stability of a column (locate at its own N)".into(),
+        label: "first loss of stability (own N)".into(),
         x: bx,
         y: by,
         style: Style::Markers(MarkerShape::Circle),
@@ -361,7 +379,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         for f in placed {
             // The exact range as a vertical segment, the central value as a marker on it.
             overlays.push(Series {
-                label: format!("{} (range)", f.label),
+                label: format!("{} (range)", typeset(&f.label)),
                 x: vec![f.lambda_over_l, f.lambda_over_l],
                 y: vec![f.low, f.high],
                 style: Style::Line,
@@ -380,14 +398,17 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     }
     write_heatmap(
         &Heatmap {
-            title: format!("{}: propulsive force, m = {m:.3}", study.name),
-            x_label: "lambda/l (-)".into(),
-            y_label: "log10(omegabar (R/lambda)^m) (-)".into(),
-            colorbar_label: "Fpbar = Fp l^2/EI (-)".into(),
+            title: format!("Propulsive force over the phase plane (m = {m:.3})"),
+            x_label: "λ/ℓ (–)".into(),
+            y_label: "log₁₀(ω̄ (R/λ)ᵐ) (–)".into(),
+            colorbar_label: FPBAR_LABEL.into(),
             x: values.clone(),
             y: ys,
             z,
             overlays,
+            // Rows are samples of each column's branch, fine in y; columns are the study's few
+            // values of lambda/l, kept apart.
+            smooth_y: true,
         },
         &dir.join("phase.svg"),
     )?;
@@ -457,4 +478,18 @@ fn boundary_curve(
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interpolate;
+
+    #[test]
+    fn a_rate_within_rounding_of_a_branch_end_lies_on_the_branch() {
+        let points = [(0.0, 0.0, true), (10.0, 2.0, true), (997.5, 28.8, true)];
+        // The last row of the map: the largest rate through log10 and back, a few ulps off.
+        assert_eq!(interpolate(&points, 997.5 * (1.0 + 1e-12)), 28.8);
+        assert!((interpolate(&points, 5.0) - 1.0).abs() < 1e-12);
+        assert!(interpolate(&points, 997.5 * (1.0 + 1e-6)).is_nan());
+    }
 }

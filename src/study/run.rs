@@ -150,7 +150,7 @@ pub fn run(
                     rigid: *rigid,
                 })
                 .collect();
-            figures::branch_figures(dir, &study.name, &fig_cases)?;
+            figures::branch_figures(dir, &fig_cases)?;
             StudyResult::Branch { cases: summaries }
         }
         Plan::Locate { .. } => {

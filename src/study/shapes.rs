@@ -16,6 +16,7 @@ use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::dofs::Layout;
 use crate::plot::{Figure, Series, Style, write_panels};
+use crate::study::figures::typeset;
 use crate::study::output::CsvWriter;
 use crate::{Error, Result};
 
@@ -45,10 +46,12 @@ struct ModeRow {
     im_dz: f64,
 }
 
-/// Two side views (x-z and y-z, in cm) of a set of curves.
+/// Two side views (x–z and y–z, in cm, equal scales so the rod keeps its true proportions) of
+/// a set of curves.
 fn side_views(title: &str, curves: &[(String, Vec<Vector3<f64>>, Style)]) -> [Figure; 2] {
     let view = |name: &str, horizontal: usize, label: &str| Figure {
-        title: format!("{title}: {name}"),
+        title: format!("{title}, {name}"),
+        equal_scale: true,
         x_label: format!("{label} (cm)"),
         y_label: "z (cm)".into(),
         series: curves
@@ -64,11 +67,26 @@ fn side_views(title: &str, curves: &[(String, Vec<Vector3<f64>>, Style)]) -> [Fi
             .collect(),
         ..Figure::default()
     };
+    // One legend for both views, on the second.
     [
-        view("x-z (camera along y)", 0, "x"),
-        view("y-z (camera along x)", 1, "y"),
+        Figure {
+            hide_legend: true,
+            ..view("seen along y", 0, "x")
+        },
+        view("seen along x", 1, "y"),
     ]
 }
+
+/// An event's name as a title writes it: "Hopf point", "fold", "branch point".
+fn event_in_words(name: &str) -> String {
+    match name {
+        "hopf" => "Hopf point".into(),
+        other => other.replace('_', " "),
+    }
+}
+
+/// Size of the two side views together: each panel taller than wide, as the rod hangs.
+const SIDE_VIEWS_SIZE: (u32, u32) = (1000, 800);
 
 /// Runs the study: `shapes.csv`, `mode.csv`, `shapes.svg`, `mode.svg`.
 /// What the `shapes` study reports: the rates drawn and, where the branch loses stability, the
@@ -116,12 +134,16 @@ pub(crate) fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
                 z: p.z,
             })?;
         }
-        curves.push((format!("omega = {omega} rad/s"), x, Style::Line));
+        curves.push((
+            format!("ω = {} rad/s", typeset(&omega.to_string())),
+            x,
+            Style::Line,
+        ));
     }
     write_panels(
-        &side_views("steady shapes", &curves),
+        &side_views("Steady shapes", &curves),
         &dir.join("shapes.svg"),
-        (1200, 600),
+        SIDE_VIEWS_SIZE,
     )?;
 
     // The critical mode at omega_b.
@@ -175,25 +197,31 @@ pub(crate) fn run_shapes(study: &Study, dir: &Path) -> Result<ShapesResult> {
     let omega_b = located.omega_b.unwrap_or(f64::NAN);
     let mode_curves = vec![
         (
-            format!("steady state at omega_b = {omega_b:.4} rad/s"),
+            format!("steady state at ω_b = {omega_b:.4} rad/s"),
             base.iter().map(|p| p * ell).collect(),
             Style::Line,
         ),
         (
-            "+ critical mode (Re)".to_string(),
+            "plus the critical mode (real part)".to_string(),
             shifted(1.0),
             Style::Dashed,
         ),
         (
-            "- critical mode (Re)".to_string(),
+            "minus the critical mode (real part)".to_string(),
             shifted(-1.0),
             Style::Dashed,
         ),
     ];
     write_panels(
-        &side_views(&format!("{} mode", located.kind), &mode_curves),
+        &side_views(
+            &format!(
+                "Critical mode ({})",
+                event_in_words(&located.kind.to_string())
+            ),
+            &mode_curves,
+        ),
         &dir.join("mode.svg"),
-        (1200, 600),
+        SIDE_VIEWS_SIZE,
     )?;
     Ok(ShapesResult {
         omegas: omegas.clone(),

@@ -30,6 +30,7 @@ use crate::plot::{Figure, Series, Style, write_figure};
 use crate::problem::twist::natural_chart_unknowns;
 use crate::study::Study;
 use crate::study::cycles::{CycleRow, cycles};
+use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, typeset};
 use crate::study::output::{CsvWriter, Meta, Provenance};
 use crate::{Error, Result};
 
@@ -476,16 +477,19 @@ pub fn run_simulate(
         stable: None,
         err: None,
     };
-    for (name, label, y) in [
-        ("hbar.svg", "hbar = h/h0 (-)", &hbar_series),
-        ("Fpbar.svg", "Fpbar = Fp ell^2/EI (-)", &fpbar_series),
+    for (name, label, short, y) in [
+        ("hbar.svg", HBAR_LABEL, "h̄", &hbar_series),
+        ("Fpbar.svg", FPBAR_LABEL, "F̄ₚ", &fpbar_series),
     ] {
         write_figure(
             &Figure {
-                title: format!("simulation at omega = {} rad/s", opts.omega),
+                title: format!(
+                    "Simulation at ω = {} rad/s",
+                    typeset(&opts.omega.to_string())
+                ),
                 x_label: "t (s)".into(),
                 y_label: label.into(),
-                series: vec![line(label.split(' ').next().unwrap_or(label), y)],
+                series: vec![line(short, y)],
                 ..Figure::default()
             },
             &dir.join(format!("timeseries_{name}")),
