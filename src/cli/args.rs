@@ -88,14 +88,14 @@ pub enum Command {
     /// Two-parameter continuation of the first loss of stability that `locate --single` finds
     /// at --from. Locates double Hopf points (the boundary switches mode), turning points (it
     /// jumps), zero-Hopf, Bogdanov-Takens and generalized Hopf points, and the first Lyapunov
-    /// coefficient at every Hopf point. Writes boundary.csv, points.csv, boundary.svg,
-    /// m_loc.svg and meta.json, rewritten after every point.
+    /// coefficient at every Hopf point. Writes boundary.csv and points.csv (rewritten after
+    /// every point), boundary.svg, m_loc.svg and meta.json.
     #[command(after_help = FOLDER_HELP)]
     Boundary(BoundaryArgs),
     /// Do what the study's [study] table declares, writing output/<study name>/.
     ///
-    /// Kinds: `locate` (the default without a [study] table: omega_b, refined to an accuracy or
-    /// over a ladder of node counts), `branch` (branches from rest, one per case, drawn
+    /// Kinds: `locate` (omega_b at the study's N, the default without a [study] table; or
+    /// refined to an accuracy; or over a ladder of node counts), `branch` (branches from rest, one per case, drawn
     /// together), `sweep` (omega_b over a parameter grid, fits), `boundary` (omega_b as curves
     /// in one field, one per case, the local exponent m_loc along them), `phase` (propulsive
     /// force over lambda/l and omegabar (R/lambda)^m with the stability boundary and natural
