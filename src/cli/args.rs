@@ -95,13 +95,13 @@ pub enum Command {
     /// Do what the study's [study] table declares, writing output/<study name>/.
     ///
     /// Kinds: `locate` (omega_b at the study's N, the default without a [study] table; or
-    /// refined to an accuracy; or over a ladder of node counts), `branch` (branches from rest, one per case, drawn
-    /// together), `sweep` (omega_b over a parameter grid, fits), `boundary` (omega_b as curves
-    /// in one field, one per case, the local exponent m_loc along them), `phase` (propulsive
-    /// force over lambda/l and omegabar (R/lambda)^m with the stability boundary and natural
-    /// flagella), `shapes` (steady shapes and the critical mode), `dynamics` (simulations from
-    /// rest: time averages over the branch), `orbits` (periodic orbits from the Hopf point, as
-    /// `helixbif orbits`).
+    /// refined to an accuracy; or over a ladder of node counts), `branch` (branches from rest,
+    /// one per case, drawn together), `sweep` (omega_b over a parameter grid, fits),
+    /// `boundary` (omega_b as curves in one field, one per case, the local exponent m_loc along
+    /// them), `phase` (propulsive force over lambda/l and omegabar (R/lambda)^m with the
+    /// stability boundary and natural flagella), `shapes` (steady shapes and the critical
+    /// mode), `dynamics` (simulations from rest: time averages over the branch), `orbits`
+    /// (periodic orbits from the Hopf point, as `helixbif orbits`).
     #[command(after_help = FOLDER_HELP)]
     Run(RunArgs),
     /// omega_b over the grid of a sweep study, in parallel, resumable and shardable.
