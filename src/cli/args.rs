@@ -12,7 +12,7 @@ resolve against the study file's folder.
 
 --set KEY=VALUE overrides any study field by its dotted path, the value in TOML syntax:
   --set rod.E=2e6   --set discretization.nodes=80   --set shape.handedness=left
-  --set 'fluid.model=\"rpy\"'   (the RPY-regularized fluid, docs/model.md section 9)
+  --set fluid.model=lighthill   (Lighthill's operator as published; the default is \"rpy\")
 A whole table is replaced by a TOML inline table:
   --set 'shape={kind=\"straight\", L=0.12, alpha_deg=15}'
 With --set and no --out, results go to output/<name>.set-<overrides>/, never over the
@@ -20,10 +20,25 @@ study's own output/<name>/.
 
 Exit codes: 0 success; 2 bad input (one line on stderr naming the field and the allowed
 range); 1 numerical failure (one line saying where and why; results computed before it are
-kept on disk).";
+kept on disk).
+
+Commands, options and output files: docs/commands.md; study keys: docs/studies.md.";
+
+/// The end of the help of a command that writes an output folder.
+pub const FOLDER_HELP: &str = "\
+--set KEY=VALUE: a study key by its dotted path, the value in TOML syntax (`helixbif --help`);
+with --set and no --out, results go to output/<name>.set-<overrides>/.
+Exit codes: 0 success; 1 numerical failure (results computed before it kept on disk); 2 bad input.
+Output files and their columns: docs/commands.md; study keys: docs/studies.md.";
+
+/// The end of the help of a command that writes no output folder.
+pub const REPORT_HELP: &str = "\
+--set KEY=VALUE: a study key by its dotted path, the value in TOML syntax (`helixbif --help`).
+Exit codes: 0 success; 1 numerical failure; 2 bad input.
+Reports and options: docs/commands.md; study keys: docs/studies.md.";
 
 /// Continuation and bifurcation analysis of elastic rods rotating in a viscous fluid
-/// (Discrete Elastic Rods + Lighthill slender-body theory).
+/// (Discrete Elastic Rods; the RPY-regularized line, or Lighthill's slender-body operator).
 #[derive(Parser, Debug)]
 #[command(name = "helixbif", version, about, after_help = AFTER_HELP)]
 pub struct Cli {
@@ -46,70 +61,99 @@ pub struct StudyArgs {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// One rigidly rotating steady state: observables and Newton convergence.
-    #[command(after_help = AFTER_HELP)]
+    /// One rigidly rotating steady state at a rate: observables and Newton convergence.
+    ///
+    /// Reached from rest by a ramp in omega with the study's [newton] table. Writes no folder
+    /// (--shape writes the node positions and twist angles).
+    #[command(after_help = REPORT_HELP)]
     Solve(SolveArgs),
-    /// Follow the steady branch from rest in omega: branch.csv, events.csv, meta.json, figures.
-    #[command(after_help = AFTER_HELP)]
+    /// Follow the steady branch from rest in omega, with its stability and events.
+    ///
+    /// Writes branch.csv, events.csv, hbar.svg, Fpbar.svg, eta.svg, max_re.svg and meta.json,
+    /// rows as they are found; a branch that stalls exits 1 with its points kept.
+    #[command(after_help = FOLDER_HELP)]
     Branch(BranchArgs),
-    /// The critical buckling rate omega_b: first loss of stability of the branch from rest
-    /// (kind hopf, fold or branch_point; unstable_at_rest when the rest state is already
-    /// unstable; none when the branch stays stable up to branch.omega_max); at a Hopf point its
-    /// first Lyapunov coefficient: supercritical or subcritical.
-    #[command(after_help = AFTER_HELP)]
+    /// The buckling rate omega_b with its discretization error and criticality.
+    ///
+    /// The first loss of stability of the branch from rest: kind hopf, fold or branch_point;
+    /// unstable_at_rest when the rest state is already unstable; none when the branch stays
+    /// stable up to branch.omega_max. At a Hopf point, the first Lyapunov coefficient
+    /// (supercritical or subcritical). By default N is refined until the estimated error is
+    /// below --accuracy; --single locates at the study's N, --extrapolate over a ladder of node
+    /// counts. Writes no files.
+    #[command(after_help = REPORT_HELP)]
     Locate(LocateArgs),
-    /// The stability boundary omega_b against a second study field (e.g. shape.R_over_lambda)
-    /// as a curve, by two-parameter continuation of the first loss of stability that `locate`
-    /// finds at --from (a Hopf point; a fold or branch point); double Hopf points (where the
-    /// boundary switches mode), turning points (where it jumps), zero-Hopf, Bogdanov-Takens and
-    /// generalized Hopf points located, the first Lyapunov coefficient (super- or subcritical)
-    /// at every Hopf point: boundary.csv, points.csv, boundary.svg, m_loc.svg.
-    #[command(after_help = AFTER_HELP)]
+    /// The stability boundary omega_b(q) as a curve in a second study field.
+    ///
+    /// Two-parameter continuation of the first loss of stability that `locate --single` finds
+    /// at --from. Locates double Hopf points (the boundary switches mode), turning points (it
+    /// jumps), zero-Hopf, Bogdanov-Takens and generalized Hopf points, and the first Lyapunov
+    /// coefficient at every Hopf point. Writes boundary.csv and points.csv (rewritten after
+    /// every point), boundary.svg, m_loc.svg and meta.json.
+    #[command(after_help = FOLDER_HELP)]
     Boundary(BoundaryArgs),
-    /// Do what the study's [study] table declares and write `output/<study name>/`. Kinds:
-    /// `locate` (the default without a [study] table: omega_b, or a ladder of node counts),
-    /// `branch` (branches from rest, one per case, drawn together), `sweep` (omega_b over a
-    /// parameter grid, fits), `boundary` (omega_b as curves in one field, one per case, the
-    /// local exponent m_loc along them), `phase` (propulsive force over lambda/l and omegabar
-    /// (R/lambda)^m with the stability boundary and natural flagella), `shapes` (steady
-    /// shapes and the critical mode), `dynamics` (simulations from rest: time averages over
-    /// the branch), `orbits` (periodic orbits from the Hopf point, as `helixbif orbits`).
-    #[command(after_help = AFTER_HELP)]
+    /// Do what the study's [study] table declares, writing output/<study name>/.
+    ///
+    /// Kinds: `locate` (omega_b at the study's N, the default without a [study] table; or
+    /// refined to an accuracy; or over a ladder of node counts), `branch` (branches from rest,
+    /// one per case, drawn together), `sweep` (omega_b over a parameter grid, fits),
+    /// `boundary` (omega_b as curves in one field, one per case, the local exponent m_loc along
+    /// them), `phase` (propulsive force over lambda/l and omegabar (R/lambda)^m with the
+    /// stability boundary and natural flagella), `shapes` (steady shapes and the critical
+    /// mode), `dynamics` (simulations from rest: time averages over the branch), `orbits`
+    /// (periodic orbits from the Hopf point, as `helixbif orbits`).
+    #[command(after_help = FOLDER_HELP)]
     Run(RunArgs),
-    /// omega_b over the parameter grid of a study of kind "sweep" (any other study is refused),
-    /// in parallel and resumable; `--shard K/N` runs every N-th point (from the K-th) for
-    /// array jobs.
-    #[command(after_help = AFTER_HELP)]
+    /// omega_b over the grid of a sweep study, in parallel, resumable and shardable.
+    ///
+    /// For a study of kind "sweep" (any other study is refused): each point a locate at its own
+    /// N, appended to sweep.csv as it finishes; a re-run skips the points already there.
+    /// `--shard K/N` runs every N-th point (from the K-th) for array jobs.
+    #[command(after_help = FOLDER_HELP)]
     Sweep(SweepArgs),
-    /// A sweep as a Slurm array job (one shard per task) and a merge job after it (afterok):
-    /// writes the two sbatch scripts into the output folder and prints the sbatch commands, or
-    /// submits them and records both job ids in slurm.json.
-    #[command(after_help = AFTER_HELP)]
+    /// A sweep as a Slurm array job (one shard per task) and a merge job after it.
+    ///
+    /// Needs a study file of kind "sweep". Writes slurm-sweep.sbatch and slurm-merge.sbatch into
+    /// the output folder and prints the two sbatch commands, or with --submit submits them (the
+    /// merge after the array, afterok) and records both job ids in slurm.json.
+    #[command(after_help = FOLDER_HELP)]
     Slurm(SlurmArgs),
-    /// Join the shard files of a study of kind "sweep" (any other study is refused) into
-    /// sweep.csv.
-    #[command(after_help = AFTER_HELP)]
+    /// Join the shard files of a sweep into sweep.csv.
+    ///
+    /// For a study of kind "sweep" (any other study is refused). Refuses shards of another study
+    /// and missing or repeated points; draws the study's figures.
+    #[command(after_help = FOLDER_HELP)]
     Merge(MergeArgs),
-    /// Periodic orbits born at the Hopf point that `locate` finds (first Lyapunov coefficient,
-    /// shooting on equal BDF2 steps, Floquet multipliers, secant continuation in omega past
-    /// folds): orbits.csv (period, amplitude, time averages of hbar, Fpbar, Tp over a period,
-    /// multipliers, stability), events.csv (folds, stability changes), amplitude.svg, hbar.svg,
-    /// Fpbar.svg, meta.json. Rows are written as each orbit converges.
-    #[command(after_help = AFTER_HELP)]
+    /// The branch of periodic orbits born at the Hopf point, with their stability.
+    ///
+    /// From the Hopf point that `locate --single` finds: shooting on equal BDF2 steps, Floquet
+    /// multipliers, secant continuation in omega past folds. Writes orbits.csv (a row as each
+    /// orbit converges), states/, events.csv, branch/, amplitude.svg, hbar.svg, Fpbar.svg,
+    /// checkpoint.json and meta.json.
+    #[command(after_help = FOLDER_HELP)]
     Orbits(OrbitsArgs),
-    /// Step the rod through time at a rate (BDF2, adaptive): time series of hbar, Fp, Tp, eta,
-    /// shapes, figures, and late-time mean and standard deviation. Uses the study's [newton]
-    /// table for the rest and steady states.
-    #[command(after_help = AFTER_HELP)]
+    /// Step the rod through time at a rate (BDF2, adaptive).
+    ///
+    /// From rest (the motor spun up over --ramp-time), from the steady state (--from-steady) or
+    /// from a periodic orbit (--from-orbit). Writes timeseries.csv, shapes.csv, figures and
+    /// meta.json; reports the mean and standard deviation of hbar, Fpbar and eta over
+    /// t >= --transient. Uses the study's [integrator] table, and its [newton] table for the
+    /// rest and steady states.
+    #[command(after_help = FOLDER_HELP)]
     Simulate(SimulateArgs),
-    /// omega_b the way simulation studies found it: bisection on runs from rest, each judged by
-    /// whether the rod settles on the steady state. Uses the study's [newton] table.
-    #[command(after_help = AFTER_HELP)]
+    /// omega_b by bisection on simulations from rest, as simulation studies find it.
+    ///
+    /// Each trial spins the motor up over --ramp-time and holds it for --hold-time; it is
+    /// stable when the rod settles on the steady state. Uses the study's [newton] table.
+    /// Writes no files.
+    #[command(after_help = REPORT_HELP)]
     Bisect(BisectArgs),
-    /// Power law y = C x^p fitted by least squares in logarithms, ln y = ln C + p ln x (errors
-    /// taken as relative), with 95% confidence intervals from the log-scale residuals (Student
-    /// t); rows without positive numbers in both columns (or whose `status` is not ok) are left
-    /// out and listed.
+    /// Fit a power law y = C x^p to two columns of a CSV file.
+    ///
+    /// Least squares in logarithms, ln y = ln C + p ln x (errors taken as relative), with 95%
+    /// confidence intervals from the log-scale residuals (Student t); rows without positive
+    /// numbers in both columns, or whose `status` is not ok, are left out and listed.
+    #[command(after_help = "Exit codes: 0 success; 1 numerical failure; 2 bad input.")]
     Fit(FitArgs),
 }
 
@@ -135,7 +179,7 @@ pub struct BranchArgs {
     /// the study's `branch.omega_max`.
     #[arg(long, allow_negative_numbers = true)]
     pub omega_max: Option<f64>,
-    /// Output folder; default `output/<study name>/`.
+    /// Output folder; default `output/<study name>/branch/`.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -149,10 +193,9 @@ pub struct LocateArgs {
     /// continuation.event_tol).
     #[arg(long, allow_negative_numbers = true)]
     pub tol: Option<f64>,
-    /// Relative accuracy EPS of omega_b: N is refined from the study's (spacing halved
-    /// each time) until the estimated discretization error is below EPS or the model can
-    /// go no further (Lighthill's admissible range, --max-nodes), and the error, the N used
-    /// and how the error was estimated are reported (docs/model.md section 10).
+    /// Relative accuracy of omega_b: N is refined from the study's (spacing halved each time)
+    /// until the estimated discretization error is below it, or until --max-nodes (with
+    /// Lighthill, its admissible range) stops it (docs/model.md section 10).
     #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub accuracy: f64,
     /// Largest node count of the refinement.
@@ -164,7 +207,8 @@ pub struct LocateArgs {
     /// Run a ladder of node counts and extrapolate omega_b to infinite resolution.
     #[arg(long)]
     pub extrapolate: bool,
-    /// Node counts of the ladder (comma separated); default five inside the admissible range.
+    /// Node counts of the ladder (comma separated); default N, 2N - 1, 4N - 3 from the study's
+    /// N (with Lighthill, five inside its admissible range).
     #[arg(
         long,
         value_delimiter = ',',
@@ -269,10 +313,11 @@ pub struct OrbitsArgs {
     /// twice it).
     #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
     pub amplitude: f64,
-    /// The branch ends when omega leaves [omega_min, omega_max] (rad/s); default
-    /// [0, branch.omega_max].
+    /// Lower end of the rates the branch may visit (rad/s); default 0.
     #[arg(long, allow_negative_numbers = true)]
     pub omega_min: Option<f64>,
+    /// Upper end of the rates the branch may visit (rad/s); default the study's
+    /// branch.omega_max.
     #[arg(long, allow_negative_numbers = true)]
     pub omega_max: Option<f64>,
     /// Output folder; default `output/<study name>/orbits/`.
