@@ -415,7 +415,7 @@ pub fn run_simulate(
             Ok(())
         })();
         match result {
-            Ok(()) => ControlFlow::Continue(()),
+            Ok(()) => crate::study::interrupt::flow(),
             Err(e) => {
                 failure = Some(e);
                 ControlFlow::Break(())
