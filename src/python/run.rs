@@ -1,12 +1,11 @@
 //! How the Python module runs the library: with the GIL released and Ctrl-C honoured between
 //! steps, its errors as Python exceptions, its output folders and provenance.
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use pyo3::create_exception;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::IntoPyDict;
 
@@ -22,29 +21,24 @@ create_exception!(
      rows written so far, or None)."
 );
 
-/// Whether Ctrl-C came during the run in progress, and the exception Python's handler raised.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-static PENDING: Mutex<Option<PyErr>> = Mutex::new(None);
-
-fn pending() -> std::sync::MutexGuard<'static, Option<PyErr>> {
-    PENDING
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner())
+thread_local! {
+    /// The exception a signal handler raised during the run in progress on this thread (the
+    /// study layer asks its check on the thread that runs the study; Python runs signal
+    /// handlers on the main thread only, so only a run there is ever interrupted).
+    static PENDING: RefCell<Option<PyErr>> = const { RefCell::new(None) };
 }
 
 /// The study layer's interrupt check ([`crate::study::interrupt::set_check`]): runs Python's
-/// signal handlers (on the main thread; elsewhere Python runs none), and keeps the exception one
-/// raised (`KeyboardInterrupt` for Ctrl-C) for [`detached`] to raise when the run has ended.
-/// Once one was raised, every later check of the run says stop.
+/// signal handlers, and keeps the exception one raised (`KeyboardInterrupt` for Ctrl-C) for
+/// [`detached`] to raise when the run has ended. Once one was raised, every later check of the
+/// run says stop.
 pub(crate) fn interrupted() -> bool {
-    if INTERRUPTED.load(Ordering::SeqCst) {
+    if PENDING.with_borrow(Option::is_some) {
         return true;
     }
-    let raised = Python::attach(|py| py.check_signals().err());
-    match raised {
+    match Python::attach(|py| py.check_signals().err()) {
         Some(e) => {
-            *pending() = Some(e);
-            INTERRUPTED.store(true, Ordering::SeqCst);
+            PENDING.set(Some(e));
             true
         }
         None => false,
@@ -54,14 +48,12 @@ pub(crate) fn interrupted() -> bool {
 /// Runs `f` with the GIL released; when a signal handler raised during it (Ctrl-C:
 /// `KeyboardInterrupt`), that exception, whatever `f` returned.
 pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
-    INTERRUPTED.store(false, Ordering::SeqCst);
-    pending().take();
+    PENDING.set(None);
     let out = py.detach(f);
-    if INTERRUPTED.swap(false, Ordering::SeqCst) {
-        let raised = pending().take();
-        return Err(raised.unwrap_or_else(|| PyKeyboardInterrupt::new_err("interrupted")));
+    match PENDING.take() {
+        Some(raised) => Err(raised),
+        None => Ok(out),
     }
-    Ok(out)
 }
 
 /// A field named as the command line names it (`--t-end`, `--from/--to`) named as the Python
