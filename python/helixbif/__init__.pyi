@@ -22,7 +22,7 @@ class NumericalError(RuntimeError):
     `partial` is the result found before it (its tables so far), or None."""
 
     message: str
-    partial: Branch | Boundary | Simulation | Orbits | None
+    partial: Located | Branch | Boundary | Simulation | Orbits | None
 
 class Study:
     """A validated study (physical parameters in SI units, numerical settings), immutable."""
@@ -67,7 +67,9 @@ class Study:
         """omega_b (rad/s), the first loss of stability of the branch from rest
         (`helixbif locate`): refined in N to `accuracy` (default 1e-3, at most `max_nodes`,
         default 500), or at the study's N (`single=True`), or over a ladder `nodes`
-        extrapolated (`extrapolate=True`); `tol` the relative precision of omega_b."""
+        extrapolated (`extrapolate=True`); `tol` the relative precision of omega_b. Raises
+        ValueError on bad input, NumericalError when the continuation fails or the refinement
+        stops short of `accuracy` (the `Located` then in `partial`)."""
     def branch(self, omega_max: float | None = None, *, out: _Path | None = None) -> Branch:
         """The branch from rest up to `omega_max` rad/s (`helixbif branch`); files into `out`
         (default a fresh temporary folder). Raises NumericalError with `partial` when it
@@ -157,7 +159,17 @@ class Located(_Result):
     estimate: dict[str, Any] | None
     rungs: list[dict[str, Any]]
     stopped: str | None
+    fluid: Literal["lighthill", "rpy"]
+    """The hydrodynamic model of the rungs (refined)."""
     omega_b_extrapolated: float
+    """rad/s (ladder)"""
+    omegabar_b_extrapolated: float
+    coefficients: list[float]
+    """The ladder's fit of omegabar_b(N), lowest order first (see `model`)."""
+    model: str
+    """The ladder's fit, e.g. `omega_b(N) = c0 + c1 h + c2 h^2, h = 1/(N - 1)`."""
+    nodes_max: int
+    """The largest admissible node count of the rod (ladder)."""
     kinds: list[str]
 
 class Branch(_Result):
@@ -190,6 +202,8 @@ class Branch(_Result):
     omega_max: float
     stop: str
     stalled: bool
+    seconds: float
+    """Wall time of the run, s."""
     out: str
 
 class Solution(_Result):
@@ -236,12 +250,17 @@ class Boundary(_Result):
     """The column; the report's counts are `result["criticality"]`."""
     nodes: _I
     key: str
+    to: float
+    """The end of the range of `key`; its start is `result["from"]` (`from` is a Python
+    keyword)."""
     points: int
     segments: int
     special: list[dict[str, Any]]
     evaluations: int
     check_omega_b: float | None
     check_difference: float | None
+    seconds: float
+    """Wall time of the run, s."""
     out: str
 
 class Simulation(_Result):
@@ -275,6 +294,8 @@ class Simulation(_Result):
     eta_std: float | None
     transient: float
     orbit: dict[str, Any] | None
+    seconds: float
+    """Wall time of the run, s."""
     out: str
 
 class Orbits(_Result):
@@ -310,6 +331,8 @@ class Orbits(_Result):
     first: dict[str, Any] | None
     last: dict[str, Any] | None
     resumed_at: int | None
+    seconds: float
+    """Wall time of the run, s."""
     out: str
 
 class PowerLaw(_Result):

@@ -3,6 +3,7 @@ the last digit, all but the wall time and the output folder), the arrays equal t
 the command line writes, with the documented shapes and dtypes."""
 
 import csv
+import json
 
 import numpy as np
 import pytest
@@ -59,16 +60,37 @@ def test_locate_default_resolution(cli):
 
 @pytest.fixture(scope="module")
 def refined():
-    """A refinement of two rungs (N = 44, then 87, the largest admissible N: about a second)."""
-    return helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate()
+    """A refinement of two rungs (N = 44, then 87, the largest admissible N: about a second)
+    whose error estimate, 9.8e-2, is below the accuracy asked for."""
+    return helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate(0.099)
 
 
 def test_locate_refined(cli, refined):
-    expected = cli.json("locate", "--set", "discretization.nodes=44")
+    expected = cli.json("locate", "--accuracy", "0.099", "--set", "discretization.nodes=44")
     assert scrub(refined.to_dict()) == scrub(expected)
-    assert refined.resolution == "refine"
+    assert refined.resolution == "refine" and refined.reached
     assert [r["nodes"] for r in refined.rungs] == [44, 87]
     assert refined.error == refined["omega_b_error"] and refined.error > 0
+    assert refined.relative_error < 0.099 and refined.stopped is None
+
+
+def test_locate_short_of_its_accuracy(cli):
+    """The default accuracy 1e-3 is out of reach below N = 87: the command line prints the
+    report, then fails (exit 1) with one line; Python raises NumericalError with that line and
+    the whole result as `partial`."""
+    done = cli.run("locate", "--set", "discretization.nodes=44", "--json")
+    assert done.returncode == 1, done.stderr
+    line = done.stderr.strip().splitlines()[-1]
+    with pytest.raises(helixbif.NumericalError) as raised:
+        helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate()
+    error = raised.value
+    assert line == "helixbif: error: " + str(error) and error.message == str(error)
+    assert error.message.startswith("numerical failure: accuracy 1e-3 not reached at N = 87")
+    located = error.partial
+    assert isinstance(located, helixbif.Located)
+    assert scrub(located.to_dict()) == scrub(json.loads(done.stdout))
+    assert not located.reached and located.relative_error > 1e-3 and located.stopped
+    assert [r["nodes"] for r in located.rungs] == [44, 87]
 
 
 def test_locate_ladder_and_tol(cli, small):

@@ -187,7 +187,8 @@ impl Study {
     /// locates at the study's N only; `extrapolate=True` runs a ladder of node counts `nodes`
     /// (default: five inside the admissible range) and extrapolates. `tol` is the relative
     /// precision of omega_b (default the study's continuation.event_tol, 1e-8). Returns a
-    /// `Located`. Raises ValueError on bad input, NumericalError when the continuation fails.
+    /// `Located`. Raises ValueError on bad input, NumericalError when the continuation fails
+    /// or the refinement stops short of `accuracy` (the `Located` in its `partial`).
     #[pyo3(signature = (accuracy=None, *, single=false, max_nodes=None, extrapolate=false, nodes=None, tol=None))]
     #[allow(clippy::too_many_arguments)]
     fn locate(
