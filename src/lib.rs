@@ -14,6 +14,8 @@ pub mod model;
 pub mod numerics;
 pub mod plot;
 pub mod problem;
+#[cfg(feature = "python")]
+pub mod python;
 pub mod study;
 
 pub use error::{Error, Result};

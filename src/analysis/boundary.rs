@@ -226,7 +226,12 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             self.observer.grown(&self.boundary)
         });
         self.record(result);
-        ControlFlow::Continue(())
+        // An error (the observer's included) ends the curve at this point.
+        if self.error.is_some() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     }
 
     /// The boundary leaves the curve where the other mode is unstable beyond a double Hopf or

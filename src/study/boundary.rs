@@ -90,7 +90,8 @@ impl BoundaryObserver for BoundaryWriter<'_> {
             "q = {:.5}, omega_b = {:.5} rad/s",
             point.q, point.omega_b
         ));
-        self.write(boundary)
+        self.write(boundary)?;
+        crate::study::interrupt::check()
     }
 }
 

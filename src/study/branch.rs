@@ -19,6 +19,7 @@ use crate::model::params::ShapeParams;
 use crate::problem::steady::SteadyState;
 use crate::study::Study;
 use crate::study::figures;
+use crate::study::interrupt;
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir};
 use crate::study::progress::{self, progress};
 use crate::{Error, Result};
@@ -114,7 +115,7 @@ impl Observer<Point, Event> for BranchWriter<'_> {
             self.model.scales.omega_from_bar(point.p),
             point.spectrum.unstable
         ));
-        ControlFlow::Continue(())
+        interrupt::flow()
     }
 
     fn event(&mut self, event: &Event) -> ControlFlow<()> {
@@ -183,9 +184,39 @@ pub(crate) struct BranchTables {
     pub events: Vec<EventRow>,
 }
 
+impl BranchReport {
+    /// The failure that a continuation which stalled before `omega_max` is (`None` when it did
+    /// not stall): where and why, and where its points are.
+    pub fn stall(&self) -> Option<Error> {
+        self.stalled.then(|| {
+            Error::Numerical(format!(
+                "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
+                self.omega_reached, self.stop, self.points, self.out
+            ))
+        })
+    }
+}
+
 /// `helixbif branch`: [`run_branch`] with its figures (`hbar.svg`, `Fpbar.svg`, ...); a
-/// continuation that stalled is a numerical failure, its points on disk.
+/// continuation that stalled is a numerical failure ([`BranchReport::stall`]), its points on
+/// disk.
 pub fn branch(
+    study: &Study,
+    model: &Model,
+    omega_max: f64,
+    dir: &Path,
+    provenance: &Provenance,
+) -> Result<BranchReport> {
+    let report = branch_report(study, model, omega_max, dir, provenance)?;
+    match report.stall() {
+        Some(failure) => Err(failure),
+        None => Ok(report),
+    }
+}
+
+/// [`branch`] that returns the report of a continuation that stalled too (`stalled`,
+/// [`BranchReport::stall`]), for a front end that keeps it beside the failure.
+pub fn branch_report(
     study: &Study,
     model: &Model,
     omega_max: f64,
@@ -199,12 +230,6 @@ pub fn branch(
         rigid: matches!(study.shape, ShapeParams::Helix { .. }),
     };
     figures::branch_figures(dir, &[case])?;
-    if report.stalled {
-        return Err(Error::Numerical(format!(
-            "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
-            report.omega_reached, report.stop, report.points, report.out
-        )));
-    }
     Ok(report)
 }
 

@@ -15,6 +15,7 @@ use crate::engine::stop::Observer;
 use crate::model::Model;
 use crate::numerics::extrapolation::DiscretizationError;
 use crate::study::Study;
+use crate::study::interrupt;
 use crate::study::progress::{self, progress};
 
 /// How `locate` treats the node count.
@@ -91,7 +92,7 @@ impl Observer<Point, Event> for LocateProgress {
         progress::set_fraction(&self.bar, point.p, (0.0, self.omegabar_max));
         self.bar
             .set_message(format!("omega = {:.5} rad/s", point.p / self.time));
-        ControlFlow::Continue(())
+        interrupt::flow()
     }
 }
 

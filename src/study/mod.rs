@@ -9,6 +9,7 @@ pub mod branch;
 pub mod cycles;
 pub mod dynamics;
 pub mod figures;
+pub mod interrupt;
 pub mod locate;
 pub mod orbits;
 pub mod output;

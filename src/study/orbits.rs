@@ -221,6 +221,7 @@ pub fn run_orbits(
         (s.omega_to_bar(lo), s.omega_to_bar(hi)),
         h0,
         |row, start, checkpoint| {
+            crate::study::interrupt::check()?;
             bar.set_message(format!(
                 "orbit {}: omega = {:.6} rad/s, amplitude {:.3e} m, {}",
                 row.index, row.omega, row.amplitude, row.verdict

@@ -416,7 +416,7 @@ pub fn run_simulate(
             Ok(())
         })();
         match result {
-            Ok(()) => ControlFlow::Continue(()),
+            Ok(()) => crate::study::interrupt::flow(),
             Err(e) => {
                 failure = Some(e);
                 ControlFlow::Break(())

@@ -1,0 +1,269 @@
+"""The runs: every result equals the command line's --json on the same input (every number to
+the last digit, all but the wall time and the output folder), the arrays equal the CSV files
+the command line writes, with the documented shapes and dtypes."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import helixbif
+from conftest import scrub
+
+SMALL = ("--set", "discretization.nodes=20")
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return rows
+
+
+def assert_columns_equal(columns, path):
+    """The arrays equal the CSV file's columns, number for number."""
+    rows = read_csv(path)
+    with open(path, newline="") as f:
+        header = next(csv.reader(f))
+    assert list(columns) == header
+    for name, array in columns.items():
+        assert array.shape == (len(rows),), name
+        cells = [r[name] for r in rows]
+        if array.dtype == np.bool_:
+            assert [str(v).lower() for v in array] == cells, name
+        elif array.dtype == np.int64:
+            assert [int(c) for c in cells] == array.tolist(), name
+        elif array.dtype == np.float64:
+            expected = [float(c) if c != "" else float("nan") for c in cells]
+            np.testing.assert_array_equal(array, np.array(expected), err_msg=name)
+        else:
+            assert array.dtype.kind == "U", name
+            assert array.tolist() == cells, name
+
+
+def test_locate_single(cli, small):
+    located = small.locate(single=True)
+    assert isinstance(located, helixbif.Located)
+    assert located.to_dict() == cli.json("locate", "--single", *SMALL)
+    assert located.kind == "hopf" and located.resolution == "single"
+    assert located.omega_b == located["omega_b"] and located.error is None
+    assert isinstance(located.omega_b, float) and isinstance(located.nodes, int)
+    assert located.criticality in ("subcritical", "supercritical", "undetermined")
+    assert "omega_b" in dir(located) and "omega_b" in located.keys()
+
+
+def test_locate_default_resolution(cli):
+    """The representative helix at its own N = 60."""
+    located = helixbif.Study.default().locate(single=True)
+    assert located.to_dict() == cli.json("locate", "--single")
+
+
+@pytest.fixture(scope="module")
+def refined():
+    """A refinement of two rungs (N = 44, then 87, the largest admissible N: about a second)
+    whose error estimate, 9.8e-2, is below the accuracy asked for."""
+    return helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate(0.099)
+
+
+def test_locate_refined(cli, refined):
+    expected = cli.json("locate", "--accuracy", "0.099", "--set", "discretization.nodes=44")
+    assert scrub(refined.to_dict()) == scrub(expected)
+    assert refined.resolution == "refine" and refined.reached
+    assert [r["nodes"] for r in refined.rungs] == [44, 87]
+    assert refined.error == refined["omega_b_error"] and refined.error > 0
+    assert refined.relative_error < 0.099 and refined.stopped is None
+
+
+def test_locate_short_of_its_accuracy(cli):
+    """The default accuracy 1e-3 is out of reach below N = 87: the command line prints the
+    report, then fails (exit 1) with one line; Python raises NumericalError with that line and
+    the whole result as `partial`."""
+    done = cli.run("locate", "--set", "discretization.nodes=44", "--json")
+    assert done.returncode == 1, done.stderr
+    line = done.stderr.strip().splitlines()[-1]
+    with pytest.raises(helixbif.NumericalError) as raised:
+        helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate()
+    error = raised.value
+    assert line == "helixbif: error: " + str(error) and error.message == str(error)
+    assert error.message.startswith("numerical failure: accuracy 1e-3 not reached at N = 87")
+    located = error.partial
+    assert isinstance(located, helixbif.Located)
+    assert scrub(located.to_dict()) == scrub(json.loads(done.stdout))
+    assert not located.reached and located.relative_error > 1e-3 and located.stopped
+    assert [r["nodes"] for r in located.rungs] == [44, 87]
+
+
+def test_locate_ladder_and_tol(cli, small):
+    located = small.locate(extrapolate=True, nodes=[20, 25, 30], tol=1e-6)
+    expected = cli.json(
+        "locate", "--extrapolate", "--nodes", "20,25,30", "--tol", "1e-6", *SMALL
+    )
+    assert located.to_dict() == expected
+    assert located.resolution == "ladder" and located.nodes == [20, 25, 30]
+
+
+def test_locate_bad_options(small):
+    for kwargs, field in [
+        ({"accuracy": 0.5}, "accuracy"),
+        ({"max_nodes": -3}, "max_nodes"),
+        ({"tol": 0.5}, "tol"),
+        ({"single": True, "extrapolate": True}, "single"),
+        ({"single": True, "accuracy": 1e-3}, "accuracy"),
+        ({"nodes": [20]}, "nodes"),
+        ({"extrapolate": True, "nodes": [-1, 20]}, "nodes"),
+    ]:
+        with pytest.raises(ValueError, match=f"^invalid input: {field}: "):
+            small.locate(**kwargs)
+
+
+def test_branch(cli, small, tmp_path):
+    out = tmp_path / "py"
+    branch = small.branch(omega_max=1.5, out=out)
+    expected = cli.json("branch", "--omega-max", "1.5", "--out", tmp_path / "cli", *SMALL)
+    assert scrub(branch.to_dict()) == scrub(expected)
+    assert branch.out == str(out) and (out / "branch.csv").is_file()
+    assert_columns_equal(branch.columns, tmp_path / "cli" / "branch.csv")
+    n = branch.points
+    for name in ["s", "omega", "omegabar", "Fp", "Fpbar", "Fpbar_rigid", "Tp", "eta", "h", "hbar", "max_re"]:
+        column = getattr(branch, name)
+        assert column.dtype == np.float64 and column.shape == (n,), name
+    assert branch.stable.dtype == np.bool_ and branch.n_unstable.dtype == np.int64
+    assert np.isnan(branch.eta[0])  # undefined at rest
+    assert [e["kind"] for e in branch.events] == ["hopf"]
+    assert not branch.stable[-1] and branch.stable[0]
+
+
+def test_branch_default_folder(small):
+    branch = small.branch(omega_max=0.3)
+    assert "helixbif-branch-" in branch.out
+
+
+def test_unusable_out(small, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(ValueError, match="^invalid input: out: cannot write results into "):
+        small.branch(omega_max=0.3, out=blocker / "sub")
+    with pytest.raises(ValueError, match="^invalid input: omega_max: "):
+        small.branch(omega_max=float("inf"))
+
+
+def test_solve(cli, small, tmp_path):
+    solution = small.solve(0.5)
+    assert solution.to_dict() == cli.json("solve", "--omega", "0.5", *SMALL)
+    shape = tmp_path / "shape.csv"
+    cli.json("solve", "--omega", "0.5", "--shape", shape, *SMALL)
+    rows = read_csv(shape)
+    assert solution.positions.shape == (20, 3) and solution.positions.dtype == np.float64
+    expected = np.array([[float(r[k]) for k in "xyz"] for r in rows])
+    np.testing.assert_array_equal(solution.positions, expected)
+    assert solution.theta.shape == (19,)
+    np.testing.assert_array_equal(solution.theta, [float(r["theta"]) for r in rows[:-1]])
+    with pytest.raises(ValueError, match="^invalid input: omega: "):
+        small.solve(float("nan"))
+
+
+def test_boundary(cli, tmp_path):
+    study = helixbif.Study.default().with_(**{"discretization.nodes": 30})
+    boundary = study.boundary("shape.R_over_lambda", 0.318, 0.3)
+    expected = cli.json(
+        "boundary", "--vary", "shape.R_over_lambda", "--from", "0.318", "--to", "0.3",
+        "--out", tmp_path / "cli", "--set", "discretization.nodes=30",
+    )
+    assert scrub(boundary.to_dict()) == scrub(expected)
+    assert_columns_equal(boundary.columns, tmp_path / "cli" / "boundary.csv")
+    assert boundary.q.shape == (boundary["points"],) and boundary.q[0] == 0.318
+    assert boundary.kind.dtype.kind == "U" and boundary.criticality.dtype.kind == "U"
+    assert isinstance(boundary["criticality"], dict)
+
+
+def test_boundary_failure_carries_the_partial_curve(cli, small, tmp_path):
+    args = ["--vary", "shape.R_over_lambda", "--from", "0.318", "--to", "0.25"]
+    code, line = cli.error("boundary", *args, "--out", tmp_path / "cli", *SMALL)
+    assert code == 1
+    with pytest.raises(helixbif.NumericalError) as raised:
+        small.boundary("shape.R_over_lambda", 0.318, 0.25, out=tmp_path / "py")
+    error = raised.value
+    assert str(error) == line == error.message
+    assert isinstance(error, RuntimeError)
+    partial = error.partial
+    assert isinstance(partial, helixbif.Boundary)
+    assert partial.q.size > 0 and partial.out == str(tmp_path / "py")
+    assert_columns_equal(partial.columns, tmp_path / "cli" / "boundary.csv")
+    with pytest.raises(ValueError, match="^invalid input: vary: "):
+        small.boundary("rod.nothing", 1.0, 2.0)
+    with pytest.raises(ValueError, match="^invalid input: start/stop: "):
+        small.boundary("rod.E", 1e6, 1e6)
+
+
+def test_simulate(cli, small, tmp_path):
+    args = ["--omega", "0.5", "--t-end", "30", "--ramp-time", "5", "--shape-every", "20"]
+    expected = cli.json("simulate", *args, "--out", tmp_path / "cli", *SMALL)
+    sim = small.simulate(0.5, t_end=30, ramp_time=5, shape_every=20, out=tmp_path / "py")
+    assert scrub(sim.to_dict()) == scrub(expected)
+    assert_columns_equal(sim.columns, tmp_path / "cli" / "timeseries.csv")
+    assert sim.t.dtype == np.float64 and sim.t.shape == (sim.steps + 1,)
+    frames = len(sim.shape_times)
+    assert frames >= 2 and sim.shapes.shape == (frames, 20, 3)
+    rows = read_csv(tmp_path / "cli" / "shapes.csv")
+    np.testing.assert_array_equal(
+        sim.shapes.reshape(-1, 3), [[float(r[k]) for k in "xyz"] for r in rows]
+    )
+    assert sim["omega"] == 0.5 and sim.omega.shape == sim.t.shape
+    with pytest.raises(ValueError, match="^invalid input: perturb: "):
+        small.simulate(0.5, t_end=1.0, perturb=1e-3)
+    with pytest.raises(ValueError, match="^invalid input: t_end: "):
+        small.simulate(0.5, t_end=-1.0)
+
+
+def test_orbits(cli, small, tmp_path):
+    args = ["--max-orbits", "4", "--steps", "40"]
+    expected = cli.json("orbits", *args, "--out", tmp_path / "cli", *SMALL)
+    orbits = small.orbits(max_orbits=4, steps=40, out=tmp_path / "py")
+    assert scrub(orbits.to_dict()) == scrub(expected)
+    assert_columns_equal(orbits.columns, tmp_path / "cli" / "orbits.csv")
+    assert orbits.period.shape == (orbits["orbits"],) and orbits.stable.dtype == np.bool_
+    assert orbits.verdict.dtype.kind == "U"
+    steady = orbits.steady
+    assert set(steady) >= {"omega", "hbar", "stable"} and steady["omega"].dtype == np.float64
+    with pytest.raises(ValueError, match="^invalid input: max_orbits: "):
+        small.orbits(max_orbits=1)
+
+
+def test_fit_power_law(cli, tmp_path):
+    x = [0.2, 0.25, 0.318, 0.4, 0.5]
+    y = [3.1, 2.2, 1.5, 1.01, 0.71]
+    path = tmp_path / "data.csv"
+    path.write_text("x,y\n" + "".join(f"{a},{b}\n" for a, b in zip(x, y)))
+    expected = cli.json("fit", path, "--x", "x", "--y", "y")
+    fit = helixbif.fit_power_law(np.array(x), y)
+    assert fit.to_dict() == {k: expected[k] for k in fit.keys()}
+    assert set(fit.keys()) == {"C", "p", "C_ci", "p_ci", "n", "r2", "residuals"}
+    assert fit.residuals.dtype == np.float64 and fit.residuals.shape == (5,)
+    with pytest.raises(ValueError, match="^invalid input: fit: "):
+        helixbif.fit_power_law([1.0, 2.0], [1.0, 2.0])
+    with pytest.raises(ValueError, match="^invalid input: fit: "):
+        helixbif.fit_power_law([1.0, 2.0, -3.0], [1.0, 2.0, 3.0])
+
+
+def test_to_pandas(small, refined):
+    pandas = pytest.importorskip("pandas")
+    branch = small.branch(omega_max=0.5)
+    frame = branch.to_pandas()
+    assert isinstance(frame, pandas.DataFrame) and list(frame.columns) == list(branch.columns)
+    assert len(frame) == branch.points
+    assert list(refined.to_pandas()["nodes"]) == [44, 87]
+    series = small.locate(single=True).to_pandas()
+    assert series["omega_b"] == small.locate(single=True).omega_b
+
+
+def test_result_attributes(small):
+    located = small.locate(single=True)
+    with pytest.raises(AttributeError):
+        located.nothing
+    with pytest.raises(KeyError):
+        located["nothing"]
+    assert repr(located).startswith("Located(study='representative', kind='hopf'")
+    # to_dict gives a fresh dict each time.
+    d = located.to_dict()
+    d["omega_b"] = 0.0
+    assert located.to_dict()["omega_b"] != 0.0
