@@ -33,7 +33,8 @@ started = time.perf_counter()
 # ## The representative helix: omega_b and its branch
 
 # %%
-study = helixbif.Study.default()
+# Lighthill's operator at N = 60, as in the paper (the default fluid is the RPY line).
+study = helixbif.Study.default().with_(**{"fluid.model": "lighthill"})
 located = study.locate(single=True)  # at the study's N = 60, as `helixbif locate --single`
 print(f"omega_b = {located.omega_b:.6f} rad/s ({located.kind}, {located.criticality}), "
       f"omegabar_b = {located.omegabar_b:.2f}, hbar there {located.hbar:.4f}")

@@ -80,8 +80,43 @@ fn shape_file_has_one_row_per_node_in_si() {
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "i,x,y,z,theta");
     assert_eq!(lines.len(), 13);
-    // The clamp node of the representative helix sits at (R, 0, 0) m.
-    let first: Vec<f64> = lines[1]
+    // On the default RPY line the clamped edge is centred on the clamp point (R, 0, 0) m of the
+    // representative helix (docs/model.md section 2): the first two nodes lie on the helix half
+    // an edge to either side of it, mirror images in the plane y = 0 through the clamp point
+    // and the axis.
+    let row = |k: usize| -> Vec<f64> {
+        lines[k]
+            .split(',')
+            .skip(1)
+            .take(3)
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (a, b) = (row(1), row(2));
+    for (u, v) in [(a[0], b[0]), (a[1], -b[1]), (a[2], -b[2])] {
+        assert!((u - v).abs() < 1e-15, "{a:?} {b:?}");
+    }
+    assert!((a[0].hypot(a[1]) - 0.0159).abs() < 1e-15, "{a:?}");
+    assert!(a[0] > 0.0 && a[0] < 0.0159 && a[2] > 0.0, "{a:?}");
+    // On Lighthill's operator the clamp node itself sits there.
+    let (code, _, _) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.0",
+        "--set",
+        "fluid.model=lighthill",
+        "--set",
+        "discretization.nodes=12",
+        "--shape",
+        p,
+    ]);
+    assert_eq!(code, 0);
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    let first: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
         .split(',')
         .take(4)
         .map(|v| v.parse().unwrap())

@@ -90,5 +90,8 @@ def cli(cli_path, tmp_path):
 
 @pytest.fixture(scope="session")
 def small():
-    """The representative helix at N = 20 (every run on it takes well under a second)."""
-    return helixbif.Study.default().with_(**{"discretization.nodes": 20})
+    """The representative helix on Lighthill's operator at N = 20 (every run on it takes well
+    under a second)."""
+    return helixbif.Study.default().with_(
+        **{"fluid.model": "lighthill", "discretization.nodes": 20}
+    )

@@ -12,7 +12,7 @@ CHILD = r"""
 import signal, sys, time
 import helixbif
 signal.signal(signal.SIGINT, signal.default_int_handler)
-study = helixbif.Study.default().with_(**{"discretization.nodes": 40})
+study = helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 40})
 print("started", flush=True)
 started = time.time()
 try:
@@ -54,7 +54,7 @@ def test_runs_release_the_gil():
     worker = threading.Thread(target=count)
     worker.start()
     try:
-        helixbif.Study.default().with_(**{"discretization.nodes": 40}).simulate(
+        helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 40}).simulate(
             0.3, t_end=200, ramp_time=5, shape_every=0
         )
         before = counted[0]

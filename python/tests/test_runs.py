@@ -11,7 +11,9 @@ import pytest
 import helixbif
 from conftest import scrub
 
-SMALL = ("--set", "discretization.nodes=20")
+# Lighthill's operator at N = 20: the runs compared take well under a second.
+LIGHTHILL = ("--set", "fluid.model=lighthill")
+SMALL = (*LIGHTHILL, "--set", "discretization.nodes=20")
 
 
 def read_csv(path):
@@ -53,7 +55,7 @@ def test_locate_single(cli, small):
 
 
 def test_locate_default_resolution(cli):
-    """The representative helix at its own N = 60."""
+    """The representative helix at its own N = 60, on the default fluid (the RPY line)."""
     located = helixbif.Study.default().locate(single=True)
     assert located.to_dict() == cli.json("locate", "--single")
 
@@ -62,11 +64,11 @@ def test_locate_default_resolution(cli):
 def refined():
     """A refinement of two rungs (N = 44, then 87, the largest admissible N: about a second)
     whose error estimate, 9.8e-2, is below the accuracy asked for."""
-    return helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate(0.099)
+    return helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 44}).locate(0.099)
 
 
 def test_locate_refined(cli, refined):
-    expected = cli.json("locate", "--accuracy", "0.099", "--set", "discretization.nodes=44")
+    expected = cli.json("locate", "--accuracy", "0.099", *LIGHTHILL, "--set", "discretization.nodes=44")
     assert scrub(refined.to_dict()) == scrub(expected)
     assert refined.resolution == "refine" and refined.reached
     assert [r["nodes"] for r in refined.rungs] == [44, 87]
@@ -78,11 +80,11 @@ def test_locate_short_of_its_accuracy(cli):
     """The default accuracy 1e-3 is out of reach below N = 87: the command line prints the
     report, then fails (exit 1) with one line; Python raises NumericalError with that line and
     the whole result as `partial`."""
-    done = cli.run("locate", "--set", "discretization.nodes=44", "--json")
+    done = cli.run("locate", *LIGHTHILL, "--set", "discretization.nodes=44", "--json")
     assert done.returncode == 1, done.stderr
     line = done.stderr.strip().splitlines()[-1]
     with pytest.raises(helixbif.NumericalError) as raised:
-        helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate()
+        helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 44}).locate()
     error = raised.value
     assert line == "helixbif: error: " + str(error) and error.message == str(error)
     assert error.message.startswith("numerical failure: accuracy 1e-3 not reached at N = 87")
@@ -163,11 +165,11 @@ def test_solve(cli, small, tmp_path):
 
 
 def test_boundary(cli, tmp_path):
-    study = helixbif.Study.default().with_(**{"discretization.nodes": 30})
+    study = helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 30})
     boundary = study.boundary("shape.R_over_lambda", 0.318, 0.3)
     expected = cli.json(
         "boundary", "--vary", "shape.R_over_lambda", "--from", "0.318", "--to", "0.3",
-        "--out", tmp_path / "cli", "--set", "discretization.nodes=30",
+        "--out", tmp_path / "cli", *LIGHTHILL, "--set", "discretization.nodes=30",
     )
     assert scrub(boundary.to_dict()) == scrub(expected)
     assert_columns_equal(boundary.columns, tmp_path / "cli" / "boundary.csv")

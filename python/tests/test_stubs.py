@@ -91,13 +91,13 @@ def answered(result):
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory):
-    small = helixbif.Study.default().with_(**{"discretization.nodes": 20})
+    small = helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 20})
     out = tmp_path_factory.mktemp("stubs")
     return {
         "Located": [
             small.locate(single=True),
             small.locate(extrapolate=True, nodes=[20, 25, 30]),
-            helixbif.Study.default().with_(**{"discretization.nodes": 44}).locate(0.099),
+            helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 44}).locate(0.099),
         ],
         "Branch": [small.branch(omega_max=1.0, out=out / "branch")],
         "Solution": [small.solve(0.5)],
@@ -105,7 +105,7 @@ def results(tmp_path_factory):
         "Orbits": [small.orbits(max_orbits=3, steps=40, out=out / "orbits")],
         "Boundary": [
             helixbif.Study.default()
-            .with_(**{"discretization.nodes": 30})
+            .with_(**{"fluid.model": "lighthill", "discretization.nodes": 30})
             .boundary("shape.R_over_lambda", 0.318, 0.31, out=out / "boundary")
         ],
         "PowerLaw": [helixbif.fit_power_law([1.0, 2.0, 3.0], [1.0, 4.1, 8.9])],

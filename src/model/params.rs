@@ -43,7 +43,7 @@ pub struct FluidParams {
     /// Gravitational acceleration `g` (m/s^2).
     #[serde(default = "default_gravity")]
     pub g: f64,
-    /// Discretization of Lighthill's integral (`reference` or `original`, see README).
+    /// Discretization of Lighthill's integral (`reference` or `original`, docs/studies.md).
     #[serde(default)]
     pub quadrature: Quadrature,
     /// Hydrodynamic model: `rpy` (default, docs/model.md section 9) or `lighthill` (the published

@@ -13,7 +13,7 @@ use super::runs;
 use crate::study::Study as StudyFile;
 
 /// A study: the physical parameters (SI units) and numerical settings of a rod in a viscous
-/// fluid, as a study file holds them (docs/model.md, the README's "Study files"), validated.
+/// fluid, as a study file holds them (docs/model.md, docs/studies.md), validated.
 /// Immutable: `with_()` returns a changed copy.
 ///
 /// Make one with `Study.default()` (the representative helix), `Study.from_file(path)` or
