@@ -31,7 +31,14 @@ fn located(
     helixbif::analysis::locate::Critical,
     helixbif::engine::criticality::Lyapunov,
 ) {
-    let study = Study::from_path(None, &[format!("discretization.nodes={nodes}")]).unwrap();
+    let study = Study::from_path(
+        None,
+        &[
+            "fluid.model=\"lighthill\"".to_string(),
+            format!("discretization.nodes={nodes}"),
+        ],
+    )
+    .unwrap();
     let model = Model::new(&study.physical()).unwrap();
     let (located, critical) = run_locate_critical(&study, &model).unwrap();
     assert_eq!(located.kind.name(), "hopf");

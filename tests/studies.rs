@@ -252,7 +252,7 @@ fn a_killed_sweep_resumes_and_shards_merge_to_the_same_numbers() {
     assert!(err.contains("different study"), "{err}");
     // The figure holds one marker per point and its axis labels.
     let texts = svg_texts(&whole.join("sweep_0.svg"));
-    assert!(texts.iter().any(|t| t == "omega_b (rad/s)"), "{texts:?}");
+    assert!(texts.iter().any(|t| t == "ω_b (rad/s)"), "{texts:?}");
     let svg = std::fs::read_to_string(whole.join("sweep_0.svg")).unwrap();
     assert_eq!(svg.matches("<circle").count(), 8);
     std::fs::remove_dir_all(&dir).ok();
