@@ -914,3 +914,39 @@ fn run_prints_the_text_report_of_the_command_it_runs() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A branch that stalls (turned clockwise, Lighthill's mobility of the rod stops being positive
+/// definite near `omega = -0.238` rad/s) prints its report, with every event found on the way,
+/// before it fails with exit code 1 and says where; the points stay on disk.
+#[test]
+fn a_stalled_branch_reports_its_events_before_it_fails() {
+    let out = temp_dir("stalled-branch");
+    let (code, stdout, stderr) = helixbif(&[
+        "branch",
+        "--set",
+        "fluid.model=lighthill",
+        "--omega-max",
+        "-0.3",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    let line = stderr.trim().lines().last().unwrap();
+    assert!(
+        line.starts_with("helixbif: error: numerical failure: continuation stalled at omega = "),
+        "{stderr}"
+    );
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(report["stalled"], true);
+    let events = report["events"].as_array().unwrap();
+    let rows = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    assert_eq!(events.len(), rows.lines().count() - 1);
+    assert!(events.len() >= 2, "{report}");
+    let points = std::fs::read_to_string(out.join("branch.csv")).unwrap();
+    assert_eq!(
+        report["points"].as_u64().unwrap() as usize,
+        points.lines().count() - 1
+    );
+    std::fs::remove_dir_all(&out).ok();
+}

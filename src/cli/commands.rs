@@ -10,7 +10,7 @@ use helixbif::engine::periodic::branch::OrbitStop;
 use helixbif::model::Model;
 use helixbif::numerics::fit::power_law;
 use helixbif::study::boundary::run_boundary;
-use helixbif::study::branch::branch as study_branch;
+use helixbif::study::branch::branch_report;
 use helixbif::study::locate::{Resolution, locate_study};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use helixbif::study::output::Provenance;
@@ -152,14 +152,20 @@ pub fn branch(args: &BranchArgs) -> Outcome {
         .into());
     }
     let dir = output_dir(study, &study_file, out, Some("branch"))?;
-    let report = study_branch(
+    // A continuation that stalled prints its report (the points and events found) before the
+    // failure.
+    let report = branch_report(
         &study_file,
         &model,
         omega_max,
         &dir,
         &Provenance::of_process(),
     )?;
-    Ok(done(titled(&study_file, report)))
+    let shortfall = report.stall_message();
+    Ok(Done {
+        report: Box::new(titled(&study_file, report)),
+        shortfall,
+    })
 }
 
 pub fn locate(args: &LocateArgs) -> Outcome {

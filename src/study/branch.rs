@@ -188,34 +188,25 @@ impl BranchReport {
     /// The failure that a continuation which stalled before `omega_max` is (`None` when it did
     /// not stall): where and why, and where its points are.
     pub fn stall(&self) -> Option<Error> {
+        self.stall_message().map(Error::Numerical)
+    }
+
+    /// Where and why a continuation that stalled before `omega_max` stopped, and where its
+    /// points are (`None` when it did not stall).
+    pub fn stall_message(&self) -> Option<String> {
         self.stalled.then(|| {
-            Error::Numerical(format!(
+            format!(
                 "continuation stalled at omega = {:.6e} rad/s ({}); the {} points found are in {}",
                 self.omega_reached, self.stop, self.points, self.out
-            ))
+            )
         })
     }
 }
 
-/// `helixbif branch`: [`run_branch`] with its figures (`hbar.svg`, `Fpbar.svg`, ...); a
-/// continuation that stalled is a numerical failure ([`BranchReport::stall`]), its points on
-/// disk.
-pub fn branch(
-    study: &Study,
-    model: &Model,
-    omega_max: f64,
-    dir: &Path,
-    provenance: &Provenance,
-) -> Result<BranchReport> {
-    let report = branch_report(study, model, omega_max, dir, provenance)?;
-    match report.stall() {
-        Some(failure) => Err(failure),
-        None => Ok(report),
-    }
-}
-
-/// [`branch`] that returns the report of a continuation that stalled too (`stalled`,
-/// [`BranchReport::stall`]), for a front end that keeps it beside the failure.
+/// `helixbif branch`: [`run_branch`] with its figures (`hbar.svg`, `Fpbar.svg`, ...). A
+/// continuation that stalled returns its report too (`stalled`); the front ends print it and
+/// then fail with [`BranchReport::stall_message`] (the command line) or raise
+/// [`BranchReport::stall`] with the report beside it (Python), its points on disk.
 pub fn branch_report(
     study: &Study,
     model: &Model,

@@ -614,9 +614,12 @@ pub(super) fn run(
     let mut cache = Factored::default();
     while t < t_end {
         if trajectory.steps >= settings.max_steps {
+            let seconds = model.scales.time;
             return Err(Error::Numerical(format!(
-                "time integration: {} steps reached at t = {t:.6e} (t_end = {t_end:.6e})",
-                settings.max_steps
+                "time integration: {} steps reached at t = {:.4} s (t_end = {:.4} s)",
+                settings.max_steps,
+                t * seconds,
+                t_end * seconds
             )));
         }
         let t_next = match fixed {
