@@ -231,7 +231,7 @@ fn omega_b_of_the_representative_helix_converges_in_n() {
     }
     println!("observed order {lo:.3}");
     assert!((lo - 2.0).abs() < 0.5, "observed order {lo}");
-    // Regression: the value at N = 60 (docs/model.md section 9 and the README), which an
+    // Regression: the value at N = 60 (Lighthill's operator; docs/implementation.md), which an
     // independent implementation of the same model reproduced to 7 digits.
     assert!(
         (results[2] / 0.522_184_200_7 - 1.0).abs() < 1e-8,
@@ -347,7 +347,7 @@ fn axis_clamp_against_the_helix_clamp_on_the_representative_helix() {
     // A clamp that lets the helix's top swing is a softer support, and softening a structure
     // lowers its critical load (Rayleigh's principle): the axis clamp buckles first.
     assert!(axis < own, "{own} vs {axis}");
-    // Regression pins of both (the README quotes them), to the precision located.
+    // Regression pins of both, to the precision located.
     assert!((own / 0.522_184_200_7 - 1.0).abs() < 1e-8, "{own}");
     assert!((axis / 0.496_069_272 - 1.0).abs() < 1e-8, "{axis}");
 }
