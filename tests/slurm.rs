@@ -488,3 +488,32 @@ fn submit_runs_sbatch_twice_with_the_dependency_and_records_the_job_ids() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The array tasks of a cluster run start together in one output folder, and each checks that it
+/// can write there. Sixteen threads released at once, each checking the folder a hundred times:
+/// every check passes and leaves nothing behind (a probe with one fixed name fails here, one
+/// check removing the probe of another under it).
+#[test]
+fn array_tasks_starting_together_all_pass_the_write_check_of_their_shared_folder() {
+    use helixbif::study::output::make_writable_dir;
+    use std::sync::{Arc, Barrier};
+    let dir = temp_dir("slurm-write-check").join("out");
+    let start = Arc::new(Barrier::new(16));
+    let failures: usize = (0..16)
+        .map(|_| {
+            let (dir, start) = (dir.clone(), Arc::clone(&start));
+            std::thread::spawn(move || {
+                start.wait();
+                (0..100)
+                    .filter(|_| make_writable_dir(&dir).is_err())
+                    .count()
+            })
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .map(|t| t.join().unwrap())
+        .sum();
+    assert_eq!(failures, 0, "{failures} of 1600 write checks failed");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(left.is_empty(), "probes left behind: {left:?}");
+}

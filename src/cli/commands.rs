@@ -13,8 +13,8 @@ use helixbif::study::boundary::run_boundary;
 use helixbif::study::branch::branch_report;
 use helixbif::study::locate::{Resolution, locate_study};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
-use helixbif::study::output::Provenance;
 use helixbif::study::output::Table;
+use helixbif::study::output::{Provenance, make_writable_dir};
 use helixbif::study::plan::{check_accuracy, check_max_nodes};
 use helixbif::study::run::run as run_study;
 use helixbif::study::simulate::{
@@ -72,10 +72,7 @@ fn output_dir(
             format!("cannot write results into {}: {e}", out.display()),
         )
     };
-    std::fs::create_dir_all(out).map_err(unusable)?;
-    let probe = out.join(".helixbif-write-check");
-    std::fs::write(&probe, b"").map_err(unusable)?;
-    std::fs::remove_file(&probe).map_err(unusable)?;
+    make_writable_dir(out).map_err(unusable)?;
     Ok(out.to_path_buf())
 }
 

@@ -2,7 +2,7 @@
 //! steps, its errors as Python exceptions, its output folders and provenance.
 
 use std::cell::RefCell;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::IntoPyDict;
 
 use crate::Error;
-use crate::study::output::Provenance;
+use crate::study::output::{Provenance, make_writable_dir};
 
 create_exception!(
     helixbif,
@@ -115,21 +115,13 @@ pub(crate) fn output_dir(py: Python<'_>, out: Option<PathBuf>, command: &str) ->
             .call((), Some(&prefix))?;
         return made.extract();
     };
-    writable(&out).map_err(|e| {
+    make_writable_dir(&out).map_err(|e| {
         bad_input(
             "out",
             format!("cannot write results into {}: {e}", out.display()),
         )
     })?;
     Ok(out)
-}
-
-/// Makes `dir` and checks that a file can be written into it.
-fn writable(dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    let probe = dir.join(".helixbif-write-check");
-    std::fs::write(&probe, b"")?;
-    std::fs::remove_file(&probe)
 }
 
 /// What `meta.json` records as the command line of a run from Python: the method and its

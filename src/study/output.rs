@@ -23,6 +23,17 @@ pub(crate) fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(io_error(dir))
 }
 
+/// Makes `dir` (and its parents) and checks that a file can be written into it. The probe has a
+/// unique name and is removed at once: the array tasks of a cluster run start together in one
+/// shared folder, and a fixed name would let one task remove another's probe under it.
+pub fn make_writable_dir(dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    tempfile::Builder::new()
+        .prefix(".helixbif-write-check")
+        .tempfile_in(dir)?
+        .close()
+}
+
 /// A CSV file written one serializable row at a time, flushed after each row.
 pub(crate) struct CsvWriter {
     path: PathBuf,
