@@ -167,3 +167,87 @@ fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points(
     assert!(dir.join("boundary.svg").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The boundary of `exponent_m.toml` at `lambda = 0.1 m` between `R/lambda = 0.3` and `0.4`
+/// (Lighthill, 10 nodes per turn), followed from `from` to `to` into `dir`: its points `(q,
+/// omega_b)` and its special points `(kind, q, switch)`.
+fn window_boundary(from: f64, to: f64, dir: &std::path::Path) -> BoundaryPoints {
+    let study = window_study(None);
+    let (rows, report) = run_boundary(
+        &study,
+        "shape.R_over_lambda",
+        (from, to),
+        dir,
+        &Provenance::default(),
+    )
+    .unwrap();
+    let report = report.unwrap();
+    assert_eq!(report.points, rows.len());
+    let special = report
+        .special
+        .iter()
+        .map(|p| (p.kind.name().to_string(), p.q, p.switch))
+        .collect();
+    BoundaryPoints {
+        points: rows.iter().map(|r| (r.q, r.omega_b)).collect(),
+        special,
+    }
+}
+
+struct BoundaryPoints {
+    points: Vec<(f64, f64)>,
+    special: Vec<(String, f64, bool)>,
+}
+
+/// `exponent_m.toml` at `lambda = 0.1 m`, at `R/lambda = q` if given.
+fn window_study(q: Option<f64>) -> Study {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/exponent_m.toml");
+    let mut overrides = vec!["shape.lambda=0.1".to_string()];
+    overrides.extend(q.map(|q| format!("shape.R_over_lambda={q:e}")));
+    Study::from_path(Some(std::path::Path::new(path)), &overrides).unwrap()
+}
+
+/// Between `R/lambda = 0.3` and `0.4` at `lambda = 0.1 m` another mode's window of instability
+/// opens below the Hopf curve that starts at 0.3 (at `R/lambda` = 0.37711, where that mode's own
+/// Hopf curve turns in `R/lambda`). Followed upwards, the boundary sees the window open and
+/// switches to it; followed downwards, it reaches the same place as the turning point of the
+/// window's curve and jumps back. Both are the same boundary: the switch and the turning point
+/// agree to the brackets they are located to (`1e-6` of the range), and every point of either
+/// direction is the first loss of stability an independent `locate` finds at its `R/lambda`, to
+/// `1e-6`, away from the switch.
+#[test]
+fn a_window_opening_below_the_curve_gives_the_same_boundary_in_both_directions() {
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-window-{}", std::process::id()));
+    let up = window_boundary(0.3, 0.4, &dir.join("up"));
+    let down = window_boundary(0.4, 0.3, &dir.join("down"));
+    assert_eq!(up.special.len(), 1, "{:?}", up.special);
+    assert_eq!(down.special.len(), 1, "{:?}", down.special);
+    let (kind_up, q_up, switch_up) = up.special[0].clone();
+    let (kind_down, q_down, switch_down) = down.special[0].clone();
+    assert_eq!((kind_up.as_str(), switch_up), ("window", true));
+    assert_eq!((kind_down.as_str(), switch_down), ("turning", true));
+    assert!(
+        (q_up - q_down).abs() < 2e-7,
+        "the window opens at {q_up} going up, its curve turns at {q_down} going down"
+    );
+    for (direction, boundary) in [("up", &up), ("down", &down)] {
+        let checked: Vec<_> = boundary
+            .points
+            .iter()
+            .filter(|(q, _)| (q - q_up).abs() > 1e-3)
+            .step_by(2)
+            .collect();
+        assert!(checked.len() >= 12, "{direction}: {} points", checked.len());
+        for &&(q, on_curve) in &checked {
+            let study = window_study(Some(q));
+            let model = Model::new(&study.physical()).unwrap();
+            let located = run_locate(&study, &model).unwrap();
+            let expected = located.omega_b.unwrap();
+            assert!(
+                (on_curve - expected).abs() <= 1e-6 * expected,
+                "{direction}, R/lambda = {q}: boundary {on_curve}, locate {expected}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -257,6 +257,8 @@ class Boundary(_Result):
     segments: int
     special: list[dict[str, Any]]
     evaluations: int
+    window_checks: int
+    """Independent `locate` runs below the curve, watching for another mode's window."""
     check_omega_b: float | None
     check_difference: float | None
     seconds: float

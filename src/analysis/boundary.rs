@@ -8,16 +8,22 @@
 //! double Hopf point) past which it is unstable, the boundary moves to that pair's Hopf curve
 //! and says where it switched. Where the curve turns back in `q` (the mode's loss and regain of
 //! stability meet and vanish), the boundary jumps: it is located afresh just past the turning
-//! point and followed from there. An instability that opens below the curve away from it
-//! (neither on it nor at a turning point) is not seen by the curve; the end of the range is
-//! therefore checked against an independent `locate` ([`check_end`]).
+//! point and followed from there. An instability can also open below the curve away from it (a
+//! window of another mode, born where that mode's own Hopf curve turns in `q`), which the
+//! curve's spectrum cannot see: every point is therefore checked by an independent `locate` from
+//! rest up to just below it ([`WINDOW_MARGIN`]); where that finds a loss of stability, the value
+//! of `q` where the window opens is bisected between the last clean point and this one, the
+//! boundary switches to the new mode there and says so (a `window` point). So the first loss of
+//! stability does not depend on the direction of travel: followed the other way, the same window
+//! closes at a turning point of its curve, where the boundary jumps back. The end of the range is
+//! checked against an independent `locate` too ([`check_end`]).
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
 
 use serde::{Serialize, Serializer};
 
-use crate::analysis::locate::{LocateSettings, locate};
+use crate::analysis::locate::{Critical, LocateSettings, Loss, locate};
 
 use crate::analysis::branch::observables_at;
 use crate::analysis::solve::rest_state;
@@ -71,7 +77,7 @@ pub struct BoundaryPoint {
 #[derive(Clone, Debug, Serialize)]
 pub struct SpecialPoint {
     #[serde(serialize_with = "special_name")]
-    pub kind: SpecialKind,
+    pub kind: BoundaryEvent,
     pub q: f64,
     pub omega: f64,
     pub omegabar: f64,
@@ -80,15 +86,44 @@ pub struct SpecialPoint {
     pub w_other: f64,
     /// True where the boundary leaves the curve here (switch to the other mode, or jump).
     pub switch: bool,
-    /// Width of the final bracket along the curve (units of the curve's arclength).
+    /// Width of the final bracket: along the curve (units of the curve's arclength), or in `q`
+    /// for a window.
     pub precision: f64,
+}
+
+/// What a special point of the boundary is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoundaryEvent {
+    /// A special point of the curve followed (double Hopf, zero-Hopf, turning, ...).
+    Curve(SpecialKind),
+    /// Another mode's window of instability opens below the curve: the boundary switches to it
+    /// (`w` is the new mode's frequency, `w_other` the curve's).
+    Window,
+}
+
+impl BoundaryEvent {
+    /// The name used in files: the curve's special point's, or `window`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BoundaryEvent::Curve(kind) => kind.name(),
+            BoundaryEvent::Window => "window",
+        }
+    }
+
+    /// Whether one mode alone is involved (one frequency to report).
+    pub fn one_mode(self) -> bool {
+        matches!(
+            self,
+            BoundaryEvent::Curve(SpecialKind::Turning | SpecialKind::GeneralizedHopf)
+        )
+    }
 }
 
 fn event_name<S: Serializer>(kind: &EventKind, s: S) -> std::result::Result<S::Ok, S::Error> {
     s.serialize_str(kind.name())
 }
 
-fn special_name<S: Serializer>(kind: &SpecialKind, s: S) -> std::result::Result<S::Ok, S::Error> {
+fn special_name<S: Serializer>(kind: &BoundaryEvent, s: S) -> std::result::Result<S::Ok, S::Error> {
     s.serialize_str(kind.name())
 }
 
@@ -101,6 +136,9 @@ pub struct Boundary {
     pub segments: usize,
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole boundary.
     pub evaluations: usize,
+    /// Independent `locate` runs from rest below the curve (one per point, and those of the
+    /// bisection where a window opens).
+    pub window_checks: usize,
 }
 
 impl Boundary {
@@ -158,15 +196,26 @@ pub(crate) trait BoundaryObserver {
     fn grown(&mut self, boundary: &Boundary) -> Result<()>;
 }
 
-/// Follows the engine's curves into a [`Boundary`], with the observables of every point.
+/// How far below a point of the curve (relative, in `omega`) the independent check of
+/// [`loss_below`] stops: a loss of stability within it is the curve's own mode (or a double Hopf
+/// point the curve locates itself), not a window.
+pub const WINDOW_MARGIN: f64 = 1e-3;
+
+/// Follows the engine's curves into a [`Boundary`], with the observables of every point, each
+/// point checked for a window of instability below it.
 struct Recorder<'a, O> {
     family: &'a RodFamily,
     newton: &'a NewtonSettings,
+    /// The settings of the independent `locate` that checks every point.
+    locate: LocateSettings<'a>,
     boundary: Boundary,
     /// The kind of the curve being followed.
     kind: EventKind,
     observer: &'a mut O,
     error: Option<Error>,
+    /// The point below which a window of instability was seen; the curve ends there and the
+    /// point is not recorded.
+    window: Option<Seen>,
 }
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
@@ -198,7 +247,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     fn special_point(&self, special: &Special, switch: bool) -> Result<SpecialPoint> {
         let scales = self.family.member(special.point.q)?.model.scales;
         Ok(SpecialPoint {
-            kind: special.kind,
+            kind: BoundaryEvent::Curve(special.kind),
             q: special.point.q,
             omega: scales.omega_from_bar(special.point.p),
             omegabar: special.point.p,
@@ -218,8 +267,33 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
 }
 
 impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
+    /// Records a point of the curve, after checking that nothing loses stability below it (the
+    /// first point of a curve needs no check: it was located from rest, or is a double Hopf
+    /// point of the curve before).
     fn point(&mut self, point: &CurvePoint) -> ControlFlow<()> {
         self.boundary.evaluations += point.evaluations;
+        let first = self
+            .boundary
+            .points
+            .last()
+            .is_none_or(|r| r.segment + 1 < self.boundary.segments);
+        if !first {
+            self.boundary.window_checks += 1;
+            match loss_below(self.family, &self.locate, point.q, point.p) {
+                Ok(None) => {}
+                Ok(Some(found)) => {
+                    self.window = Some(Seen {
+                        omegabar: point.p,
+                        found,
+                    });
+                    return ControlFlow::Break(());
+                }
+                Err(e) => {
+                    self.record(Err(e));
+                    return ControlFlow::Break(());
+                }
+            }
+        }
         let result = self.row(point).and_then(|row| {
             self.boundary.points.push(row);
             self.boundary.local_exponents();
@@ -275,19 +349,43 @@ fn start_at(
     omega_max: f64,
 ) -> Result<(CurveStart, Rc<RodProblem<Model>>)> {
     let member = family.member(q)?;
-    let model = &member.model;
     let at = LocateSettings {
         omega_max,
         ..*settings
     };
-    let (located, critical) = locate(model, &at, &mut Silent)?;
-    let key = family.field().key();
+    let (located, critical) = locate(&member.model, &at, &mut Silent)?;
     let critical = critical.ok_or_else(|| {
         Error::Numerical(format!(
-            "at {key} = {q}: no loss of stability to start the boundary from ({})",
+            "at {} = {q}: no loss of stability to start the boundary from ({})",
+            family.field().key(),
             located.kind
         ))
     })?;
+    curve_start(
+        family,
+        Found {
+            q,
+            member,
+            critical,
+        },
+    )
+}
+
+/// A loss of stability found by `locate` on the member at `q`.
+struct Found {
+    q: f64,
+    member: RodProblem<Model>,
+    critical: Critical,
+}
+
+/// The start of the curve through the loss of stability `found`, and its member in the chart
+/// the branch reached it in.
+fn curve_start(family: &RodFamily, found: Found) -> Result<(CurveStart, Rc<RodProblem<Model>>)> {
+    let Found {
+        q,
+        member,
+        critical,
+    } = found;
     let event = critical.event;
     let start = match event.kind {
         EventKind::Hopf => CurveStart::Hopf(CurvePoint::at_event(event, q)),
@@ -299,13 +397,87 @@ fn start_at(
         }),
         kind => {
             return Err(Error::Numerical(format!(
-                "at {key} = {q} the first loss of stability is a {}: no curve to follow",
+                "at {} = {q} the first loss of stability is a {}: no curve to follow",
+                family.field().key(),
                 kind.name()
             )));
         }
     };
     member.set_chart(critical.chart);
     Ok((start, Rc::new(member)))
+}
+
+/// The first loss of stability of the member at `q` below the point `omegabar` (solver units)
+/// of a curve: an independent `locate` from rest up to `(1 - WINDOW_MARGIN)` times its rate;
+/// `None` where the branch stays stable that far. A member whose rest state is unstable is an
+/// error: below it the boundary means nothing.
+fn loss_below(
+    family: &RodFamily,
+    settings: &LocateSettings,
+    q: f64,
+    omegabar: f64,
+) -> Result<Option<Found>> {
+    let member = family.member(q)?;
+    let limit = omegabar * (1.0 - WINDOW_MARGIN);
+    let at = LocateSettings {
+        omega_max: member.model.scales.omega_from_bar(limit),
+        criticality: false,
+        ..*settings
+    };
+    let (located, critical) = locate(&member.model, &at, &mut Silent)?;
+    match (located.kind, critical) {
+        (Loss::UnstableAtRest, _) => Err(Error::Numerical(format!(
+            "at {} = {q}: the state at rest is already unstable, so the boundary ends there",
+            family.field().key()
+        ))),
+        // The continuation's last step may pass the limit and find the curve's own loss of
+        // stability beyond it: only a loss below the limit is a window.
+        (_, Some(critical)) if critical.event.p.abs() < limit.abs() => Ok(Some(Found {
+            q,
+            member,
+            critical,
+        })),
+        _ => Ok(None),
+    }
+}
+
+/// Where a window of instability opens below a curve: bisects `q` between `clean` (a point of
+/// the curve, `(q, omegabar)`, with nothing unstable below it) and `seen` (a point of the curve
+/// with the loss of stability found below it), the curve's `omegabar` interpolated linearly
+/// between them, down to a bracket of `tol` in `q`. Returns the loss found on the side where
+/// the window is open (the next curve starts from it: a window just opened is narrow, and
+/// another continuation from rest may step over it) and the bracket's width.
+fn window_opening(
+    family: &RodFamily,
+    settings: &LocateSettings,
+    clean: (f64, f64),
+    seen: Seen,
+    tol: f64,
+    checks: &mut usize,
+) -> Result<(Found, f64)> {
+    let Seen {
+        omegabar,
+        mut found,
+    } = seen;
+    let (q_seen, slope) = (found.q, (omegabar - clean.1) / (found.q - clean.0));
+    let curve = |q: f64| omegabar + slope * (q - q_seen);
+    let mut good = clean.0;
+    while (found.q - good).abs() > tol {
+        let mid = 0.5 * (good + found.q);
+        *checks += 1;
+        match loss_below(family, settings, mid, curve(mid))? {
+            Some(closer) => found = closer,
+            None => good = mid,
+        }
+    }
+    let width = (found.q - good).abs();
+    Ok((found, width))
+}
+
+/// A point of a curve (`omegabar`, solver units) with a loss of stability `found` below it.
+struct Seen {
+    omegabar: f64,
+    found: Found,
 }
 
 /// Follows the fold or branch-point curve from `start` to the end of the range, its points into
@@ -372,6 +544,8 @@ pub(crate) fn follow_boundary(
         kind: EventKind::Hopf,
         observer,
         error: None,
+        locate: *settings,
+        window: None,
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)
@@ -425,6 +599,10 @@ fn follow_segments<O: BoundaryObserver>(
         )?;
         if let Some(e) = recorder.error.take() {
             return Err(e);
+        }
+        if let Some(seen) = recorder.window.take() {
+            (start, member) = switch_to_window(recorder, settings, seen, (from, to))?;
+            continue;
         }
         let at = || curve.points.last().map_or(from, |p| p.q);
         match curve.stop {
@@ -486,6 +664,48 @@ fn follow_segments<O: BoundaryObserver>(
             )));
         };
     }
+}
+
+/// Where a window of instability was `seen` below the curve: locates where it opens (between the
+/// last recorded point and `seen`, to `1e-6` of the range), records the `window` point, and
+/// starts the next curve there on the new mode.
+fn switch_to_window<O: BoundaryObserver>(
+    recorder: &mut Recorder<'_, O>,
+    settings: &LocateSettings,
+    seen: Seen,
+    (from, to): (f64, f64),
+) -> Result<(CurveStart, Rc<RodProblem<Model>>)> {
+    let family = recorder.family;
+    let clean = recorder
+        .boundary
+        .points
+        .last()
+        .map(|r| (r.q, r.omegabar_b))
+        .expect("a window is looked for past the first point of a curve");
+    let tol = 1e-6 * (to - from).abs();
+    let checks = &mut recorder.boundary.window_checks;
+    let (found, width) = window_opening(family, settings, clean, seen, tol, checks)?;
+    let q = found.q;
+    let (start, member) = curve_start(family, found)?;
+    let scales = member.model.scales;
+    let (omegabar, wbar) = match &start {
+        CurveStart::Hopf(c) => (c.p, c.eigenvalue.im),
+        CurveStart::Event(e) => (e.event.p, e.event.eigenvalue.im),
+    };
+    let other = recorder.boundary.points.last().map_or(0.0, |r| r.wbar);
+    recorder.boundary.special.push(SpecialPoint {
+        kind: BoundaryEvent::Window,
+        q,
+        omega: scales.omega_from_bar(omegabar),
+        omegabar,
+        w: scales.omega_from_bar(wbar),
+        w_other: scales.omega_from_bar(other),
+        switch: true,
+        precision: width,
+    });
+    recorder.observer.grown(&recorder.boundary)?;
+    recorder.boundary.segments += 1;
+    Ok((start, member))
 }
 
 /// `omega_b` (rad/s) of an independent `locate` at the last point of a boundary, looked for up

@@ -18,7 +18,7 @@ use helixbif::study::output::{Provenance, make_writable_dir};
 use helixbif::study::plan::{check_accuracy, check_max_nodes};
 use helixbif::study::run::run as run_study;
 use helixbif::study::simulate::{
-    OrbitOrigin, SimulateOptions, run_simulate, simulation_provenance,
+    OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
 };
 use helixbif::study::slurm::{SlurmJob, SlurmOptions, shard_from_env, submit, write_scripts};
 use helixbif::study::sweep::{merge as merge_shards, run_sweep};
@@ -383,12 +383,8 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
         from_orbit: None,
         ramp_time: s.ramp_time,
         transient: s.transient.unwrap_or_else(|| {
-            let spin_up = if s.from_steady || s.from_orbit.is_some() {
-                0.0
-            } else {
-                s.ramp_time
-            };
-            (0.5 * s.t_end).max(spin_up)
+            let from_rest = !s.from_steady && s.from_orbit.is_none();
+            default_transient(s.t_end, s.ramp_time, from_rest)
         }),
         shape_every: count("--shape-every", s.shape_every, 0)?,
         newton: Default::default(),

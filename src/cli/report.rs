@@ -6,11 +6,11 @@ use std::fmt::{self, Display, Formatter};
 
 use serde::Serialize;
 
+use helixbif::analysis::boundary::BoundaryEvent;
 use helixbif::analysis::dynamics::Bisection;
 use helixbif::analysis::locate::{Located, Loss};
 use helixbif::analysis::refine::{Ladder, Refinement};
 use helixbif::analysis::solve::SolutionSummary;
-use helixbif::engine::curve::SpecialKind;
 use helixbif::model::fluid::FluidModel;
 use helixbif::numerics::fit::PowerLaw;
 use helixbif::study::boundary::BoundaryReport;
@@ -785,7 +785,7 @@ impl Text for BoundaryReport {
         writeln!(
             f,
             "stability boundary in {} from {} to {} at N = {}: {} points on {} curve(s), {} \
-             steady solves, {:.2} s",
+             steady solves, {} independent locate runs below the curve, {:.2} s",
             self.key,
             self.from,
             self.to,
@@ -793,18 +793,23 @@ impl Text for BoundaryReport {
             self.points,
             self.segments,
             self.evaluations,
+            self.window_checks,
             self.seconds
         )?;
         for p in &self.special {
-            let single = [SpecialKind::Turning, SpecialKind::GeneralizedHopf];
-            let frequencies = if single.contains(&p.kind) {
+            let frequencies = if p.kind.one_mode() {
                 format!("w = {:.5} rad/s", p.w)
             } else {
                 format!("w = {:.5}, other {:.5} rad/s", p.w, p.w_other)
             };
+            let bracket = if p.kind == BoundaryEvent::Window {
+                format!("bracket {:.1e} in {}", p.precision, self.key)
+            } else {
+                format!("bracket {:.1e} along the curve", p.precision)
+            };
             writeln!(
                 f,
-                "  {:<12} at {} = {:.8}, omega = {:.8} rad/s ({frequencies}){}",
+                "  {:<12} at {} = {:.8}, omega = {:.8} rad/s ({frequencies}; {bracket}){}",
                 p.kind.name(),
                 self.key,
                 p.q,

@@ -270,23 +270,40 @@ pub(crate) fn discretization_error(
         return Ok(e);
     };
     let [c0, _, _] = known_order_fit(h3, v3)?;
-    let e2 = (vf - c0).abs();
-    let ep = d2.abs() * hf.powf(p) / (hp.powf(p) - hf.powf(p));
-    let (error, limit) = if e2 >= ep {
-        (e2, c0)
-    } else {
-        (ep, vf + d2.signum() * ep)
-    };
-    Ok(DiscretizationError {
-        error,
-        limit,
-        observed_order: Some(p),
-        method: format!(
+    Ok(larger_estimate(c0, (vf, d2), (hp, hf), p, |e2, ep| {
+        format!(
             "larger of the known-order fit c0 + c1 h + c2 h^2 (h = 1/(N - 1)) through {three}, \
              |v_f - c0| = {e2:.2e}, and the Richardson estimate with the observed order {p:.2}, \
              {ep:.2e}"
-        ),
-    })
+        )
+    }))
+}
+
+/// The larger of two error estimates of the finest value `v_f`: `|v_f - c0|` against the limit
+/// `c0` of a fit of known order, and Richardson's with the observed order `p`,
+/// `|d| h_f^p / (h_p^p - h_f^p)` (`d = v_f - v_p` the last increment, `h_p > h_f` the spacings of
+/// the two finest rungs), whose limit lies that far beyond `v_f` in the direction of `d`. The
+/// limit is the larger estimate's; `method(e_fit, e_p)` says how it was found.
+fn larger_estimate(
+    c0: f64,
+    (vf, d): (f64, f64),
+    (hp, hf): (f64, f64),
+    p: f64,
+    method: impl FnOnce(f64, f64) -> String,
+) -> DiscretizationError {
+    let e_fit = (vf - c0).abs();
+    let e_p = d.abs() * hf.powf(p) / (hp.powf(p) - hf.powf(p));
+    let (error, limit) = if e_fit >= e_p {
+        (e_fit, c0)
+    } else {
+        (e_p, vf + d.signum() * e_p)
+    };
+    DiscretizationError {
+        error,
+        limit,
+        observed_order: Some(p),
+        method: method(e_fit, e_p),
+    }
 }
 
 /// [`discretization_error`] with [`Orders::Second`] (at least two rungs, node counts increasing).
@@ -331,21 +348,12 @@ fn second_order_error(nodes: &[usize], values: &[f64]) -> Result<DiscretizationE
             ),
         });
     };
-    let ep = d2.abs() * hf.powf(p) / (hp.powf(p) - hf.powf(p));
-    let (error, limit) = if e2 >= ep {
-        (e2, c0)
-    } else {
-        (ep, vf + d2.signum() * ep)
-    };
-    Ok(DiscretizationError {
-        error,
-        limit,
-        observed_order: Some(p),
-        method: format!(
+    Ok(larger_estimate(c0, (vf, d2), (hp, hf), p, |e2, ep| {
+        format!(
             "larger of the {second}, {e2:.2e}, and the Richardson estimate with the order \
              {p:.2} observed over {three}, {ep:.2e}"
-        ),
-    })
+        )
+    }))
 }
 
 /// The order `p` at which `(h1^p - h2^p) / (h2^p - h3^p)` equals `ratio` (`h1 > h2 > h3 > 0`,

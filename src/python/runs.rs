@@ -21,7 +21,9 @@ use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use crate::study::plan::{check_accuracy, check_max_nodes};
-use crate::study::simulate::{OrbitOrigin, SimulateOptions, run_simulate, simulation_provenance};
+use crate::study::simulate::{
+    OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
+};
 
 /// The JSON of a result about `study`, as the command line's `Titled` makes it: the study's
 /// name beside the result's own fields.
@@ -354,12 +356,8 @@ pub(crate) fn simulate(py: Python<'_>, study: &Study, a: SimulateArguments) -> P
         from_orbit: None,
         ramp_time: a.ramp_time,
         transient: a.transient.unwrap_or_else(|| {
-            let spin_up = if a.from_steady || a.from_orbit.is_some() {
-                0.0
-            } else {
-                a.ramp_time
-            };
-            (0.5 * a.t_end).max(spin_up)
+            let from_rest = !a.from_steady && a.from_orbit.is_none();
+            default_transient(a.t_end, a.ramp_time, from_rest)
         }),
         shape_every: count("shape_every", a.shape_every, 0)?,
         newton: file.newton.clone(),

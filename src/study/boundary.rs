@@ -39,6 +39,9 @@ pub struct BoundaryReport {
     pub special: Vec<SpecialPoint>,
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole curve.
     pub evaluations: usize,
+    /// Independent `locate` runs from rest below the curve, watching for a window of another
+    /// mode opening there.
+    pub window_checks: usize,
     pub seconds: f64,
     /// `omega_b` of an independent `locate` at the end of the range, and its relative
     /// difference from the curve's last point.
@@ -171,6 +174,7 @@ pub(crate) fn run_family(
             segments: boundary.segments,
             special: boundary.special.clone(),
             evaluations: boundary.evaluations,
+            window_checks: boundary.window_checks,
             seconds: started.elapsed().as_secs_f64(),
             check_difference: check_omega_b.map(|w| (w - last.omega_b).abs() / last.omega_b.abs()),
             check_omega_b,

@@ -61,6 +61,15 @@ pub(crate) struct TimeRow {
     pub eta: Option<f64>,
 }
 
+/// The start of the statistics of a simulation when none is asked for (s): the second half of the
+/// run, `t_end / 2`, or the end of the spin-up ramp (`ramp_time`) of a run from rest if that is
+/// later, so that the statistics never include the ramp. A run from a steady state or an orbit
+/// has no ramp.
+pub fn default_transient(t_end: f64, ramp_time: f64, from_rest: bool) -> f64 {
+    let spin_up = if from_rest { ramp_time } else { 0.0 };
+    (0.5 * t_end).max(spin_up)
+}
+
 /// How a simulation starts and what it records.
 #[derive(Clone, Debug)]
 pub struct SimulateOptions {
