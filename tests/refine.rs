@@ -44,7 +44,7 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
     // Two rungs: N = 60 from rest, N = 119 sequenced (the accuracy is out of reach at 119).
     let refined = refine(
         &physical,
-        1e-9,
+        Some(1e-9),
         119,
         &settings(&newton, &continuation),
         &mut Quiet,
@@ -76,7 +76,7 @@ fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
     // Five nodes per turn: the carried state is too far from the finer mesh's for Newton.
     let refined = refine(
         &physical,
-        1e-9,
+        Some(1e-9),
         39,
         &settings(&newton, &continuation),
         &mut Quiet,
@@ -92,4 +92,38 @@ fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
         fine.fallback
     );
     assert!(fine.omega_b.is_some());
+}
+
+/// A study that fixes `N` keeps it and states its discretization error, from a coarser rung
+/// (`N/2 + 1`) and its own. On a helix of its own (three turns, `l = 0.15 m`, RPY line, `N = 40`)
+/// the stated error covers the error against a refinement to `N = 313` with that rung's own
+/// estimated error added, and is no more than five times that error (an estimate, not a bound
+/// so loose that it says nothing).
+#[test]
+fn the_error_stated_at_a_fixed_n_covers_the_error_against_a_finer_computation() {
+    use helixbif::analysis::refine::estimate_at_nodes;
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let overrides = ["shape.l=0.15".to_string(), "discretization.nodes=40".into()];
+    let study = Study::load(None, &overrides).unwrap();
+    let physical = study.physical();
+    assert_eq!(physical.fluid.model, FluidModel::Rpy);
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let settings = settings(&newton, &continuation);
+    let fixed = estimate_at_nodes(&physical, &settings, &mut Quiet).unwrap();
+    let nodes: Vec<usize> = fixed.rungs.iter().map(|r| r.nodes).collect();
+    assert_eq!(nodes, [21, 40]);
+    assert_eq!(fixed.finest.nodes, 40);
+    assert!(fixed.accuracy.is_none() && fixed.stopped.is_none());
+    let stated = fixed.omega_b_error.unwrap();
+    let value = fixed.finest.omega_b.unwrap();
+    let finer = refine(&physical, Some(1e-9), 313, &settings, &mut Quiet).unwrap();
+    assert_eq!(finer.finest.nodes, 313);
+    let reference = finer.finest.omega_b.unwrap();
+    let reference_error = finer.omega_b_error.unwrap();
+    let actual = (value - reference).abs();
+    assert!(
+        actual + reference_error <= stated && stated <= 5.0 * actual,
+        "N = 40: {value} +- {stated}; N = 313: {reference} +- {reference_error}"
+    );
 }

@@ -154,7 +154,9 @@ class Located(_Result):
     """Estimated discretization error of omega_b, rad/s (`omega_b_error`)."""
     omega_b_error: float | None
     relative_error: float | None
-    accuracy: float
+    accuracy: float | None
+    """The accuracy asked for; None for a study that fixes N (its error estimated from a coarser
+    rung)."""
     reached: bool
     estimate: dict[str, Any] | None
     rungs: list[dict[str, Any]]

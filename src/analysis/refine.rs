@@ -68,8 +68,9 @@ pub struct Refinement {
     /// The finest rung, whose `omega_b` is the answer (its fields at the top level).
     #[serde(flatten)]
     pub finest: Located,
-    /// Relative accuracy asked for.
-    pub accuracy: f64,
+    /// Relative accuracy asked for; `None` where the rungs were fixed instead (a study that fixes
+    /// `N`: its error estimated from a coarser rung, [`estimate_at_nodes`]).
+    pub accuracy: Option<f64>,
     /// Whether the estimated relative error is below `accuracy`.
     pub reached: bool,
     /// Estimated discretization error of `omega_b` (rad/s) and relative; absent with one rung.
@@ -410,13 +411,49 @@ fn refined(n: usize, max: usize) -> Option<usize> {
     (next > n).then_some(next)
 }
 
+/// `omega_b` at the model's own `N` with its discretization error: a coarser rung at about
+/// twice the spacing (`N/2 + 1` nodes) followed from rest, then the model's `N` sequenced from
+/// it, and the error estimated from the two ([`discretization_error`]); the answer is the
+/// model's `N`'s. A model too coarse for a rung below it (`N < 9`), or whose coarser rung fails,
+/// gets its `N` alone, without an estimate (`stopped` says why when a rung failed).
+pub fn estimate_at_nodes(
+    physical: &Physical,
+    settings: &LocateSettings,
+    observer: &mut impl RungObserver,
+) -> Result<Refinement> {
+    let nodes = physical.discretization.nodes;
+    if admissible_max_nodes(physical).is_some_and(|a| a < nodes) {
+        // Outside the fluid model's range: refused with the usual message.
+        Model::new(physical)?.check_resolution()?;
+    }
+    if nodes < 9 {
+        return refine(physical, None, nodes, settings, observer);
+    }
+    let mut coarse = physical.clone();
+    coarse.discretization.nodes = nodes / 2 + 1;
+    match refine(&coarse, None, nodes, settings, observer) {
+        Err(e) if !e.is_input() => {
+            // The coarser rung failed (a mesh too coarse for the branch): the model's own `N`
+            // alone, saying why it has no estimate.
+            let mut alone = refine(physical, None, nodes, settings, observer)?;
+            alone.stopped = Some(format!(
+                "the coarser rung at N = {} failed: {e}",
+                coarse.discretization.nodes
+            ));
+            Ok(alone)
+        }
+        result => result,
+    }
+}
+
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated
-/// relative error of the finest `omega_b` is below `accuracy`, the next `N` would pass the
-/// fluid model's admissible range (Lighthill, docs/model.md section 3) or `max_nodes`, a rung
-/// fails (the rungs before it are kept), or the rungs stop finding one kind of event.
+/// relative error of the finest `omega_b` is below `accuracy` (with none, until `max_nodes`),
+/// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
+/// section 3) or `max_nodes`, a rung fails (the rungs before it are kept), or the rungs stop
+/// finding one kind of event.
 pub fn refine(
     physical: &Physical,
-    accuracy: f64,
+    accuracy: Option<f64>,
     max_nodes: usize,
     settings: &LocateSettings,
     observer: &mut impl RungObserver,
@@ -535,13 +572,15 @@ pub fn refine(
             let relative = e.error / values[values.len() - 1].abs();
             observer.estimated(relative, &e);
             estimate = Some(e);
-            if relative < accuracy {
+            if accuracy.is_some_and(|a| relative < a) {
                 break None;
             }
         }
-        match refined(n, limit) {
-            Some(next) => n = next,
-            None => break Some(limit_reason(n)),
+        match (refined(n, limit), accuracy) {
+            (Some(next), _) => n = next,
+            // Fixed rungs end at max_nodes.
+            (None, None) if n == max_nodes => break None,
+            (None, _) => break Some(limit_reason(n)),
         }
     };
     let Solved {
@@ -555,7 +594,7 @@ pub fn refine(
     }
     let omega_b_error = estimate.as_ref().map(|e| e.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
-    let reached = relative_error.is_some_and(|r| r < accuracy);
+    let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
     Ok(Refinement {
         finest,
         accuracy,

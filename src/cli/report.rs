@@ -244,6 +244,12 @@ impl Section for Refinement {
         let n = self.finest.nodes;
         // The one number first: omega_b with its discretization error.
         match (self.finest.omega_b, self.omega_b_error, self.relative_error) {
+            (Some(w), Some(e), Some(rel)) if self.accuracy.is_none() => writeln!(
+                f,
+                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; estimated error {rel:.1e} \
+                 relative at the study's N = {n}, {fluid})",
+                self.finest.kind
+            )?,
             (Some(w), Some(e), Some(rel)) if self.reached => writeln!(
                 f,
                 "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; converged to {rel:.0e} relative, \
@@ -254,7 +260,8 @@ impl Section for Refinement {
                 f,
                 "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; NOT converged to {:.0e}: \
                  estimated error {rel:.1e} relative, {fluid}, N = {n})",
-                self.finest.kind, self.accuracy
+                self.finest.kind,
+                self.accuracy.unwrap_or(f64::NAN)
             )?,
             (Some(w), _, _) => writeln!(
                 f,
@@ -306,9 +313,11 @@ impl Section for Refinement {
             }
             write!(f, "; limit {:.8} rad/s)", est.limit)?;
         }
-        match &self.stopped {
-            None => write!(f, "\n  accuracy {:.1e} reached", self.accuracy),
-            Some(why) => write!(f, "\n  accuracy {:.1e} NOT reached: {why}", self.accuracy),
+        match (&self.stopped, self.accuracy) {
+            (None, Some(a)) => write!(f, "\n  accuracy {a:.1e} reached"),
+            (Some(why), Some(a)) => write!(f, "\n  accuracy {a:.1e} NOT reached: {why}"),
+            (Some(why), None) => write!(f, "\n  no error estimate: {why}"),
+            (None, None) => Ok(()),
         }
     }
 }

@@ -6,7 +6,9 @@ use serde::Serialize;
 
 use crate::Result;
 use crate::analysis::locate::{Critical, Located, locate};
-use crate::analysis::refine::{Ladder, Refinement, RungObserver, default_ladder, ladder, refine};
+use crate::analysis::refine::{
+    Ladder, Refinement, RungObserver, default_ladder, estimate_at_nodes, ladder, refine,
+};
 use std::ops::ControlFlow;
 
 use crate::engine::arclength::Point;
@@ -23,6 +25,8 @@ use crate::study::progress::{self, progress};
 pub enum Resolution {
     /// The study's `N` only.
     Single,
+    /// The study's `N`, with its discretization error estimated from a coarser rung.
+    Fixed,
     /// Refined until the estimated error is below `accuracy` (relative), at most `max_nodes`.
     Refine { accuracy: f64, max_nodes: usize },
     /// Over a ladder of node counts (empty: the default one), extrapolated.
@@ -46,6 +50,7 @@ impl LocateResult {
         let LocateResult::Refined(r) = self else {
             return None;
         };
+        let accuracy = r.accuracy?;
         (!r.reached && r.finest.omega_b.is_some()).then(|| {
             let estimate = r
                 .relative_error
@@ -54,7 +59,7 @@ impl LocateResult {
                 });
             format!(
                 "accuracy {:.0e} not reached at N = {}: {estimate}; {}",
-                r.accuracy,
+                accuracy,
                 r.finest.nodes,
                 r.stopped.as_deref().unwrap_or("")
             )
@@ -161,11 +166,14 @@ pub fn locate_study(study: &Study, resolution: &Resolution) -> Result<LocateResu
             max_nodes,
         } => LocateResult::Refined(refine(
             &physical,
-            *accuracy,
+            Some(*accuracy),
             *max_nodes,
             &settings,
             &mut observer,
         )?),
+        Resolution::Fixed => {
+            LocateResult::Refined(estimate_at_nodes(&physical, &settings, &mut observer)?)
+        }
         Resolution::Ladder(nodes) => {
             let nodes = if nodes.is_empty() {
                 default_ladder(&physical)

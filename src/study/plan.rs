@@ -108,7 +108,8 @@ pub enum Plan {
         #[serde(default)]
         cases: Vec<Case>,
     },
-    /// `omega_b` at the study's `N`; with `accuracy`, refined in `N` until its estimated
+    /// `omega_b` at the study's `N` with its discretization error estimated from a coarser rung;
+    /// with `accuracy`, refined in `N` until its estimated
     /// discretization error is below it (up to `max_nodes`); or over a ladder of node counts
     /// extrapolated with the known orders.
     Locate {

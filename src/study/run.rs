@@ -91,7 +91,8 @@ fn resolution(plan: &Plan) -> Resolution {
             accuracy: *eps,
             max_nodes: max_nodes.unwrap_or(DEFAULT_MAX_NODES),
         },
-        _ => Resolution::Single,
+        // A study that fixes N keeps it, with its estimated discretization error.
+        _ => Resolution::Fixed,
     }
 }
 
