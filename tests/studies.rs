@@ -300,3 +300,56 @@ fn fit_recovers_a_power_law_from_a_csv() {
     assert!(err.contains("nope"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every point of a sweep states the estimated discretization error of its `omega_b`
+/// (`omega_b_error`), the same as `locate` refining from `N/2 + 1` to the point's `N` states.
+#[test]
+fn every_point_of_a_sweep_states_the_discretization_error_of_its_omega_b() {
+    let dir = temp_dir("sweep-errors");
+    let study = small_sweep(&dir);
+    let study = study.to_str().unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = helixbif(&[
+        "sweep",
+        study,
+        "--set",
+        "discretization.nodes=30",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let mut table = csv::Reader::from_path(out.join("sweep.csv")).unwrap();
+    let header = table.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = table.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 8);
+    for row in rows.iter().step_by(3) {
+        let lambda_over_l = &row[col("lambda_over_l")];
+        let error: f64 = row[col("omega_b_error")].parse().unwrap();
+        let (code, stdout, stderr) = helixbif(&[
+            "locate",
+            study,
+            "--set",
+            &format!("shape.lambda_over_l={lambda_over_l}"),
+            "--set",
+            "discretization.nodes=16",
+            "--max-nodes",
+            "30",
+            "--accuracy",
+            "1e-9",
+            "--json",
+        ]);
+        assert!(code <= 1, "{stderr}");
+        let refined: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let expected = refined["omega_b_error"].as_f64().unwrap();
+        let omega_b: f64 = row[col("omega_b")].parse().unwrap();
+        assert!(
+            (refined["omega_b"].as_f64().unwrap() - omega_b).abs() <= 1e-7 * omega_b,
+            "{lambda_over_l}: {stdout}"
+        );
+        assert!(
+            (error - expected).abs() <= 1e-6 * expected && error > 0.0,
+            "lambda/l = {lambda_over_l}: sweep {error}, locate {expected}"
+        );
+    }
+}

@@ -15,7 +15,7 @@ use crate::engine::curve::others;
 use crate::engine::events::Event;
 use crate::engine::events::EventKind;
 use crate::engine::newton;
-use crate::engine::stop::Observer;
+use crate::engine::stop::{Observer, Silent};
 use crate::model::fluid::FluidModel;
 use crate::model::params::{ClampEdge, Physical};
 use crate::model::rod::Config;
@@ -40,6 +40,9 @@ pub trait RungObserver: Observer<Point, Event> {
     /// The estimated relative error of the finest `omega_b` so far.
     fn estimated(&mut self, _relative: f64, _estimate: &DiscretizationError) {}
 }
+
+/// No progress to show.
+impl RungObserver for Silent {}
 
 /// `locate --extrapolate`: `omega_b` over a ladder of node counts and its limit with the known
 /// orders (docs/model.md section 10, [`extrapolate_with`], [`error_orders`]).
@@ -431,19 +434,22 @@ pub fn estimate_at_nodes(
     }
     let mut coarse = physical.clone();
     coarse.discretization.nodes = nodes / 2 + 1;
-    match refine(&coarse, None, nodes, settings, observer) {
-        Err(e) if !e.is_input() => {
-            // The coarser rung failed (a mesh too coarse for the branch): the model's own `N`
-            // alone, saying why it has no estimate.
-            let mut alone = refine(physical, None, nodes, settings, observer)?;
-            alone.stopped = Some(format!(
-                "the coarser rung at N = {} failed: {e}",
-                coarse.discretization.nodes
-            ));
-            Ok(alone)
-        }
-        result => result,
-    }
+    let why = match refine(&coarse, None, nodes, settings, observer) {
+        Ok(r) if r.finest.nodes == nodes => return Ok(r),
+        // The refinement ended at the coarser rung (no omega_b there, or another kind of event
+        // than at the finer one).
+        Ok(r) => r.stopped.unwrap_or_default(),
+        // The coarser rung failed (a mesh too coarse for the branch).
+        Err(e) if !e.is_input() => format!(
+            "the coarser rung at N = {} failed: {e}",
+            coarse.discretization.nodes
+        ),
+        Err(e) => return Err(e),
+    };
+    // The model's own `N` alone, saying why it has no estimate.
+    let mut alone = refine(physical, None, nodes, settings, observer)?;
+    alone.stopped = Some(why);
+    Ok(alone)
 }
 
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated

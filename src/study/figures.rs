@@ -198,6 +198,22 @@ pub struct LocalInterval {
     pub m_loc: f64,
 }
 
+/// The estimated discretization error of the value `y` of column `column` at row `r` of a
+/// sweep table: `omega_b_error` for `omega_b`, the same relative error for `omegabar_b`
+/// (`omegabar_b` is `omega_b` times a constant of the point); `None` for another column, or
+/// where the table has no error there.
+fn discretization_error_of(table: &Table, r: usize, column: &str, y: f64) -> Option<f64> {
+    let error = table.number(r, table.index("omega_b_error").ok()?)?;
+    match column {
+        "omega_b" => Some(error),
+        "omegabar_b" => {
+            let omega_b = table.number(r, table.index("omega_b").ok()?)?;
+            Some(error / omega_b.abs() * y.abs())
+        }
+        _ => None,
+    }
+}
+
 /// Draws the figures of a finished sweep (`sweep.csv` in `dir`) as its plan declares, with the
 /// fits; a `common_power_law` fit also writes `fit.json` (the exponent `m = -p` of
 /// `y ~ x^(-m)` with its interval) and a collapse figure. Returns the fits.
@@ -221,16 +237,23 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 spec.y, spec.x
             ));
         }
-        // Groups in order of first appearance.
+        // Groups in order of first appearance, with each point's discretization error where
+        // the y column is omega_b or omegabar_b.
         let mut groups: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
+        let mut errors: Vec<Vec<Option<f64>>> = Vec::new();
         for (r, x, y) in kept {
             let g = table.text(r, sc).to_string();
-            match groups.iter_mut().find(|e| e.0 == g) {
-                Some(e) => {
-                    e.1.push(x);
-                    e.2.push(y);
+            let e = discretization_error_of(&table, r, &spec.y, y);
+            match groups.iter().position(|entry| entry.0 == g) {
+                Some(i) => {
+                    groups[i].1.push(x);
+                    groups[i].2.push(y);
+                    errors[i].push(e);
                 }
-                None => groups.push((g, vec![x], vec![y])),
+                None => {
+                    groups.push((g, vec![x], vec![y]));
+                    errors.push(vec![e]);
+                }
             }
         }
         let shapes = [
@@ -250,14 +273,16 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
         };
         let mut series: Vec<Series> = groups
             .iter()
+            .zip(&errors)
             .enumerate()
-            .map(|(i, (g, x, y))| Series {
+            .map(|(i, ((g, x, y), e))| Series {
                 label: label(g),
                 x: x.clone(),
                 y: y.clone(),
                 style: Style::Markers(shapes[i % shapes.len()]),
                 stable: None,
-                err: None,
+                // Bars only where every point has its error (an older sweep.csv has none).
+                err: e.iter().copied().collect(),
             })
             .collect();
         let all_x: Vec<f64> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
@@ -445,9 +470,18 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 left_out,
             });
         }
+        let bars = if series.iter().any(|s| s.err.is_some()) {
+            " (bars: estimated discretization error)"
+        } else {
+            ""
+        };
         write_figure(
             &Figure {
-                title: format!("{} against {}", short_name(&spec.y), short_name(&spec.x)),
+                title: format!(
+                    "{} against {}{bars}",
+                    short_name(&spec.y),
+                    short_name(&spec.x)
+                ),
                 x_label: axis_label(&spec.x),
                 y_label: axis_label(&spec.y),
                 x_scale: scale(spec.log_x),

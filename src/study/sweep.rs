@@ -23,9 +23,8 @@ use serde::Serialize;
 use super::plan::{Case, Plan, Vary};
 use super::progress;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
-use crate::analysis::locate::locate;
+use crate::analysis::refine::estimate_at_nodes;
 use crate::engine::stop::Silent;
-use crate::model::Model;
 use crate::model::params::ShapeParams;
 use crate::study::output::{create_dir, io_error, write_atomically};
 use crate::{Error, Result};
@@ -139,7 +138,7 @@ pub(crate) fn variant(base: &Study, case: &Case, vary: &[Vary], values: &[f64]) 
 }
 
 /// The fixed columns of `sweep.csv` after the swept keys.
-const RESULT_COLUMNS: [&str; 17] = [
+const RESULT_COLUMNS: [&str; 18] = [
     "E",
     "r0",
     "mu",
@@ -150,6 +149,7 @@ const RESULT_COLUMNS: [&str; 17] = [
     "E_r0_4_over_mu_l_4",
     "kind",
     "omega_b",
+    "omega_b_error",
     "omegabar_b",
     "im",
     "Fpbar",
@@ -183,19 +183,21 @@ fn number(v: Option<f64>) -> String {
     v.map(|x| format!("{x:e}")).unwrap_or_default()
 }
 
-/// Runs `locate` at one point and formats its row; a failure is recorded in the row, not raised.
+/// Runs `locate` at one point, with the discretization error of its `omega_b` estimated from a
+/// coarser rung ([`estimate_at_nodes`]), and formats its row; a failure is recorded in the row,
+/// not raised.
 fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) -> Vec<String> {
     let start = Instant::now();
     let case = &cases[point.case];
     let mut row = vec![point.index.to_string(), case.label.clone()];
     row.extend(point.values.iter().map(|x| format!("{x:e}")));
     let outcome = variant(base, case, vary, &point.values).and_then(|study| {
-        let model = Model::new(&study.physical())?;
-        let (located, _) = locate(&model, &study.locate_settings(), &mut Silent)?;
-        Ok((study, located))
+        let refined = estimate_at_nodes(&study.physical(), &study.locate_settings(), &mut Silent)?;
+        Ok((study, refined))
     });
     match outcome {
-        Ok((study, located)) => {
+        Ok((study, refined)) => {
+            let located = &refined.finest;
             let p = study.physical();
             let (lol, rol) = match p.shape {
                 ShapeParams::Helix {
@@ -217,6 +219,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
                 )),
                 located.kind.to_string(),
                 number(located.omega_b),
+                number(refined.omega_b_error),
                 number(located.omegabar_b),
                 number(located.im),
                 number(located.fpbar),
@@ -229,7 +232,7 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
         Err(e) => {
             row.extend((0..8).map(|_| String::new()));
             row.push("error".into());
-            row.extend((0..5).map(|_| String::new()));
+            row.extend((0..6).map(|_| String::new()));
             row.push(base.discretization.nodes.to_string());
             row.push(format!("{:.3}", start.elapsed().as_secs_f64()));
             row.push(format!(

@@ -1,0 +1,144 @@
+//! Cost of a converged `omega_b` (docs/model.md section 10), in one run on one machine:
+//!
+//! 1. the refinement of the built-in default (RPY line, `N = 60, 119, 237, 473`) to the default
+//!    accuracy `1e-3`, each rung's method and time, the Lyapunov coefficient at the finest rung,
+//!    and the peak resident memory of the process after it;
+//! 2. one finer rung at `N = 473` by grid sequencing (from the `N = 237` rung's Hopf point,
+//!    Newton on the carried state, the Hopf condition solved directly, the first-loss
+//!    certificate) against a continuation from rest at `N = 473` (event search included), both
+//!    without the Lyapunov coefficient, with the ratio and the difference of `omega_b`;
+//! 3. with `-- 1e-4` as an argument, the refinement to `1e-4` as well, with its peak memory
+//!    (several minutes on two cores).
+//!
+//! Run: `cargo bench --bench refine` (or `cargo bench --bench refine -- 1e-4`).
+
+mod common;
+
+use std::time::Instant;
+
+use helixbif::analysis::locate::{LocateSettings, locate};
+use helixbif::analysis::refine::{Refinement, RungObserver, refine};
+use helixbif::engine::ContinuationSettings;
+use helixbif::engine::newton::NewtonSettings;
+use helixbif::engine::stop::Silent;
+use helixbif::model::Model;
+use helixbif::model::params::Physical;
+use helixbif::study::Study;
+
+struct Quiet;
+impl
+    helixbif::engine::stop::Observer<
+        helixbif::engine::arclength::Point,
+        helixbif::engine::events::Event,
+    > for Quiet
+{
+}
+impl RungObserver for Quiet {}
+
+/// Peak resident memory of this process so far (MB), from `/proc/self/status` (`VmHWM`).
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// Prints a refinement's rungs and its answer.
+fn print_refinement(label: &str, refinement: &Refinement, seconds: f64) {
+    println!(
+        "{label}: {seconds:.1} s wall, peak memory {:.0} MB",
+        peak_rss_mb()
+    );
+    for r in &refinement.rungs {
+        println!(
+            "  N = {:4}  {:<12}  {:6.2} s  omega_b = {:.8} rad/s",
+            r.nodes,
+            r.method,
+            r.seconds,
+            r.omega_b.unwrap_or(f64::NAN)
+        );
+    }
+    let rungs: f64 = refinement.rungs.iter().map(|r| r.seconds).sum();
+    println!(
+        "  omega_b = {:.7} +- {:.1e} rad/s ({:.1e} relative, {}); the Lyapunov coefficient and \
+         the rest: {:.1} s",
+        refinement.finest.omega_b.unwrap_or(f64::NAN),
+        refinement.omega_b_error.unwrap_or(f64::NAN),
+        refinement.relative_error.unwrap_or(f64::NAN),
+        if refinement.reached {
+            "reached"
+        } else {
+            "NOT reached"
+        },
+        seconds - rungs
+    );
+}
+
+fn main() {
+    helixbif::numerics::process::configure();
+    let high = std::env::args().any(|a| a == "1e-4");
+    println!("refinement of omega_b, {}", common::machine());
+    let study = Study::load(None, &[]).unwrap();
+    let physical = study.physical();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let with_l1 = LocateSettings {
+        omega_max: study.branch.omega_max,
+        newton: &newton,
+        continuation: &continuation,
+        criticality: true,
+    };
+    let quiet = LocateSettings {
+        criticality: false,
+        ..with_l1
+    };
+
+    // 1. The default locate: refined to 1e-3.
+    let started = Instant::now();
+    let default = refine(&physical, Some(1e-3), 500, &with_l1, &mut Quiet).unwrap();
+    print_refinement(
+        "locate on the default, accuracy 1e-3",
+        &default,
+        started.elapsed().as_secs_f64(),
+    );
+
+    // 2. One rung at N = 473: sequenced from N = 237 against a continuation from rest.
+    let at = |nodes: usize| -> Physical {
+        let mut p = physical.clone();
+        p.discretization.nodes = nodes;
+        p
+    };
+    let two = refine(&at(237), Some(1e-12), 473, &quiet, &mut Quiet).unwrap();
+    let fine = &two.rungs[1];
+    let started = Instant::now();
+    let model = Model::new(&at(473)).unwrap();
+    let (from_rest, _) = locate(&model, &quiet, &mut Silent).unwrap();
+    let from_rest_seconds = started.elapsed().as_secs_f64();
+    let (w_seq, w_rest) = (fine.omega_b.unwrap(), from_rest.omega_b.unwrap());
+    println!(
+        "one rung at N = 473: {} from N = 237 {:.2} s, continuation from rest {:.2} s: ratio \
+         {:.3}; omega_b {:.10} and {:.10} rad/s (relative difference {:.1e})",
+        fine.method,
+        fine.seconds,
+        from_rest_seconds,
+        fine.seconds / from_rest_seconds,
+        w_seq,
+        w_rest,
+        (w_seq - w_rest).abs() / w_rest
+    );
+
+    // 3. Optionally, the refinement to 1e-4.
+    if high {
+        let started = Instant::now();
+        let tight = refine(&physical, Some(1e-4), 4000, &with_l1, &mut Quiet).unwrap();
+        print_refinement(
+            "locate on the default, accuracy 1e-4",
+            &tight,
+            started.elapsed().as_secs_f64(),
+        );
+    }
+}
