@@ -470,10 +470,23 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 left_out,
             });
         }
-        let bars = if series.iter().any(|s| s.err.is_some()) {
-            " (bars: estimated discretization error)"
-        } else {
-            ""
+        // The title says what the bars are and how large they are relative to the values
+        // (bars of a tenth of a per cent hide under the markers).
+        let relative: Vec<f64> = series
+            .iter()
+            .filter_map(|s| Some(s.err.as_ref()?.iter().zip(&s.y).map(|(e, y)| e / y.abs())))
+            .flatten()
+            .collect();
+        let bars = match relative.iter().copied().reduce(f64::min) {
+            Some(lo) => {
+                let hi = relative.iter().copied().fold(lo, f64::max);
+                format!(
+                    " (bars: estimated discretization error, {} to {} %)",
+                    percent(lo),
+                    percent(hi)
+                )
+            }
+            None => String::new(),
         };
         write_figure(
             &Figure {
@@ -494,6 +507,13 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
         )?;
     }
     Ok(Some(fits))
+}
+
+/// A fraction as a percentage with two significant digits (`0.0012` -> `0.12`).
+fn percent(fraction: f64) -> String {
+    let p = 100.0 * fraction;
+    let decimals = (1.0 - p.abs().log10().floor()).clamp(0.0, 6.0) as usize;
+    format!("{p:.decimals$}")
 }
 
 fn dashed(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {
