@@ -17,23 +17,13 @@ mod common;
 use std::time::Instant;
 
 use helixbif::analysis::locate::{LocateSettings, locate};
-use helixbif::analysis::refine::{Refinement, RungObserver, refine};
+use helixbif::analysis::refine::{Refinement, refine};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
 use helixbif::model::params::Physical;
 use helixbif::study::Study;
-
-struct Quiet;
-impl
-    helixbif::engine::stop::Observer<
-        helixbif::engine::arclength::Point,
-        helixbif::engine::events::Event,
-    > for Quiet
-{
-}
-impl RungObserver for Quiet {}
 
 /// Peak resident memory of this process so far (MB), from `/proc/self/status` (`VmHWM`).
 fn peak_rss_mb() -> f64 {
@@ -99,7 +89,7 @@ fn main() {
 
     // 1. The default locate: refined to 1e-3.
     let started = Instant::now();
-    let default = refine(&physical, Some(1e-3), 500, &with_l1, &mut Quiet).unwrap();
+    let default = refine(&physical, Some(1e-3), 500, &with_l1, &mut Silent).unwrap();
     print_refinement(
         "locate on the default, accuracy 1e-3",
         &default,
@@ -112,8 +102,13 @@ fn main() {
         p.discretization.nodes = nodes;
         p
     };
-    let two = refine(&at(237), Some(1e-12), 473, &quiet, &mut Quiet).unwrap();
-    let fine = &two.rungs[1];
+    let two = refine(&at(237), Some(1e-12), 473, &quiet, &mut Silent).unwrap();
+    let Some(fine) = two.rungs.get(1) else {
+        panic!(
+            "the rung at N = 473 did not run: {}",
+            two.stopped.as_deref().unwrap_or("no reason given")
+        );
+    };
     let started = Instant::now();
     let model = Model::new(&at(473)).unwrap();
     let (from_rest, _) = locate(&model, &quiet, &mut Silent).unwrap();
@@ -134,7 +129,7 @@ fn main() {
     // 3. Optionally, the refinement to 1e-4.
     if high {
         let started = Instant::now();
-        let tight = refine(&physical, Some(1e-4), 4000, &with_l1, &mut Quiet).unwrap();
+        let tight = refine(&physical, Some(1e-4), 4000, &with_l1, &mut Silent).unwrap();
         print_refinement(
             "locate on the default, accuracy 1e-4",
             &tight,

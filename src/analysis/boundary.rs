@@ -136,8 +136,9 @@ pub struct Boundary {
     pub segments: usize,
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole boundary.
     pub evaluations: usize,
-    /// Independent `locate` runs from rest below the curve (one per point, and those of the
-    /// bisection where a window opens).
+    /// Independent `locate` runs from rest below the curve (one per point but the first of each
+    /// curve and a special point the boundary leaves the curve at, and those of the bisection
+    /// where a window opens).
     pub window_checks: usize,
 }
 
@@ -213,9 +214,11 @@ struct Recorder<'a, O> {
     kind: EventKind,
     observer: &'a mut O,
     error: Option<Error>,
-    /// The point below which a window of instability was seen; the curve ends there and the
-    /// point is not recorded.
+    /// The point below which a window of instability was seen; the Hopf curve ends there and
+    /// the point is not recorded.
     window: Option<Seen>,
+    /// The curve was just left at a special point (its point, told next, needs no check).
+    left: bool,
 }
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
@@ -277,13 +280,16 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             .points
             .last()
             .is_none_or(|r| r.segment + 1 < self.boundary.segments);
-        if !first {
+        let check = !first && !self.left;
+        self.left = false;
+        if check {
             self.boundary.window_checks += 1;
             match loss_below(self.family, &self.locate, point.q, point.p) {
                 Ok(None) => {}
                 Ok(Some(found)) => {
                     self.window = Some(Seen {
                         omegabar: point.p,
+                        wbar: point.eigenvalue.im,
                         found,
                     });
                     return ControlFlow::Break(());
@@ -316,6 +322,8 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             self.boundary.special.push(row);
         });
         self.record(result);
+        // The curve ends at a Bogdanov-Takens point too.
+        self.left = switch || special.kind == SpecialKind::BogdanovTakens;
         if switch {
             ControlFlow::Break(())
         } else {
@@ -450,33 +458,51 @@ fn loss_below(
 fn window_opening(
     family: &RodFamily,
     settings: &LocateSettings,
-    clean: (f64, f64),
+    clean: (f64, f64, f64),
     seen: Seen,
     tol: f64,
     checks: &mut usize,
 ) -> Result<(Found, f64)> {
     let Seen {
         omegabar,
+        wbar,
         mut found,
     } = seen;
-    let (q_seen, slope) = (found.q, (omegabar - clean.1) / (found.q - clean.0));
-    let curve = |q: f64| omegabar + slope * (q - q_seen);
+    let q_seen = found.q;
+    // The curve between the two points, `omegabar` and its frequency, by linear interpolation.
+    let along = |q: f64, a: f64, b: f64| b + (b - a) * (q - q_seen) / (q_seen - clean.0);
     let mut good = clean.0;
     while (found.q - good).abs() > tol {
         let mid = 0.5 * (good + found.q);
         *checks += 1;
-        match loss_below(family, settings, mid, curve(mid))? {
-            Some(closer) => found = closer,
-            None => good = mid,
+        let loss = loss_below(family, settings, mid, along(mid, clean.1, omegabar))?;
+        // Where the curve bends, the chord can pass above it by more than the margin, and the
+        // curve's own mode is found below the chord: a loss at the curve's frequency is that.
+        let own_mode = |f: &Found| {
+            let w = along(mid, clean.2, wbar);
+            (f.critical.event.eigenvalue.im.abs() - w.abs()).abs() <= OWN_FREQUENCY * w.abs()
+        };
+        match loss {
+            Some(closer) if !own_mode(&closer) => found = closer,
+            _ => good = mid,
         }
     }
     let width = (found.q - good).abs();
     Ok((found, width))
 }
 
+/// How close (relative) to the curve's own frequency a loss of stability found while bisecting
+/// a window's opening must be to count as the curve's own mode, found below the chord between
+/// two points of a bending curve. The frequencies of different modes differ by far more (13% at
+/// the window of `exponent_m` at `lambda = 0.1 m`); along a curve, the chord's frequency is off
+/// by the same relative order as its rate, a fraction of the margin.
+const OWN_FREQUENCY: f64 = 1e-2;
+
 /// A point of a curve (`omegabar`, solver units) with a loss of stability `found` below it.
 struct Seen {
     omegabar: f64,
+    /// The curve's frequency there (solver units).
+    wbar: f64,
     found: Found,
 }
 
@@ -507,11 +533,27 @@ fn follow_events<O: BoundaryObserver>(
             evaluations: point.iterations,
             ..CurvePoint::at_event(point.event.clone(), point.q)
         };
-        // The recorder keeps every point; it never ends an event curve.
-        let _ = recorder.point(&on_curve);
+        // The curve is followed whole; the recorder stops at an error or a window.
+        if recorder.point(&on_curve).is_break() {
+            break;
+        }
     }
     if let Some(e) = recorder.error.take() {
         return Err(e);
+    }
+    if let Some(seen) = recorder.window.take() {
+        return Err(Error::Numerical(format!(
+            "another mode loses stability below the {} curve at {} = {:.6e} (at {:.6e} rad/s): \
+             boundary does not switch from a fold or branch-point curve to it",
+            kind.name(),
+            family.field().key(),
+            seen.found.q,
+            seen.found
+                .member
+                .model
+                .scales
+                .omega_from_bar(seen.found.critical.event.p)
+        )));
     }
     match curve.stop {
         Stop::ParameterLimit => Ok(()),
@@ -546,6 +588,7 @@ pub(crate) fn follow_boundary(
         error: None,
         locate: *settings,
         window: None,
+        left: false,
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)
@@ -680,7 +723,7 @@ fn switch_to_window<O: BoundaryObserver>(
         .boundary
         .points
         .last()
-        .map(|r| (r.q, r.omegabar_b))
+        .map(|r| (r.q, r.omegabar_b, r.wbar))
         .expect("a window is looked for past the first point of a curve");
     let tol = 1e-6 * (to - from).abs();
     let checks = &mut recorder.boundary.window_checks;
@@ -692,14 +735,15 @@ fn switch_to_window<O: BoundaryObserver>(
         CurveStart::Hopf(c) => (c.p, c.eigenvalue.im),
         CurveStart::Event(e) => (e.event.p, e.event.eigenvalue.im),
     };
-    let other = recorder.boundary.points.last().map_or(0.0, |r| r.wbar);
+    // The curve's frequency at its last point, rad/s (its member's own time scale).
+    let w_other = recorder.boundary.points.last().map_or(0.0, |r| r.w);
     recorder.boundary.special.push(SpecialPoint {
         kind: BoundaryEvent::Window,
         q,
         omega: scales.omega_from_bar(omegabar),
         omegabar,
         w: scales.omega_from_bar(wbar),
-        w_other: scales.omega_from_bar(other),
+        w_other,
         switch: true,
         precision: width,
     });

@@ -65,7 +65,8 @@ pub struct Ladder {
 
 /// `locate --accuracy EPS` (the default of `locate`): `omega_b` refined in `N` until its
 /// estimated discretization error (docs/model.md section 10, [`discretization_error`]) is below
-/// `EPS` relative, or the model can go no further.
+/// `EPS` relative, or the model can go no further; or, without an accuracy, `omega_b` at a fixed
+/// `N` with its error estimated from a coarser rung ([`estimate_at_nodes`]).
 #[derive(Serialize)]
 pub struct Refinement {
     /// The finest rung, whose `omega_b` is the answer (its fields at the top level).
@@ -83,7 +84,8 @@ pub struct Refinement {
     pub estimate: Option<DiscretizationError>,
     /// Every rung: node count, `omega_b`, kind.
     pub rungs: Vec<Rung>,
-    /// Why the refinement ended without reaching `accuracy` (absent when it did).
+    /// Why the refinement ended without reaching `accuracy` (absent when it did); at a fixed
+    /// `N`, why the error could not be estimated (absent when it was).
     pub stopped: Option<String>,
     /// The hydrodynamic model the rungs use.
     pub fluid: FluidModel,
@@ -430,14 +432,17 @@ pub fn estimate_at_nodes(
         Model::new(physical)?.check_resolution()?;
     }
     if nodes < 9 {
-        return refine(physical, None, nodes, settings, observer);
+        let mut alone = refine(physical, None, nodes, settings, observer)?;
+        alone.stopped = Some(format!(
+            "N = {nodes} is below 9: no coarser rung to estimate the error from"
+        ));
+        return Ok(alone);
     }
     let mut coarse = physical.clone();
     coarse.discretization.nodes = nodes / 2 + 1;
     let why = match refine(&coarse, None, nodes, settings, observer) {
         Ok(r) if r.finest.nodes == nodes => return Ok(r),
-        // The refinement ended at the coarser rung (no omega_b there, or another kind of event
-        // than at the finer one).
+        // The refinement ended at the coarser rung (no omega_b there).
         Ok(r) => r.stopped.unwrap_or_default(),
         // The coarser rung failed (a mesh too coarse for the branch).
         Err(e) if !e.is_input() => format!(

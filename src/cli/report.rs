@@ -316,7 +316,10 @@ impl Section for Refinement {
         match (&self.stopped, self.accuracy) {
             (None, Some(a)) => write!(f, "\n  accuracy {a:.1e} reached"),
             (Some(why), Some(a)) => write!(f, "\n  accuracy {a:.1e} NOT reached: {why}"),
-            (Some(why), None) => write!(f, "\n  no error estimate: {why}"),
+            (Some(why), None) if self.omega_b_error.is_none() => {
+                write!(f, "\n  no error estimate: {why}")
+            }
+            (Some(why), None) => write!(f, "\n  stopped: {why}"),
             (None, None) => Ok(()),
         }
     }

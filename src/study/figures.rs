@@ -281,8 +281,11 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
                 y: y.clone(),
                 style: Style::Markers(shapes[i % shapes.len()]),
                 stable: None,
-                // Bars only where every point has its error (an older sweep.csv has none).
-                err: e.iter().copied().collect(),
+                // A point without an error (none estimated, or an older sweep.csv) has no bar.
+                err: e
+                    .iter()
+                    .any(Option::is_some)
+                    .then(|| e.iter().map(|e| e.unwrap_or(f64::NAN)).collect()),
             })
             .collect();
         let all_x: Vec<f64> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
@@ -476,6 +479,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
             .iter()
             .filter_map(|s| Some(s.err.as_ref()?.iter().zip(&s.y).map(|(e, y)| e / y.abs())))
             .flatten()
+            .filter(|r| r.is_finite())
             .collect();
         let bars = match relative.iter().copied().reduce(f64::min) {
             Some(lo) => {

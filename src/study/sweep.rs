@@ -279,10 +279,20 @@ fn read_points(path: &Path, header: &[String]) -> Result<BTreeMap<usize, Vec<Str
         .map(String::from)
         .collect();
     if found != header {
+        // A file written before each point stated its error has every column but that one.
+        let older = header
+            .iter()
+            .filter(|h| *h != "omega_b_error")
+            .eq(found.iter());
+        let why = if older {
+            "was written by an earlier helixbif, without the column omega_b_error"
+        } else {
+            "has the columns of another sweep"
+        };
         return Err(Error::input(
             "sweep",
             format!(
-                "{} has the columns of another sweep; delete it or choose another --out",
+                "{} {why}; delete it or choose another --out",
                 path.display()
             ),
         ));
