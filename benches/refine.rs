@@ -87,14 +87,19 @@ fn main() {
         ..with_l1
     };
 
+    // The default locate refined to `accuracy` (at most `max_nodes`), timed and printed.
+    let refined_to = |accuracy: f64, max_nodes: usize| {
+        let started = Instant::now();
+        let refinement = refine(&physical, Some(accuracy), max_nodes, &with_l1, &mut Silent);
+        print_refinement(
+            &format!("locate on the default, accuracy {accuracy:.0e}"),
+            &refinement.unwrap(),
+            started.elapsed().as_secs_f64(),
+        );
+    };
+
     // 1. The default locate: refined to 1e-3.
-    let started = Instant::now();
-    let default = refine(&physical, Some(1e-3), 500, &with_l1, &mut Silent).unwrap();
-    print_refinement(
-        "locate on the default, accuracy 1e-3",
-        &default,
-        started.elapsed().as_secs_f64(),
-    );
+    refined_to(1e-3, 500);
 
     // 2. One rung at N = 473: sequenced from N = 237 against a continuation from rest.
     let at = |nodes: usize| -> Physical {
@@ -128,12 +133,6 @@ fn main() {
 
     // 3. Optionally, the refinement to 1e-4.
     if high {
-        let started = Instant::now();
-        let tight = refine(&physical, Some(1e-4), 4000, &with_l1, &mut Silent).unwrap();
-        print_refinement(
-            "locate on the default, accuracy 1e-4",
-            &tight,
-            started.elapsed().as_secs_f64(),
-        );
+        refined_to(1e-4, 4000);
     }
 }

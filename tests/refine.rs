@@ -4,23 +4,13 @@
 //! corrected (a mesh of a few nodes per turn) the rung is followed from rest and says why.
 
 use helixbif::analysis::locate::{LocateSettings, locate};
-use helixbif::analysis::refine::{RungObserver, refine};
+use helixbif::analysis::refine::refine;
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
 use helixbif::model::fluid::FluidModel;
 use helixbif::model::params::Physical;
-
-struct Quiet;
-impl
-    helixbif::engine::stop::Observer<
-        helixbif::engine::arclength::Point,
-        helixbif::engine::events::Event,
-    > for Quiet
-{
-}
-impl RungObserver for Quiet {}
 
 fn settings<'a>(
     newton: &'a NewtonSettings,
@@ -47,7 +37,7 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
         Some(1e-9),
         119,
         &settings(&newton, &continuation),
-        &mut Quiet,
+        &mut Silent,
     )
     .unwrap();
     assert_eq!(refined.rungs.len(), 2);
@@ -79,7 +69,7 @@ fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
         Some(1e-9),
         39,
         &settings(&newton, &continuation),
-        &mut Quiet,
+        &mut Silent,
     )
     .unwrap();
     let fine = &refined.rungs[1];
@@ -110,14 +100,14 @@ fn the_error_stated_at_a_fixed_n_covers_the_error_against_a_finer_computation() 
     assert_eq!(physical.fluid.model, FluidModel::Rpy);
     let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
     let settings = settings(&newton, &continuation);
-    let fixed = estimate_at_nodes(&physical, &settings, &mut Quiet).unwrap();
+    let fixed = estimate_at_nodes(&physical, &settings, &mut Silent).unwrap();
     let nodes: Vec<usize> = fixed.rungs.iter().map(|r| r.nodes).collect();
     assert_eq!(nodes, [21, 40]);
     assert_eq!(fixed.finest.nodes, 40);
     assert!(fixed.accuracy.is_none() && fixed.stopped.is_none());
     let stated = fixed.omega_b_error.unwrap();
     let value = fixed.finest.omega_b.unwrap();
-    let finer = refine(&physical, Some(1e-9), 313, &settings, &mut Quiet).unwrap();
+    let finer = refine(&physical, Some(1e-9), 313, &settings, &mut Silent).unwrap();
     assert_eq!(finer.finest.nodes, 313);
     let reference = finer.finest.omega_b.unwrap();
     let reference_error = finer.omega_b_error.unwrap();

@@ -420,7 +420,7 @@ fn refined(n: usize, max: usize) -> Option<usize> {
 /// twice the spacing (`N/2 + 1` nodes) followed from rest, then the model's `N` sequenced from
 /// it, and the error estimated from the two ([`discretization_error`]); the answer is the
 /// model's `N`'s. A model too coarse for a rung below it (`N < 9`), or whose coarser rung fails,
-/// gets its `N` alone, without an estimate (`stopped` says why when a rung failed).
+/// gets its `N` alone, without an estimate (`stopped` says why).
 pub fn estimate_at_nodes(
     physical: &Physical,
     settings: &LocateSettings,
@@ -431,25 +431,18 @@ pub fn estimate_at_nodes(
         // Outside the fluid model's range: refused with the usual message.
         Model::new(physical)?.check_resolution()?;
     }
-    if nodes < 9 {
-        let mut alone = refine(physical, None, nodes, settings, observer)?;
-        alone.stopped = Some(format!(
-            "N = {nodes} is below 9: no coarser rung to estimate the error from"
-        ));
-        return Ok(alone);
-    }
-    let mut coarse = physical.clone();
-    coarse.discretization.nodes = nodes / 2 + 1;
-    let why = match refine(&coarse, None, nodes, settings, observer) {
-        Ok(r) if r.finest.nodes == nodes => return Ok(r),
-        // The refinement ended at the coarser rung (no omega_b there).
-        Ok(r) => r.stopped.unwrap_or_default(),
-        // The coarser rung failed (a mesh too coarse for the branch).
-        Err(e) if !e.is_input() => format!(
-            "the coarser rung at N = {} failed: {e}",
-            coarse.discretization.nodes
-        ),
-        Err(e) => return Err(e),
+    let coarse = nodes / 2 + 1;
+    let why = if nodes < 9 {
+        format!("N = {nodes} is below 9: no coarser rung to estimate the error from")
+    } else {
+        match refine(&at_nodes(physical, coarse), None, nodes, settings, observer) {
+            Ok(r) if r.finest.nodes == nodes => return Ok(r),
+            // The refinement ended at the coarser rung (no omega_b there).
+            Ok(r) => r.stopped.unwrap_or_default(),
+            // The coarser rung failed (a mesh too coarse for the branch).
+            Err(e) if !e.is_input() => format!("the coarser rung at N = {coarse} failed: {e}"),
+            Err(e) => return Err(e),
+        }
     };
     // The model's own `N` alone, saying why it has no estimate.
     let mut alone = refine(physical, None, nodes, settings, observer)?;
