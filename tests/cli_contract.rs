@@ -525,7 +525,8 @@ fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
 #[test]
 fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_computation() {
     // A thick rod (r0 = 6.32 mm, four times the representative's) on the RPY line: its
-    // quadrature has a sixteenth of the points, so N = 161 is cheap. Rungs 21, 41, 81.
+    // quadrature has a sixteenth of the points, so N = 161 is cheap. Rungs 21, 41, 81 (an
+    // accuracy below the quadrature's own error, 1.3e-4 relative, would stop at the first).
     let common = [
         "--set",
         "fluid.model=rpy",
@@ -538,7 +539,7 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
     let mut args = vec![
         "locate",
         "--accuracy",
-        "1e-6",
+        "1e-3",
         "--max-nodes",
         "81",
         "--set",
@@ -547,7 +548,7 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
     args.extend(common);
     let (code, stdout, stderr) = helixbif(&args);
     assert_eq!(code, 1, "{stderr}");
-    assert!(stderr.contains("accuracy 1e-6 not reached"), "{stderr}");
+    assert!(stderr.contains("accuracy 1e-3 not reached"), "{stderr}");
     let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     let w = rung_field(&v, "omega_b");
     assert_eq!(w.len(), 3, "{v}");

@@ -31,10 +31,10 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
     let mut physical = Physical::representative_lighthill();
     physical.fluid.model = FluidModel::Rpy;
     physical.discretization.nodes = 60;
-    // Two rungs: N = 60 from rest, N = 119 sequenced (the accuracy is out of reach at 119).
+    // Two rungs: N = 60 from rest, N = 119 sequenced (no accuracy: the rungs up to 119).
     let refined = refine(
         &physical,
-        Some(1e-9),
+        None,
         119,
         &settings(&newton, &continuation),
         &mut Silent,
@@ -107,7 +107,7 @@ fn the_error_stated_at_a_fixed_n_covers_the_error_against_a_finer_computation() 
     assert!(fixed.accuracy.is_none() && fixed.stopped.is_none());
     let stated = fixed.omega_b_error.unwrap();
     let value = fixed.finest.omega_b.unwrap();
-    let finer = refine(&physical, Some(1e-9), 313, &settings, &mut Silent).unwrap();
+    let finer = refine(&physical, None, 313, &settings, &mut Silent).unwrap();
     assert_eq!(finer.finest.nodes, 313);
     let reference = finer.finest.omega_b.unwrap();
     let reference_error = finer.omega_b_error.unwrap();
@@ -116,4 +116,46 @@ fn the_error_stated_at_a_fixed_n_covers_the_error_against_a_finer_computation() 
         actual + reference_error <= stated && stated <= 5.0 * actual,
         "N = 40: {value} +- {stated}; N = 313: {reference} +- {reference_error}"
     );
+}
+
+/// The quadrature's own error (docs/model.md section 10), measured at the coarsest rung from 8
+/// and 16 points per blob radius as `(v8 - v16) / (1 - 1/4)`, predicts the difference to a rule
+/// it did not use, 32 points per blob radius: `v8 - v32 = e (1 - 1/16)`, to 5%. A thick rod
+/// (`r0 = 6.32 mm`, four times the representative's) keeps the finer rules cheap.
+#[test]
+fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let settings = LocateSettings {
+        omega_max: 300.0,
+        ..settings(&newton, &continuation)
+    };
+    let mut physical = Physical::representative_lighthill();
+    physical.fluid.model = FluidModel::Rpy;
+    physical.rod.r0 = 6.32e-3;
+    physical.discretization.nodes = 21;
+    let refined = refine(&physical, None, 21, &settings, &mut Silent).unwrap();
+    let quadrature = refined.quadrature.as_ref().unwrap();
+    assert_eq!(
+        (quadrature.points_per_blob, quadrature.compared_with),
+        (8.0, 16.0)
+    );
+    let e = quadrature.error.unwrap();
+    let v8 = refined.finest.omega_b.unwrap();
+    physical.fluid.points_per_blob = Some(32.0);
+    let (direct, _) = locate(&Model::new(&physical).unwrap(), &settings, &mut Silent).unwrap();
+    let difference = v8 - direct.omega_b.unwrap();
+    let predicted = e * (1.0 - 1.0 / 16.0);
+    assert!(
+        (difference - predicted).abs() < 0.05 * difference.abs(),
+        "v8 - v32 = {difference:e}, predicted {predicted:e}"
+    );
+    // An accuracy below that error (1.3e-4 relative here) is out of reach at every N: the
+    // refinement stops at the coarsest rung and says what would reach it.
+    physical.fluid.points_per_blob = None;
+    let short = refine(&physical, Some(1e-4), 81, &settings, &mut Silent).unwrap();
+    assert_eq!(short.rungs.len(), 1);
+    assert!(!short.reached);
+    let why = short.stopped.as_deref().unwrap();
+    assert!(why.contains("raise fluid.points_per_blob"), "{why}");
 }

@@ -151,7 +151,9 @@ class Located(_Result):
     criticality: Literal["supercritical", "subcritical", "undetermined"] | None
     l1_failure: str | None
     error: float | None
-    """Estimated discretization error of omega_b, rad/s (`omega_b_error`)."""
+    """Estimated error of omega_b against the continuous model, rad/s (`omega_b_error`): the
+    discretization error in N (`estimate`) plus the size of the RPY quadrature's own error
+    (`quadrature`)."""
     omega_b_error: float | None
     relative_error: float | None
     accuracy: float | None
@@ -159,6 +161,11 @@ class Located(_Result):
     rung)."""
     reached: bool
     estimate: dict[str, Any] | None
+    """The discretization error in N: `error` (rad/s), `limit`, `observed_order`, `method`."""
+    quadrature: dict[str, Any] | None
+    """The RPY quadrature's own error, measured at the coarsest rung: `error` (rad/s, signed),
+    `points_per_blob`, `compared_with`, `nodes`, `omega_b_compared`, `failed` (why it could not
+    be measured); None on Lighthill's operator."""
     rungs: list[dict[str, Any]]
     stopped: str | None
     fluid: Literal["lighthill", "rpy"]

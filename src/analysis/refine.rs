@@ -37,7 +37,10 @@ pub trait RungObserver: Observer<Point, Event> {
     fn rung(&mut self, _model: &Model) {}
     /// The rung at `nodes` located `located`.
     fn located(&mut self, _nodes: usize, _located: &Located) {}
-    /// The estimated relative error of the finest `omega_b` so far.
+    /// The RPY quadrature's own error of `omega_b`, measured at the coarsest rung.
+    fn quadrature(&mut self, _quadrature: &QuadratureError) {}
+    /// The estimated relative error of the finest `omega_b` so far: its discretization error
+    /// `estimate` plus the quadrature's (where measured).
     fn estimated(&mut self, _relative: f64, _estimate: &DiscretizationError) {}
 }
 
@@ -77,11 +80,16 @@ pub struct Refinement {
     pub accuracy: Option<f64>,
     /// Whether the estimated relative error is below `accuracy`.
     pub reached: bool,
-    /// Estimated discretization error of `omega_b` (rad/s) and relative; absent with one rung.
+    /// Estimated error of `omega_b` against the continuous model (rad/s) and relative: the
+    /// discretization error in `N` (`estimate`) plus the size of the quadrature's own error
+    /// (`quadrature`, RPY line); absent with one rung.
     pub omega_b_error: Option<f64>,
     pub relative_error: Option<f64>,
-    /// The estimate: its limit, observed order and method.
+    /// The discretization error in `N`: its size, limit, observed order and method.
     pub estimate: Option<DiscretizationError>,
+    /// The RPY line's quadrature error, measured at the coarsest rung (absent on Lighthill's
+    /// operator, which has no quadrature of its own). Boxed: a refinement is moved whole.
+    pub quadrature: Option<Box<QuadratureError>>,
     /// Every rung: node count, `omega_b`, kind.
     pub rungs: Vec<Rung>,
     /// Why the refinement ended without reaching `accuracy` (absent when it did); at a fixed
@@ -205,6 +213,102 @@ fn continuation_rung(
 /// branch must stay from the axis to be left unchecked on a finer mesh (docs/model.md
 /// section 10).
 const K_MARGIN: f64 = 10.0;
+
+/// The RPY line's quadrature error of `omega_b` (docs/model.md section 9): the product rule's
+/// error is second order in the point spacing and, the rules being nested across a halving
+/// ladder, the same at every rung, so it drops out of the increments in `N` and shifts the
+/// limit. It is measured at the coarsest rung by the same point with the points per blob radius
+/// multiplied by `r = 2` (by `1/2` where twice would pass the largest allowed, 64):
+///
+/// ```text
+/// v(P) - v(inf) = (v(P) - v(r P)) / (1 - r^-2)                                            (1)
+/// ```
+///
+/// (`4/3` of the difference at `r = 2`).
+#[derive(Clone, Debug, Serialize)]
+pub struct QuadratureError {
+    /// The points per blob radius of the rungs, and the other rule's.
+    pub points_per_blob: f64,
+    pub compared_with: f64,
+    /// The rung it was measured at.
+    pub nodes: usize,
+    /// `omega_b` there with the other rule (rad/s).
+    pub omega_b_compared: Option<f64>,
+    /// `v(P) - v(inf)` of (1) (rad/s): how far the rungs' `omega_b`, and their limit in `N`, lie
+    /// above the exact quadrature's.
+    pub error: Option<f64>,
+    /// Why it could not be measured (then it is not in the error bar, and the report says so).
+    pub failed: Option<String>,
+}
+
+/// The largest points per blob radius a model takes (`fluid.points_per_blob`).
+const MAX_POINTS_PER_BLOB: f64 = 64.0;
+
+/// [`QuadratureError`] at the rung `coarse` of `physical` (RPY line): the same `N` with the
+/// other rule, sequenced from its Hopf point.
+fn quadrature_error(
+    physical: &Physical,
+    coarse: &Solved,
+    settings: &LocateSettings,
+) -> Result<QuadratureError> {
+    let points_per_blob = physical
+        .fluid
+        .points_per_blob
+        .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
+    let r = if 2.0 * points_per_blob <= MAX_POINTS_PER_BLOB {
+        2.0
+    } else {
+        0.5
+    };
+    let nodes = coarse.located.nodes;
+    let mut measured = QuadratureError {
+        points_per_blob,
+        compared_with: r * points_per_blob,
+        nodes,
+        omega_b_compared: None,
+        error: None,
+        failed: None,
+    };
+    let hopf = coarse
+        .critical
+        .as_ref()
+        .filter(|c| c.event.kind == EventKind::Hopf);
+    let (Some(critical), Some(omega_b)) = (hopf, coarse.located.omega_b) else {
+        measured.failed = Some(format!(
+            "the rung at N = {nodes} has no Hopf point to measure it at ({})",
+            coarse.located.kind
+        ));
+        return Ok(measured);
+    };
+    let mut other = at_nodes(physical, nodes);
+    other.fluid.points_per_blob = Some(measured.compared_with);
+    let compared = sequenced_rung(
+        &other,
+        nodes,
+        coarse,
+        critical.event.p,
+        settings,
+        &mut Silent,
+    );
+    match compared {
+        Ok(Ok((solved, _))) => match solved.located.omega_b {
+            Some(w) => {
+                measured.omega_b_compared = Some(w);
+                measured.error = Some((omega_b - w) / (1.0 - r.powi(-2)));
+            }
+            None => {
+                measured.failed = Some(format!(
+                    "no omega_b at N = {nodes} with {} points per blob radius",
+                    measured.compared_with
+                ))
+            }
+        },
+        Ok(Err(why)) => measured.failed = Some(why),
+        Err(e) if e.is_input() => return Err(e),
+        Err(e) => measured.failed = Some(e.to_string()),
+    }
+    Ok(measured)
+}
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of `nodes` nodes and located there ([`locate_crossing`]),
@@ -482,6 +586,8 @@ pub fn refine(
     let mut finest: Option<Solved> = None;
     // The estimate of the finest rung (none while it has no omega_b or another kind of event).
     let mut estimate: Option<DiscretizationError> = None;
+    // The quadrature's own error, measured at the coarsest rung (RPY line).
+    let mut quadrature: Option<Box<QuadratureError>> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
     let quiet = LocateSettings {
         criticality: false,
@@ -570,10 +676,31 @@ pub fn refine(
                     .join(", ")
             ));
         }
+        if physical.fluid.model == FluidModel::Rpy && quadrature.is_none() {
+            let coarsest = finest.as_ref().expect("the rung just solved");
+            let measured = quadrature_error(physical, coarsest, &quiet)?;
+            observer.quadrature(&measured);
+            let value = coarsest.located.omega_b.map_or(f64::NAN, f64::abs);
+            let too_large = measured.error.map(|q| q.abs() / value);
+            quadrature = Some(Box::new(measured));
+            if let (Some(q), Some(a)) = (too_large, accuracy)
+                && q >= a
+            {
+                break Some(format!(
+                    "the quadrature's own error, {q:.1e} relative at {} points per blob radius, is \
+                     not below the accuracy at any N: raise fluid.points_per_blob (the kernels \
+                     cost its square)",
+                    physical
+                        .fluid
+                        .points_per_blob
+                        .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB)
+                ));
+            }
+        }
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
-            let relative = e.error / values[values.len() - 1].abs();
+            let relative = total_error(&e, quadrature.as_deref()) / values[values.len() - 1].abs();
             observer.estimated(relative, &e);
             estimate = Some(e);
             if accuracy.is_some_and(|a| relative < a) {
@@ -596,7 +723,9 @@ pub fn refine(
     if let (true, Some(c)) = (settings.criticality, &critical) {
         finest = finest.with_criticality(&model, &c.event, &c.chart);
     }
-    let omega_b_error = estimate.as_ref().map(|e| e.error);
+    let omega_b_error = estimate
+        .as_ref()
+        .map(|e| total_error(e, quadrature.as_deref()));
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
     Ok(Refinement {
@@ -606,10 +735,17 @@ pub fn refine(
         omega_b_error,
         relative_error,
         estimate,
+        quadrature,
         rungs,
         stopped: if reached { None } else { stopped },
         fluid: physical.fluid.model,
     })
+}
+
+/// The error of `omega_b` against the continuous model: the discretization error in `N` plus the
+/// size of the quadrature's own error, where it was measured.
+fn total_error(estimate: &DiscretizationError, quadrature: Option<&QuadratureError>) -> f64 {
+    estimate.error + quadrature.and_then(|q| q.error).map_or(0.0, f64::abs)
 }
 
 /// The node counts and `omegabar_b` of the rungs so far, the last one `last`'s.

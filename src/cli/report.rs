@@ -282,8 +282,9 @@ impl Section for Refinement {
                             String::new()
                         } else {
                             format!(
-                                ", {} points of the coarsest branch checked",
-                                c.checked.len()
+                                ", {} point{} of the coarsest branch checked",
+                                c.checked.len(),
+                                if c.checked.len() == 1 { "" } else { "s" }
                             )
                         }
                     ),
@@ -300,18 +301,49 @@ impl Section for Refinement {
             }
         }
         self.finest.show(study, f)?;
-        if let (Some(e), Some(rel), Some(est)) =
-            (self.omega_b_error, self.relative_error, &self.estimate)
-        {
+        if let Some(est) = &self.estimate {
             write!(
                 f,
-                "\n  discretization error of omega_b at N = {}: {e:.2e} rad/s ({rel:.2e} relative; {}",
-                self.finest.nodes, est.method
+                "\n  discretization error of omega_b at N = {}: {:.2e} rad/s ({}",
+                self.finest.nodes, est.error, est.method
             )?;
             if let Some(p) = est.observed_order {
                 write!(f, "; observed order {p:.2}")?;
             }
             write!(f, "; limit {:.8} rad/s)", est.limit)?;
+        }
+        if let Some(q) = &self.quadrature {
+            match (q.error, &q.failed) {
+                (Some(e), _) => write!(
+                    f,
+                    "\n  quadrature error of omega_b: {e:+.2e} rad/s at {} points per blob radius \
+                     (from {} at N = {}: second order in the point spacing, the same at every \
+                     rung{})",
+                    q.points_per_blob,
+                    q.compared_with,
+                    q.nodes,
+                    self.estimate.as_ref().map_or(String::new(), |est| format!(
+                        "; limit with exact quadrature {:.8} rad/s",
+                        est.limit - e
+                    ))
+                )?,
+                (None, Some(why)) => write!(
+                    f,
+                    "\n  quadrature error of omega_b NOT measured, so not in the error: {why}"
+                )?,
+                (None, None) => {}
+            }
+        }
+        if let (Some(e), Some(rel)) = (self.omega_b_error, self.relative_error) {
+            write!(
+                f,
+                "\n  error of omega_b: {e:.2e} rad/s ({rel:.2e} relative){}",
+                if self.quadrature.as_ref().is_some_and(|q| q.error.is_some()) {
+                    ", the discretization error plus the size of the quadrature error"
+                } else {
+                    ", the discretization error"
+                }
+            )?;
         }
         match (&self.stopped, self.accuracy) {
             (None, Some(a)) => write!(f, "\n  accuracy {a:.1e} reached"),

@@ -7,7 +7,8 @@ use serde::Serialize;
 use crate::Result;
 use crate::analysis::locate::{Critical, Located, locate};
 use crate::analysis::refine::{
-    Ladder, Refinement, RungObserver, default_ladder, estimate_at_nodes, ladder, refine,
+    Ladder, QuadratureError, Refinement, RungObserver, default_ladder, estimate_at_nodes, ladder,
+    refine,
 };
 use std::ops::ControlFlow;
 
@@ -105,6 +106,8 @@ impl Observer<Point, Event> for LocateProgress {
 struct RungProgress<'a> {
     study: &'a Study,
     progress: LocateProgress,
+    /// The quadrature error measured (rad/s), part of every estimate after it.
+    quadrature: Option<f64>,
 }
 
 impl Observer<Point, Event> for RungProgress<'_> {
@@ -129,10 +132,28 @@ impl RungObserver for RungProgress<'_> {
         ));
     }
 
+    fn quadrature(&mut self, quadrature: &QuadratureError) {
+        self.quadrature = quadrature.error;
+        progress::note(&match (quadrature.error, &quadrature.failed) {
+            (Some(e), _) => format!(
+                "  quadrature error {e:+.2e} rad/s at N = {} ({} against {} points per blob radius)",
+                quadrature.nodes, quadrature.points_per_blob, quadrature.compared_with
+            ),
+            (None, why) => format!(
+                "  quadrature error not measured: {}",
+                why.as_deref().unwrap_or("")
+            ),
+        });
+    }
+
     fn estimated(&mut self, relative: f64, estimate: &DiscretizationError) {
         progress::note(&format!(
-            "  estimated relative error {relative:.2e} ({})",
-            estimate.method
+            "  estimated relative error {relative:.2e} ({}{})",
+            estimate.method,
+            self.quadrature.map_or(String::new(), |q| format!(
+                "; plus the quadrature error, {:.2e}",
+                q.abs()
+            ))
         ));
     }
 }
@@ -158,6 +179,7 @@ pub fn locate_study(study: &Study, resolution: &Resolution) -> Result<LocateResu
     let mut observer = RungProgress {
         study,
         progress: LocateProgress::new(),
+        quadrature: None,
     };
     Ok(match resolution {
         Resolution::Single => LocateResult::Single(run_locate(study, &Model::new(&physical)?)?),
