@@ -251,3 +251,54 @@ fn a_window_opening_below_the_curve_gives_the_same_boundary_in_both_directions()
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every Hopf point of the boundary states the discretization error of its `omega_b`, from the
+/// same point at `N/2 + 1` nodes (docs/model.md section 11). On a thick rod on the RPY line
+/// (`r0 = 6.32 mm`: few quadrature points) at `N = 61`, at both ends of a short curve, the stated
+/// error covers the difference to an independent `locate` at `2N - 1 = 121` nodes, which it did
+/// not use, and is at most five times it.
+#[test]
+fn every_point_of_the_boundary_states_an_error_that_covers_a_finer_computation() {
+    let overrides: Vec<String> = [
+        "fluid.model=rpy",
+        "rod.r0=6.32e-3",
+        "branch.omega_max=300",
+        "discretization.nodes=61",
+    ]
+    .map(String::from)
+    .to_vec();
+    let study = Study::load(None, &overrides).unwrap();
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-error-{}", std::process::id()));
+    run_boundary(
+        &study,
+        "shape.R_over_lambda",
+        (0.3, 0.302),
+        &dir,
+        &Provenance::default(),
+    )
+    .unwrap()
+    .1
+    .unwrap();
+    let mut rows = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
+    let header = rows.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (q_col, w_col, e_col) = (col("q"), col("omega_b"), col("omega_b_error"));
+    let rows: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
+    let number = |r: &csv::StringRecord, c: usize| r[c].parse::<f64>().unwrap();
+    assert!(rows.iter().all(|r| number(r, e_col) > 0.0));
+    for row in [&rows[0], rows.last().unwrap()] {
+        let q = number(row, q_col);
+        let mut finer = overrides.clone();
+        finer[3] = "discretization.nodes=121".into();
+        finer.push(format!("shape.R_over_lambda={q:e}"));
+        let at = Study::load(None, &finer).unwrap();
+        let located = run_locate(&at, &Model::new(&at.physical()).unwrap()).unwrap();
+        let difference = (number(row, w_col) - located.omega_b.unwrap()).abs();
+        let stated = number(row, e_col);
+        assert!(
+            difference <= stated && stated <= 5.0 * difference,
+            "R/lambda = {q}: stated {stated}, difference to N = 121 {difference}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -245,6 +245,9 @@ class Boundary(_Result):
     segment: _I
     q: _F
     omega_b: _F
+    omega_b_error: _F
+    """Estimated discretization error of omega_b at the point's N, rad/s (NaN where not
+    estimated)."""
     omegabar_b: _F
     kind: _S
     w: _F

@@ -26,6 +26,7 @@ use serde::{Serialize, Serializer};
 use crate::analysis::locate::{Critical, LocateSettings, Loss, locate};
 
 use crate::analysis::branch::observables_at;
+use crate::analysis::refine::hopf_point_error;
 use crate::analysis::solve::rest_state;
 use crate::engine::criticality::Verdict;
 use crate::engine::curve::{
@@ -48,6 +49,10 @@ pub struct BoundaryPoint {
     pub segment: usize,
     pub q: f64,
     pub omega_b: f64,
+    /// Estimated discretization error of `omega_b` at the point's `N` (rad/s), from the same
+    /// Hopf point at `N/2 + 1` nodes (docs/model.md section 11); empty at a fold or branch
+    /// point, below 9 nodes, or where the coarser mesh has no Hopf point to compare.
+    pub omega_b_error: Option<f64>,
     pub omegabar_b: f64,
     #[serde(serialize_with = "event_name")]
     pub kind: EventKind,
@@ -228,10 +233,22 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
         let rest = rest_state(model, self.newton)?;
         let o = observables_at(model, &rest, &point.u, point.p)?;
         let wbar = point.eigenvalue.im;
+        let omega_b_error = if self.kind == EventKind::Hopf {
+            hopf_point_error(
+                &self.family.physical(point.q)?,
+                model,
+                (&point.u, point.p),
+                point.eigenvalue,
+                &self.locate,
+            )?
+        } else {
+            None
+        };
         Ok(BoundaryPoint {
             segment: self.boundary.segments - 1,
             q: point.q,
             omega_b: o.omega,
+            omega_b_error,
             omegabar_b: point.p,
             kind: self.kind,
             w: model.scales.omega_from_bar(wbar),

@@ -26,14 +26,15 @@ pub(crate) const TICK_MARK_PX: i32 = 5;
 /// Draws `fig` filling `area`, with room below the plot for what `below` holds; returns where
 /// everything went.
 pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
-    let (xs, ys) = fig.series.iter().map(geometry::extent).fold(
-        (Vec::new(), Vec::new()),
-        |(mut xs, mut ys), (x, y)| {
+    let (xs, ys) = fig
+        .series
+        .iter()
+        .map(|s| geometry::extent(s, fig.y_scale))
+        .fold((Vec::new(), Vec::new()), |(mut xs, mut ys), (x, y)| {
             xs.extend(x);
             ys.extend(y);
             (xs, ys)
-        },
-    );
+        });
     let xs = xs.into_iter().chain(fig.markers.iter().map(|m| m.x));
     let ys: Vec<f64> = match fig.y_range {
         Some((lo, hi)) => vec![lo, hi],

@@ -5,7 +5,7 @@
 //! rules (documented on [`Series`]) are easy to check.
 
 use super::axis::Axis;
-use super::{Series, Style};
+use super::{Scale, Series, Style};
 
 /// A point in data coordinates.
 pub type Point = (f64, f64);
@@ -242,13 +242,20 @@ pub(crate) fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
 }
 
 /// Every x and y value of `s` that the axes must cover: the points, and where there are errors,
-/// y ± err. Values the axis cannot show are filtered out by [`Axis::fit`].
-pub(crate) fn extent(s: &Series) -> (Vec<f64>, Vec<f64>) {
+/// y ± err. On a logarithmic y axis (`y_scale`) a lower end below a tenth of its point counts as
+/// that tenth: an error near or above the value itself would otherwise stretch the axis over
+/// decades down to `y - err` (or, at `y - err <= 0`, cannot be shown at all), squeezing every
+/// curve into a strip; such a bar or band is cut at the bottom of the axis instead. Values the
+/// axis cannot show are filtered out by [`Axis::fit`].
+pub(crate) fn extent(s: &Series, y_scale: Scale) -> (Vec<f64>, Vec<f64>) {
     let mut ys = s.y.clone();
     if let Some(err) = &s.err {
         for (y, e) in s.y.iter().zip(err) {
             ys.push(y + e.abs());
-            ys.push(y - e.abs());
+            ys.push(match y_scale {
+                Scale::Log => (y - e.abs()).max(0.1 * y),
+                Scale::Linear => y - e.abs(),
+            });
         }
     }
     (s.x.clone(), ys)
@@ -347,5 +354,23 @@ mod tests {
             error_bars(&s, &lin, &log),
             [bar(1.0, 1.0, true), bar(2.0, 15.0, false)]
         );
+    }
+
+    /// On a logarithmic axis an error as large as the value (or larger) covers at most a decade
+    /// below the point; on a linear axis the whole bar.
+    #[test]
+    fn an_error_near_the_value_stretches_a_log_axis_by_one_decade_at_most() {
+        let s = Series {
+            label: String::new(),
+            x: vec![1.0, 2.0, 3.0],
+            y: vec![100.0, 50.0, 20.0],
+            style: Style::Line,
+            stable: None,
+            err: Some(vec![10.0, 49.9, 30.0]),
+        };
+        let (_, log) = extent(&s, Scale::Log);
+        assert_eq!(&log[3..], [110.0, 90.0, 99.9, 5.0, 50.0, 2.0]);
+        let (_, linear) = extent(&s, Scale::Linear);
+        assert!((linear[6] - 0.1).abs() < 1e-12 && linear[8] == -10.0);
     }
 }

@@ -19,7 +19,7 @@ use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_inte
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
-use crate::study::figures::{axis_label, short_name, typeset};
+use crate::study::figures::{axis_label, error_range, short_name, typeset};
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
 use crate::study::plan::Case;
 use crate::study::progress;
@@ -378,7 +378,12 @@ fn curve_figures(
     curves: &[(String, Vec<BoundaryPoint>)],
     special: &[(String, SpecialPoint)],
 ) -> Result<()> {
-    let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64| -> Vec<Series> {
+    // Each point's omegabar_b and its estimated error (the relative error of omega_b).
+    let error = |r: &BoundaryPoint| {
+        r.omega_b_error
+            .map_or(f64::NAN, |e| e / r.omega_b.abs() * r.omegabar_b.abs())
+    };
+    let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64, band: bool| -> Vec<Series> {
         curves
             .iter()
             .flat_map(|(label, rows)| {
@@ -395,7 +400,7 @@ fn curve_figures(
                         y: (0..on.len()).map(|i| y(&on, i)).collect(),
                         style: Style::Line,
                         stable: None,
-                        err: None,
+                        err: band.then(|| on.iter().map(|r| error(r)).collect()),
                     }
                 })
             })
@@ -409,13 +414,17 @@ fn curve_figures(
             y: p.omegabar,
         })
         .collect();
+    let relative: Vec<f64> = curves
+        .iter()
+        .flat_map(|(_, rows)| rows.iter().map(|r| error(r) / r.omegabar_b.abs()))
+        .collect();
     let omega = Figure {
-        title: "Stability boundaries".into(),
+        title: format!("Stability boundaries{}", error_range("band", &relative)),
         x_label: axis_label(key),
         y_label: "ω̄_b = ω_b μℓ⁴/EI (–)".into(),
         x_scale: Scale::Log,
         y_scale: Scale::Log,
-        series: series(&|on, i| on[i].omegabar_b),
+        series: series(&|on, i| on[i].omegabar_b, true),
         markers,
         ..Figure::default()
     };
@@ -428,19 +437,22 @@ fn curve_figures(
     // (the line breaks there), and the y axis spans Tukey's far-out fences (quartiles ∓ 3
     // interquartile ranges) of the values: every sample of a smooth stretch lies inside them,
     // and a curve that diverges is drawn up to the frame instead of setting the scale.
-    let m_loc = series(&|on, i| {
-        let turns = |f: fn(&BoundaryPoint) -> f64| {
-            i > 0 && i + 1 < on.len() && {
-                let (a, b) = (f(on[i]) - f(on[i - 1]), f(on[i + 1]) - f(on[i]));
-                a * b < 0.0
+    let m_loc = series(
+        &|on, i| {
+            let turns = |f: fn(&BoundaryPoint) -> f64| {
+                i > 0 && i + 1 < on.len() && {
+                    let (a, b) = (f(on[i]) - f(on[i - 1]), f(on[i + 1]) - f(on[i]));
+                    a * b < 0.0
+                }
+            };
+            if turns(|r| r.q) || turns(|r| r.omegabar_b) {
+                f64::NAN
+            } else {
+                on[i].m_loc.unwrap_or(f64::NAN)
             }
-        };
-        if turns(|r| r.q) || turns(|r| r.omegabar_b) {
-            f64::NAN
-        } else {
-            on[i].m_loc.unwrap_or(f64::NAN)
-        }
-    });
+        },
+        false,
+    );
     let values: Vec<f64> = m_loc.iter().flat_map(|s| s.y.iter().copied()).collect();
     let exponent = Figure {
         title: "Local exponent of the stability boundaries".into(),

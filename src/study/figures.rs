@@ -481,17 +481,7 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
             .flatten()
             .filter(|r| r.is_finite())
             .collect();
-        let bars = match relative.iter().copied().reduce(f64::min) {
-            Some(lo) => {
-                let hi = relative.iter().copied().fold(lo, f64::max);
-                format!(
-                    " (bars: estimated discretization error, {} to {} %)",
-                    percent(lo),
-                    percent(hi)
-                )
-            }
-            None => String::new(),
-        };
+        let bars = error_range("bars", &relative);
         write_figure(
             &Figure {
                 title: format!(
@@ -514,6 +504,22 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
 }
 
 /// A fraction as a percentage with two significant digits (`0.0012` -> `0.12`).
+/// What the error bars (or band: `drawn`) of a figure show and their range, for its title:
+/// ` (bars: estimated discretization error, 0.05 to 0.2 %)` over the finite `relative` errors;
+/// empty where there are none.
+pub(crate) fn error_range(drawn: &str, relative: &[f64]) -> String {
+    let mut finite = relative.iter().copied().filter(|r| r.is_finite());
+    let Some(first) = finite.next() else {
+        return String::new();
+    };
+    let (lo, hi) = finite.fold((first, first), |(lo, hi), r| (lo.min(r), hi.max(r)));
+    format!(
+        " ({drawn}: estimated discretization error, {} to {} %)",
+        percent(lo),
+        percent(hi)
+    )
+}
+
 fn percent(fraction: f64) -> String {
     let p = 100.0 * fraction;
     let decimals = (1.0 - p.abs().log10().floor()).clamp(0.0, 6.0) as usize;
