@@ -55,6 +55,13 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
         (a - b).abs() <= 2.0 * continuation.event_tol * b,
         "sequenced {a} against continuation {b}"
     );
+    // The critical frequency too, taken at the event's own state: 6e-11 apart here (taken at the
+    // far end of the final bracket instead, 2.0e-9).
+    let (wa, wb) = (refined.finest.im.unwrap(), direct.im.unwrap());
+    assert!(
+        (wa - wb).abs() <= 1e-9 * wb,
+        "frequency: sequenced {wa} against continuation {wb}"
+    );
 }
 
 #[test]

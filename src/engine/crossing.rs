@@ -243,6 +243,9 @@ pub fn locate_crossing<P: Problem>(
         &far
     };
     let crossed = far.spectrum.unstable - near.spectrum.unstable;
+    // The event's eigenvalue at its own state (the bracket's far end may lie a first step away,
+    // where the frequency differs in the fifth digit), as for the events of a branch.
+    let critical = at.spectrum.nearest(eigenvalue);
     let event = Event {
         kind: if is_complex(eigenvalue) {
             EventKind::Hopf
@@ -252,7 +255,7 @@ pub fn locate_crossing<P: Problem>(
         u: at.u.clone(),
         p: at.p,
         s: 0.0,
-        eigenvalue: c64::new(eigenvalue.re, eigenvalue.im.abs()),
+        eigenvalue: c64::new(critical.re, critical.im.abs()),
         bracket: (near.p.min(far.p), near.p.max(far.p)),
         precision,
         multiplicity: if is_complex(eigenvalue) {
