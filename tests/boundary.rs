@@ -253,7 +253,7 @@ fn a_window_opening_below_the_curve_gives_the_same_boundary_in_both_directions()
 }
 
 /// Every Hopf point of the boundary states the discretization error of its `omega_b`, from the
-/// same point at `N/2 + 1` nodes (docs/model.md section 11). On a thick rod on the RPY line
+/// first loss of stability at `N/2 + 1` nodes (docs/model.md section 11). On a thick rod on the RPY line
 /// (`r0 = 6.32 mm`: few quadrature points) at `N = 61`, at both ends of a short curve, the stated
 /// error covers the difference to an independent `locate` at `2N - 1 = 121` nodes, which it did
 /// not use, and is at most five times it.

@@ -49,9 +49,9 @@ pub struct BoundaryPoint {
     pub segment: usize,
     pub q: f64,
     pub omega_b: f64,
-    /// Estimated discretization error of `omega_b` at the point's `N` (rad/s), from the same
-    /// Hopf point at `N/2 + 1` nodes (docs/model.md section 11); empty at a fold or branch
-    /// point, below 9 nodes, or where the coarser mesh has no Hopf point to compare.
+    /// Estimated discretization error of `omega_b` at the point's `N` (rad/s), from the first
+    /// loss of stability at `N/2 + 1` nodes (docs/model.md section 11); empty at a fold or
+    /// branch point, below 9 nodes, or where the coarser mesh has no Hopf point to compare.
     pub omega_b_error: Option<f64>,
     pub omegabar_b: f64,
     #[serde(serialize_with = "event_name")]
@@ -237,8 +237,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             hopf_point_error(
                 &self.family.physical(point.q)?,
                 model,
-                (&point.u, point.p),
-                point.eigenvalue,
+                point.p,
                 &self.locate,
             )?
         } else {

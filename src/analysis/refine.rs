@@ -2,7 +2,6 @@
 //! discretization error is below a requested accuracy, or over a ladder and extrapolated with
 //! the known orders (docs/model.md section 10).
 
-use faer::c64;
 use serde::Serialize;
 
 use std::time::Instant;
@@ -457,18 +456,17 @@ fn sequenced_rung(
     Ok(Ok((solved, certificate)))
 }
 
-/// The discretization error (rad/s) of a Hopf point `(u, p)` (`p = omegabar`, critical
-/// eigenvalue `eigenvalue`) of `fine`, the model of `physical` at its `N` nodes: the same point
-/// at `N/2 + 1` nodes, sequenced down (the positions carried onto the coarser mesh, the twist
-/// slaved to them, the Hopf condition solved from `p`, tracking the fine mode) or, where that
-/// fails, located from rest there, and the estimate of the two rungs with the model's known
-/// orders ([`discretization_error`]). `None` below 9 nodes, or where the coarser mesh has no Hopf
-/// point to compare. The RPY quadrature's own error is not in it.
+/// The discretization error (rad/s) of a Hopf point at `omegabar = p` of `fine`, the model of
+/// `physical` at its `N` nodes: the first loss of stability at `N/2 + 1` nodes, located from
+/// rest, and the estimate of the two rungs with the model's known orders
+/// ([`discretization_error`]). `None` below 9 nodes, or where the coarser mesh has no Hopf point
+/// to compare (or cannot follow the branch). The point is not carried down: at the coarse
+/// meshes of a boundary (5 to 10 nodes per turn) Newton's method does not correct a carried
+/// state (docs/model.md section 10). The RPY quadrature's own error is not in it.
 pub(crate) fn hopf_point_error(
     physical: &Physical,
     fine: &Model,
-    (u, p): (&[f64], f64),
-    eigenvalue: c64,
+    p: f64,
     settings: &LocateSettings,
 ) -> Result<Option<f64>> {
     let nodes = fine.nodes();
@@ -477,57 +475,23 @@ pub(crate) fn hopf_point_error(
     }
     let coarse_nodes = nodes / 2 + 1;
     let coarse = Model::new(&at_nodes(physical, coarse_nodes))?;
-    let omegabar_max = coarse.scales.omega_to_bar(settings.omega_max);
-    let problem = RodProblem::new(&coarse, Parameter::Omega, omega_scale(omegabar_max));
-    let x = Steady::new(fine, 0.0).config(u).x;
-    let config = Config {
-        theta: vec![0.0; x.len() - 1],
-        x,
+    let quiet = LocateSettings {
+        criticality: false,
+        ..*settings
     };
-    let search = CrossingSettings {
-        first_step: 5e-3,
-        slope: None,
-        max_evaluations: 40,
-        unstable_before: 0,
-    };
-    let sequenced = slave_twist(&coarse, &carry_config(fine, &config, &coarse)).and_then(|guess| {
-        locate_crossing(
-            &problem,
-            &guess,
-            p,
-            eigenvalue,
-            &search,
-            settings.continuation,
-        )
-    });
-    let omegabar_coarse = match sequenced {
-        Ok(crossing) if crossing.event.kind == EventKind::Hopf => Some(crossing.event.p),
+    let located = match locate(&coarse, &quiet, &mut Silent) {
+        Ok((located, _)) => located,
         Err(e) if e.is_input() => return Err(e),
-        // A carried state Newton's method cannot correct, a crossing of another kind or not
-        // found: the coarser mesh from rest.
-        _ => {
-            let quiet = LocateSettings {
-                criticality: false,
-                ..*settings
-            };
-            let located = match locate(&coarse, &quiet, &mut Silent) {
-                Ok((located, _)) => located,
-                Err(e) if e.is_input() => return Err(e),
-                // A mesh too coarse for the branch: no point to compare.
-                Err(_) => return Ok(None),
-            };
-            located
-                .omegabar_b
-                .filter(|_| located.kind == Loss::Event(EventKind::Hopf))
-        }
+        // A mesh too coarse for the branch: no point to compare.
+        Err(_) => return Ok(None),
     };
-    let Some(omegabar_coarse) = omegabar_coarse else {
+    let Some(omega_coarse) = located
+        .omega_b
+        .filter(|_| located.kind == Loss::Event(EventKind::Hopf))
+    else {
         return Ok(None);
     };
-    let values = [
-        coarse.scales.omega_from_bar(omegabar_coarse),
-        fine.scales.omega_from_bar(p),
-    ];
+    let values = [omega_coarse, fine.scales.omega_from_bar(p)];
     let estimate = discretization_error(error_orders(physical), &[coarse_nodes, nodes], &values)?;
     Ok(Some(estimate.error))
 }
