@@ -233,13 +233,19 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
         let rest = rest_state(model, self.newton)?;
         let o = observables_at(model, &rest, &point.u, point.p)?;
         let wbar = point.eigenvalue.im;
+        // An estimate that fails (a coarser model that cannot be built) leaves the column
+        // empty; it never ends the boundary.
         let omega_b_error = if self.kind == EventKind::Hopf {
-            hopf_point_error(
+            match hopf_point_error(
                 &self.family.physical(point.q)?,
                 model,
                 point.p,
                 &self.locate,
-            )?
+            ) {
+                Ok(e) => e,
+                Err(e) if e.is_input() => return Err(e),
+                Err(_) => None,
+            }
         } else {
             None
         };

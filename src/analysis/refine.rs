@@ -282,6 +282,20 @@ fn quadrature_error(
     };
     let mut other = at_nodes(physical, nodes);
     other.fluid.points_per_blob = Some(measured.compared_with);
+    // The rules' points per edge (powers of two, at least one cell per edge): where both rules
+    // have one cell per edge they are the same rule and measure nothing; else `r` is their
+    // actual ratio.
+    let points = |model: &Model| model.fluid.points_per_edge().unwrap_or(0) as f64;
+    let (own, compared_points) = (points(&coarse.model), points(&Model::new(&other)?));
+    if own == compared_points {
+        measured.failed = Some(format!(
+            "{} and {} points per blob radius give the same rule at N = {nodes} ({own} points \
+             per edge)",
+            points_per_blob, measured.compared_with
+        ));
+        return Ok(measured);
+    }
+    let r = compared_points / own;
     let compared = sequenced_rung(
         &other,
         nodes,

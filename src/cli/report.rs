@@ -252,9 +252,14 @@ impl Section for Refinement {
             )?,
             (Some(w), Some(e), Some(rel)) if self.reached => writeln!(
                 f,
-                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; converged to {rel:.0e} relative, \
+                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; converged to {rel:.0e} relative{}, \
                  {fluid}, N = {n})",
-                self.finest.kind
+                self.finest.kind,
+                if self.quadrature.as_ref().is_some_and(|q| q.error.is_none()) {
+                    " in N, the quadrature's error NOT measured"
+                } else {
+                    ""
+                }
             )?,
             (Some(w), Some(e), Some(rel)) => writeln!(
                 f,

@@ -250,7 +250,8 @@ pub(crate) fn error_bars(s: &Series, xa: &Axis, ya: &Axis) -> Vec<ErrorBar> {
 pub(crate) fn extent(s: &Series, y_scale: Scale) -> (Vec<f64>, Vec<f64>) {
     let mut ys = s.y.clone();
     if let Some(err) = &s.err {
-        for (y, e) in s.y.iter().zip(err) {
+        // A point without an error (NaN) adds nothing beyond the point itself.
+        for (y, e) in s.y.iter().zip(err).filter(|(_, e)| e.is_finite()) {
             ys.push(y + e.abs());
             ys.push(match y_scale {
                 Scale::Log => (y - e.abs()).max(0.1 * y),
@@ -370,6 +371,13 @@ mod tests {
         };
         let (_, log) = extent(&s, Scale::Log);
         assert_eq!(&log[3..], [110.0, 90.0, 99.9, 5.0, 50.0, 2.0]);
+        // A point without an error widens nothing.
+        let without = Series {
+            err: Some(vec![10.0, f64::NAN, 30.0]),
+            ..s.clone()
+        };
+        let (_, log) = extent(&without, Scale::Log);
+        assert_eq!(&log[3..], [110.0, 90.0, 50.0, 2.0]);
         let (_, linear) = extent(&s, Scale::Linear);
         assert!((linear[6] - 0.1).abs() < 1e-12 && linear[8] == -10.0);
     }

@@ -151,7 +151,7 @@ impl RungObserver for RungProgress<'_> {
             "  estimated relative error {relative:.2e} ({}{})",
             estimate.method,
             self.quadrature.map_or(String::new(), |q| format!(
-                "; plus the quadrature error, {:.2e}",
+                "; plus the quadrature error, {:.2e} rad/s",
                 q.abs()
             ))
         ));

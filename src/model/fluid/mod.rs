@@ -203,6 +203,14 @@ impl Fluid {
         matches!(self, Fluid::Rpy(_))
     }
 
+    /// The RPY line's quadrature points per edge; `None` for Lighthill's operator.
+    pub(crate) fn points_per_edge(&self) -> Option<usize> {
+        match self {
+            Fluid::Lighthill(_) => None,
+            Fluid::Rpy(f) => Some(f.points_per_edge()),
+        }
+    }
+
     /// The dimensionless [`FluidModel::resolution_cutoff`] of this fluid.
     pub fn resolution_cutoff(&self) -> Option<f64> {
         match self {
