@@ -1,7 +1,9 @@
 //! Cost of the hydrodynamic pieces on the representative helix, `rpy` against `lighthill` at the
 //! same `N` (docs/model.md section 9): one mobility assembly `A(X)`, one shape derivative
-//! `B = d(A y)/dX` and one resistance factorisation (Cholesky of `A`), at N = 60 .. 480, with the
-//! ratios and the growth exponents in `N`.
+//! `B = d(A y)/dX`, one resistance factorisation (Cholesky of `A`) and one product `A Y` without
+//! assembly (`Fluid::mobility_product`, for `Y` a dense column and the six unit columns of the
+//! clamp: what one velocity of the dynamics needs), at N = 60 .. 480, with the ratios and the
+//! growth exponents in `N`. For Lighthill's operator the product is the assembly times `Y`.
 //!
 //! Lighthill's `A` is indefinite past N = 87 on this rod (docs/model.md section 3), so its
 //! factorisation is timed on the RPY matrix of the same size where its own fails: Cholesky costs
@@ -23,8 +25,8 @@ fn model(fluid: FluidModel, nodes: usize) -> Model {
     Model::new(&p).expect("valid benchmark model")
 }
 
-/// Median seconds of (mobility, derivative, factorisation) on the natural shape.
-fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 3] {
+/// Median seconds of (mobility, derivative, factorisation, product) on the natural shape.
+fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 4] {
     let x = &m.natural;
     let y: Vec<Vector3<f64>> = (0..x.len())
         .map(|i| Vector3::new(1.0, (i as f64).sin(), 0.3))
@@ -47,7 +49,14 @@ fn costs(m: &Model, fallback: Option<&Model>) -> [f64; 3] {
     let factor = common::median_seconds(repeats, || {
         std::hint::black_box(Resistance::new(&a, "benchmark").expect("positive definite"));
     });
-    [mobility, derivative, factor]
+    let columns = faer::Mat::from_fn(3 * x.len(), 7, |r, c| match c {
+        0 => (r as f64).cos(),
+        c => f64::from(u8::from(r == c - 1)),
+    });
+    let product = common::median_seconds(repeats, || {
+        std::hint::black_box(fluid.mobility_product(x, columns.as_ref()));
+    });
+    [mobility, derivative, factor, product]
 }
 
 fn main() {
@@ -62,11 +71,11 @@ fn main() {
     };
     println!("(RPY Gauss points per edge at N = 60: {rpy_q})");
     println!(
-        "{:>5} {:>7} {:>12} {:>12} {:>12}",
-        "N", "fluid", "mobility", "derivative", "cholesky"
+        "{:>5} {:>7} {:>12} {:>12} {:>12} {:>12}",
+        "N", "fluid", "mobility", "derivative", "cholesky", "product"
     );
     let ladder = [60, 120, 240, 480];
-    let mut table: Vec<(usize, [f64; 3], [f64; 3])> = Vec::new();
+    let mut table: Vec<(usize, [f64; 4], [f64; 4])> = Vec::new();
     for n in ladder {
         let rpy = model(FluidModel::Rpy, n);
         let lighthill = model(FluidModel::Lighthill, n);
@@ -74,23 +83,28 @@ fn main() {
         let l = costs(&lighthill, Some(&rpy));
         for (name, c) in [("rpy", r), ("light", l)] {
             println!(
-                "{n:>5} {name:>7} {:>10.3}ms {:>10.3}ms {:>10.3}ms",
+                "{n:>5} {name:>7} {:>10.3}ms {:>10.3}ms {:>10.3}ms {:>10.3}ms",
                 c[0] * 1e3,
                 c[1] * 1e3,
-                c[2] * 1e3
+                c[2] * 1e3,
+                c[3] * 1e3
             );
         }
         println!(
-            "{n:>5} {:>7} {:>11.1}x {:>11.1}x {:>11.2}x",
+            "{n:>5} {:>7} {:>11.1}x {:>11.1}x {:>11.2}x {:>11.2}x",
             "ratio",
             r[0] / l[0],
             r[1] / l[1],
-            r[2] / l[2]
+            r[2] / l[2],
+            r[3] / l[3]
         );
         table.push((n, r, l));
     }
     println!("growth exponents d ln t / d ln N between successive N:");
-    for (i, piece) in ["mobility", "derivative", "cholesky"].iter().enumerate() {
+    for (i, piece) in ["mobility", "derivative", "cholesky", "product"]
+        .iter()
+        .enumerate()
+    {
         for (name, pick) in [("rpy", 0), ("light", 1)] {
             let points: Vec<(usize, f64)> = table
                 .iter()

@@ -86,7 +86,7 @@ use faer::reborrow::ReborrowMut;
 use faer::{Mat, MatMut, MatRef, Par, c64};
 
 use super::stability::{Solver, Spectrum};
-use crate::numerics::lu::Lu;
+use crate::numerics::lu::{Lu, parallelism};
 
 /// Largest backward error (4) of an eigenpair that is kept.
 pub const RESIDUAL_TOL: f64 = 1e-11;
@@ -159,7 +159,7 @@ impl ShiftInvert<'_> {
             self.m,
             rhs,
             1.0,
-            Par::Seq,
+            parallelism(self.m.nrows()),
         );
         self.lu.solve_in_place(out);
     }

@@ -489,12 +489,17 @@ impl Physical {
                         ));
                     }
                 }
+                let allowed = crate::model::fluid::rpy::POINTS_PER_BLOB_RANGE;
                 if let Some(q) = fluid.points_per_blob
-                    && !(2.0..=64.0).contains(&q)
+                    && !allowed.contains(&q)
                 {
                     return Err(Error::input(
                         "fluid.points_per_blob",
-                        format!("must lie in [2, 64], got {q}"),
+                        format!(
+                            "must lie in [{}, {}], got {q}",
+                            allowed.start(),
+                            allowed.end()
+                        ),
                     ));
                 }
                 if fluid.quadrature != Quadrature::Reference {

@@ -157,6 +157,15 @@ impl Fluid {
         }
     }
 
+    /// `A(x) Y` for the columns of `Y`: without assembling `A` on the RPY line
+    /// ([`Rpy::mobility_product`]), as the assembled matrix times `Y` for Lighthill's operator.
+    pub fn mobility_product(&self, x: &[Vector3<f64>], y: faer::MatRef<'_, f64>) -> Mat<f64> {
+        match self {
+            Fluid::Lighthill(f) => f.mobility(x) * y,
+            Fluid::Rpy(f) => f.mobility_product(x, y),
+        }
+    }
+
     /// The shape derivative `B = ∂(A(X) y)/∂X` at fixed `y`.
     pub fn mobility_derivative(&self, x: &[Vector3<f64>], y: &[Vector3<f64>]) -> Mat<f64> {
         match self {

@@ -30,10 +30,14 @@ impl<'a> Steady<'a> {
     /// the lab velocity of the free nodes less that of rigid rotation. This is `Z_ff^{-1} R_x`:
     /// by the block inverse, `Z_ff^{-1} = S = A_ff - A_fc A_cc^{-1} A_cf` (the Schur complement
     /// of the `6 x 6` clamp block), and `S [Z Omega X]_f = (Omega X)_f - A_fc A_cc^{-1}
-    /// (Omega X)_c` (from `A Z Omega X = Omega X` in blocks). Cost: one assembly of `A` and
-    /// `O(N^2)`, against a factorization, a solve with `3N` right-hand sides and a second
-    /// factorization for `Z_ff^{-1} R_x` from `Z`. Where `A` is not positive by construction
-    /// (Lighthill), it is checked by a Cholesky factorization, as the resistance would be.
+    /// (Omega X)_c` (from `A Z Omega X = Omega X` in blocks), so only the products `A g` and
+    /// `A E_c` (`E_c` the six unit columns of the clamp) are needed. On the RPY line they are
+    /// taken without assembling `A` ([`crate::model::fluid::Fluid::mobility_product`]): one pass
+    /// of the kernel over the pairs of quadrature points for `g`, the clamp's columns a pass over
+    /// the points of the first edges only (`cargo bench --bench fluid`: 4.7 ms at `N = 480`
+    /// against 25-33 ms for the assembly). Lighthill's `A`, not positive by construction, is
+    /// assembled and checked by a Cholesky factorization, as the resistance would be. Either
+    /// way no factorization of `A`, no solve with `3N` right-hand sides.
     pub fn free_velocity(&self, u: &[f64]) -> Result<Vec<f64>> {
         let mut v = self.velocity_residual(u)?;
         v.truncate(self.layout().free_positions());
@@ -47,8 +51,31 @@ impl<'a> Steady<'a> {
         let config = self.config(u);
         let gradient = self.model.rod.gradient(&config, &self.chart);
         let force = self.full_residual(&gradient, None);
-        let mobility = self.clamped_mobility(&config.x, "velocity")?;
-        let velocity = mobility.velocity(&force, &rotation_velocity(self.omega, &config.x));
+        let rigid = rotation_velocity(self.omega, &config.x);
+        let velocity = if self.model.fluid.definite_by_construction() {
+            // `A` applied to the free force and to the clamp's six unit columns, never
+            // assembled (RPY: no dense work, the clamp columns' sources are local).
+            let (n3, c) = (3 * config.x.len(), 3 * Layout::CLAMPED_NODES);
+            let columns = Mat::from_fn(n3, 1 + c, |r, j| match j {
+                0 if r >= c => force[r],
+                0 => 0.0,
+                j => f64::from(u8::from(r == j - 1)),
+            });
+            let products = self
+                .model
+                .fluid
+                .mobility_product(&config.x, columns.as_ref());
+            let context = format!(
+                "velocity at omegabar = {:.6e}, N = {}",
+                self.omega,
+                config.x.len()
+            );
+            let coupling = clamp_coupling(products.get(.., 1..), &context)?;
+            free_velocity_of(products.get(.., 0..1), &coupling, &rigid)
+        } else {
+            let mobility = self.clamped_mobility(&config.x, "velocity")?;
+            mobility.velocity(&force, &rigid)
+        };
         Ok(self.with_twist_rows(velocity, &force))
     }
 
@@ -103,7 +130,7 @@ impl<'a> Steady<'a> {
                 Ok(Some((Drag { resistance, forces }, b)))
             },
             || -> Result<(Mat<f64>, Mat<f64>, Mat<f64>)> {
-                let (_, coupling) = clamp_coupling(&a, &context)?;
+                let coupling = clamp_coupling(a.as_ref(), &context)?;
                 let schur = schur_complement(&a, &coupling);
                 let mut jacobian = Mat::zeros(n, n);
                 for (column, first, width) in [(0, first_x, nx), (nx, first_t, n - nx)] {
@@ -232,39 +259,27 @@ pub struct VelocityLinearized {
     coupling: Mat<f64>,
 }
 
-/// The mobility `A(X)` split at the clamp (eq. 4): the clamp block inverted and the coupling
-/// `C = A_fc A_cc^{-1}` of the free nodes to it.
+/// The mobility `A(X)` split at the clamp (eq. 4): the coupling `C = A_fc A_cc^{-1}` of the
+/// free nodes to the clamp.
 struct ClampedMobility {
     a: Mat<f64>,
-    /// `A_cc^{-1}` (`6 x 6`).
-    cc_inverse: Mat<f64>,
     coupling: Mat<f64>,
 }
 
 impl ClampedMobility {
     /// Splits `a`; a singular clamp block is an error naming `context`.
     fn split(a: Mat<f64>, context: &str) -> Result<Self> {
-        let (cc_inverse, coupling) = clamp_coupling(&a, context)?;
-        Ok(ClampedMobility {
-            a,
-            cc_inverse,
-            coupling,
-        })
+        let coupling = clamp_coupling(a.as_ref(), context)?;
+        Ok(ClampedMobility { a, coupling })
     }
 
     /// The velocity of the free nodes less `rigid` (eq. 4), with the clamp reactions that carry
     /// the clamp with `rigid`, for `force` in the full layout of the unknowns (only its free
     /// positions are read) and the rigid velocities.
     fn velocity(&self, force: &[f64], rigid: &[Vector3<f64>]) -> Vec<f64> {
-        let n3 = self.a.nrows();
         let c = 3 * Layout::CLAMPED_NODES;
-        let rigid = stack_vectors(rigid);
-        let mut f = Mat::from_fn(n3, 1, |r, _| if r < c { 0.0 } else { force[r] });
-        let rhs = rigid.submatrix(0, 0, c, 1) - self.a.submatrix(0, 0, c, n3) * &f;
-        let reactions = &self.cc_inverse * rhs;
-        f.submatrix_mut(0, 0, c, 1).copy_from(&reactions);
-        let v = self.a.submatrix(c, 0, n3 - c, n3) * &f - rigid.submatrix(c, 0, n3 - c, 1);
-        (0..n3 - c).map(|r| v[(r, 0)]).collect()
+        let f = Mat::from_fn(self.a.nrows(), 1, |r, _| if r < c { 0.0 } else { force[r] });
+        free_velocity_of((&self.a * f).as_ref(), &self.coupling, rigid)
     }
 
     /// `S = A_ff - C A_cf`, the Schur complement of the clamp block: `Z_ff^{-1}`.
@@ -273,9 +288,23 @@ impl ClampedMobility {
     }
 }
 
-/// `A_cc^{-1}` and `C = A_fc A_cc^{-1}` of the mobility `a` split at the clamp; a singular clamp
-/// block is an error naming `context`.
-fn clamp_coupling(a: &Mat<f64>, context: &str) -> Result<(Mat<f64>, Mat<f64>)> {
+/// Eq. (4) from the products of the mobility: `af = A f` for the force `f` with zero clamp
+/// rows, and the coupling `C = A_fc A_cc^{-1}`: the clamp reactions
+/// `F_c = A_cc^{-1} ((Omega X)_c - (A f)_c)` and `dx_f/dt = (A f)_f + A_fc F_c - (Omega X)_f`.
+fn free_velocity_of(af: MatRef<'_, f64>, coupling: &Mat<f64>, rigid: &[Vector3<f64>]) -> Vec<f64> {
+    let c = 3 * Layout::CLAMPED_NODES;
+    let n3 = af.nrows();
+    let rigid = stack_vectors(rigid);
+    let carried = coupling * (rigid.submatrix(0, 0, c, 1) - af.submatrix(0, 0, c, 1));
+    (0..n3 - c)
+        .map(|r| af[(c + r, 0)] + carried[(r, 0)] - rigid[(c + r, 0)])
+        .collect()
+}
+
+/// `C = A_fc A_cc^{-1}` of the mobility `a` split at the clamp (only its first
+/// six columns are read: `a` may be those alone); a singular clamp block is an error naming
+/// `context`.
+fn clamp_coupling(a: MatRef<'_, f64>, context: &str) -> Result<Mat<f64>> {
     let c = 3 * Layout::CLAMPED_NODES;
     let nx = a.nrows() - c;
     let cc_inverse = a
@@ -287,8 +316,7 @@ fn clamp_coupling(a: &Mat<f64>, context: &str) -> Result<(Mat<f64>, Mat<f64>)> {
             "singular clamp block of the mobility ({context})"
         )));
     }
-    let coupling = a.submatrix(c, 0, nx, c) * &cc_inverse;
-    Ok((cc_inverse, coupling))
+    Ok(a.submatrix(c, 0, nx, c) * &cc_inverse)
 }
 
 /// `S = A_ff - C A_cf` of the mobility `a` with the coupling `C` ([`clamp_coupling`]).

@@ -133,11 +133,11 @@ impl Tridiagonal {
         });
     }
 
-    /// `(T^{-T} (x) I_3) y` for node vectors `y`.
-    pub(super) fn solve_transposed_vectors(&self, y: &[Vector3<f64>]) -> Vec<Vector3<f64>> {
+    /// `(T^{-1} (x) I_3) y` (`transposed`: `T^{-T}`) for node vectors `y`.
+    pub(super) fn solve_vectors(&self, y: &[Vector3<f64>], transposed: bool) -> Vec<Vector3<f64>> {
         let mut v: Vec<f64> = y.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
         for offset in 0..3 {
-            self.solve(&mut v, offset, true);
+            self.solve(&mut v, offset, transposed);
         }
         v.chunks_exact(3)
             .map(|c| Vector3::new(c[0], c[1], c[2]))

@@ -354,6 +354,80 @@ impl Rpy {
         self.edge_rows_kernel(d, forces, k)
     }
 
+    /// The velocities `u_p = sum_p2 M(y_p - y_p2) G_p2` that the point forces of the edges'
+    /// points induce at the points `p` of edge `k` (the point forces at the ends aside), for
+    /// each set `forces[v]` (by component, in the layout of [`PointLanes`]): `q` points times
+    /// the sets, point by point. Only the groups of [`LANES`] source edges whose first edge is
+    /// in `sources` are visited (the others carry no force in any set). Each pair costs one
+    /// kernel evaluation and, per set, `M G = alpha G + (beta/r^2) (r.G) r`.
+    #[inline(always)]
+    pub(super) fn edge_velocities_kernel(
+        &self,
+        d: &Discretisation,
+        forces: &[[Vec<f64>; 3]],
+        sources: &[usize],
+        k: usize,
+    ) -> Vec<Vector3<f64>> {
+        let q = self.points_per_edge();
+        let lanes = &d.lanes;
+        let mut out = Vec::with_capacity(q * forces.len());
+        let mut sums = vec![[Lanes::ZERO; 3]; forces.len()];
+        for p in k * q..(k + 1) * q {
+            let y = components(|c| Lanes::splat(d.pos[p][c]));
+            sums.fill([Lanes::ZERO; 3]);
+            for &k2 in sources {
+                for i in 0..q {
+                    let at = i * lanes.stride + k2;
+                    let r = components(|c| y[c] - Lanes::load(&lanes.pos[c], at));
+                    let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
+                    let c = radial.beta_over_r * radial.inv;
+                    for (sum, g) in sums.iter_mut().zip(forces) {
+                        let g = components(|j| Lanes::load(&g[j], at));
+                        let along = c * (r[0] * g[0] + r[1] * g[1] + r[2] * g[2]);
+                        for j in 0..3 {
+                            sum[j] += radial.alpha * g[j] + along * r[j];
+                        }
+                    }
+                }
+            }
+            out.extend(
+                sums.iter()
+                    .map(|s| Vector3::new(s[0].sum(), s[1].sum(), s[2].sum())),
+            );
+        }
+        out
+    }
+
+    /// [`Rpy::edge_velocities_kernel`], compiled for AVX2 and FMA where the processor has them
+    /// (see [`wide_registers`]).
+    pub(super) fn edge_velocities(
+        &self,
+        d: &Discretisation,
+        forces: &[[Vec<f64>; 3]],
+        sources: &[usize],
+        k: usize,
+    ) -> Vec<Vector3<f64>> {
+        #[cfg(target_arch = "x86_64")]
+        if wide_registers() {
+            // SAFETY: the processor has AVX2 and FMA, checked at run time.
+            return unsafe { self.edge_velocities_avx2(d, forces, sources, k) };
+        }
+        self.edge_velocities_kernel(d, forces, sources, k)
+    }
+
+    /// [`Rpy::edge_velocities_kernel`] for processors with AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn edge_velocities_avx2(
+        &self,
+        d: &Discretisation,
+        forces: &[[Vec<f64>; 3]],
+        sources: &[usize],
+        k: usize,
+    ) -> Vec<Vector3<f64>> {
+        self.edge_velocities_kernel(d, forces, sources, k)
+    }
+
     /// The point forces `G_p = sum_j P_pj z_j` of the edges' points, by component, in the
     /// layout of [`PointLanes`].
     pub(super) fn point_forces(&self, z: &[Vector3<f64>]) -> [Vec<f64>; 3] {
@@ -400,6 +474,10 @@ mod tests {
             let wide = unsafe { rpy.edge_rows_avx2(&d, &forces, k) };
             let base = rpy.edge_rows_kernel(&d, &forces, k);
             assert_eq!(wide.b, base.b);
+            let sets = [forces.clone()];
+            let sources: Vec<usize> = (0..x.len() - 1).step_by(super::LANES).collect();
+            let wide = unsafe { rpy.edge_velocities_avx2(&d, &sets, &sources, k) };
+            assert_eq!(wide, rpy.edge_velocities_kernel(&d, &sets, &sources, k));
         }
     }
 }

@@ -150,12 +150,14 @@ mod kernels;
 mod quadrature;
 
 use super::Resistance;
+use super::lanes::LANES;
 use super::mobility::add_block;
+use super::unstack_vectors;
 use crate::error::ModelError;
 use crate::model::params::ClampEdge;
 use crate::{Error, Result};
 use basis::Basis;
-use faer::Mat;
+use faer::{Mat, MatRef};
 use kernels::PointLanes;
 use nalgebra::{Matrix3, Vector3};
 use quadrature::{GaussRule, cells_per_edge};
@@ -168,6 +170,10 @@ use rayon::prelude::*;
 /// rule's error is second order in the spacing (the `|r|` cone of `M` on the diagonal) and of one
 /// sign; see docs/model.md section 9 for what it costs `omega_b`.
 pub const POINTS_PER_BLOB: f64 = 8.0;
+
+/// The points per blob radius a model takes (`fluid.points_per_blob`; the kernels cost its
+/// square).
+pub const POINTS_PER_BLOB_RANGE: std::ops::RangeInclusive<f64> = 2.0..=64.0;
 
 /// The blob radius `a = e^(3/2) r0 / 4` that reproduces the slender-body local drag of a
 /// cylinder of radius `r0` (see the [module documentation](self)).
@@ -197,6 +203,16 @@ struct Discretisation {
     pos: Vec<Vector3<f64>>,
     /// The points and weights transposed for the kernels.
     lanes: PointLanes,
+}
+
+/// Columns of [`Rpy::mobility_product`] whose point forces sit on the same groups of source
+/// edges: they go through the kernel together, sharing its evaluations.
+struct SourceGroup {
+    /// The first edge of each group of [`LANES`] edges with a force in any of the columns.
+    sources: Vec<usize>,
+    /// The columns, and their point forces by component ([`kernels::PointLanes`] layout).
+    columns: Vec<usize>,
+    forces: Vec<[Vec<f64>; 3]>,
 }
 
 /// What the points of one edge `k` contribute in [`Rpy::mobility_derivative`]: for the rows
@@ -434,6 +450,156 @@ impl Rpy {
         a
     }
 
+    /// `A(X) Y` for the columns of `Y` (node-major `3N` vectors), without assembling `A`:
+    /// `A y = C^{-1} P^T M_pts P C^{-T} y` of the rod's nodes (for [`ClampEdge::Centred`]
+    /// `T^{-1} A(T x) T^{-T} y`, see [`Rpy::for_rod`]). The point forces `G = P C^{-T} y` go
+    /// through the kernel once per pair of points, `O((N Q)^2)` like the assembly but with none
+    /// of its `O(N^2)` dense work (the eliminations of `C^{-1}` on `3N` columns, the transpose
+    /// and the symmetrization), and a source edge whose points carry no force in any column is
+    /// skipped: columns localized near one end (the clamp's) cost `O(N Q)`. Same values as
+    /// [`Rpy::mobility`] times `Y` to round-off.
+    ///
+    /// # Panics
+    /// If `x` or the columns have another number of nodes than the polygon of the model.
+    pub fn mobility_product(&self, x: &[Vector3<f64>], y: MatRef<'_, f64>) -> Mat<f64> {
+        let columns: Vec<Vec<Vector3<f64>>> = (0..y.ncols())
+            .map(|c| {
+                let mut v = unstack_vectors(y, c);
+                if self.centred_clamp {
+                    // T^{-T} y.
+                    let v0 = v[0];
+                    v[1] -= v0;
+                    v[0] = 2.0 * v0;
+                }
+                v
+            })
+            .collect();
+        let mut products = self.line_product(&self.line_nodes(x), &columns);
+        let mut out = Mat::zeros(y.nrows(), y.ncols());
+        for (c, v) in products.iter_mut().enumerate() {
+            if self.centred_clamp {
+                // T^{-1} r.
+                v[0] = 2.0 * v[0] - v[1];
+            }
+            for (i, vi) in v.iter().enumerate() {
+                for k in 0..3 {
+                    out[(3 * i + k, c)] = vi[k];
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Rpy::mobility_product`] of the line's own nodes, for the node vectors `columns`.
+    fn line_product(
+        &self,
+        x: &[Vector3<f64>],
+        columns: &[Vec<Vector3<f64>>],
+    ) -> Vec<Vec<Vector3<f64>>> {
+        let n = x.len();
+        let d = self.discretise(x);
+        let q = self.points_per_edge();
+        let edges = n - 1;
+        let w = &self.basis.w;
+        let consistent = &self.basis.consistent;
+        let z: Vec<Vec<Vector3<f64>>> = columns
+            .iter()
+            .map(|y| {
+                assert_eq!(
+                    y.len(),
+                    n,
+                    "mobility_product: a column of {} nodes",
+                    y.len()
+                );
+                consistent.solve_vectors(y, true)
+            })
+            .collect();
+        let forces: Vec<[Vec<f64>; 3]> = z.iter().map(|z| self.point_forces(z)).collect();
+        // The groups of LANES source edges that carry a force, per column.
+        let active = |g: &[Vec<f64>; 3], k2: usize| {
+            g.iter().any(|g| {
+                (0..q).any(|i| {
+                    let at = i * d.lanes.stride + k2;
+                    g[at..at + LANES].iter().any(|&v| v != 0.0)
+                })
+            })
+        };
+        let mut together: Vec<SourceGroup> = Vec::new();
+        for (c, g) in forces.iter().enumerate() {
+            let sources: Vec<usize> = (0..edges)
+                .step_by(LANES)
+                .filter(|&k2| active(g, k2))
+                .collect();
+            match together.iter_mut().find(|group| group.sources == sources) {
+                Some(group) => {
+                    group.columns.push(c);
+                    group.forces.push(g.clone());
+                }
+                None => together.push(SourceGroup {
+                    sources,
+                    columns: vec![c],
+                    forces: vec![g.clone()],
+                }),
+            }
+        }
+        let ends = [0, n - 1];
+        // Per edge k, per column: the rows k, k + 1 of A_e z from the velocities at its points.
+        let rows: Vec<Vec<[Vector3<f64>; 2]>> = (0..edges)
+            .into_par_iter()
+            .map(|k| {
+                let mut u = vec![Vector3::zeros(); q * z.len()];
+                for group in &together {
+                    let v = self.edge_velocities(&d, &group.forces, &group.sources, k);
+                    for (i, v) in v.chunks_exact(group.columns.len()).enumerate() {
+                        for (&c, v) in group.columns.iter().zip(v) {
+                            u[i * z.len() + c] = *v;
+                        }
+                    }
+                }
+                let mut rows = vec![[Vector3::zeros(); 2]; z.len()];
+                for (i, u) in u.chunks_exact(z.len()).enumerate() {
+                    let p = k * q + i;
+                    // The point forces at the ends.
+                    let m = ends.map(|e| self.kernel(d.pos[p] - x[e], Vector3::zeros()).0);
+                    for ((row, u), z) in rows.iter_mut().zip(u).zip(&z) {
+                        let u = u + m[0] * z[ends[0]] + m[1] * z[ends[1]];
+                        for (c, pw) in self.basis.pw[p].iter().enumerate() {
+                            row[c] += u * (pw / w[k + c]);
+                        }
+                    }
+                }
+                rows
+            })
+            .collect();
+        let mut products = vec![vec![Vector3::zeros(); n]; z.len()];
+        for (k, rows) in rows.iter().enumerate() {
+            for (product, row) in products.iter_mut().zip(rows) {
+                product[k] += row[0];
+                product[k + 1] += row[1];
+            }
+        }
+        // The rows of the point forces at the ends: from each other and every point of the edges.
+        for &e in &ends {
+            for &e2 in &ends {
+                let (m, _) = self.kernel(x[e] - x[e2], Vector3::zeros());
+                for (product, z) in products.iter_mut().zip(&z) {
+                    product[e] += m * z[e2];
+                }
+            }
+            for (p, y) in d.pos.iter().enumerate() {
+                let (m, _) = self.kernel(x[e] - y, Vector3::zeros());
+                let at = (p % q) * d.lanes.stride + p / q;
+                for (product, g) in products.iter_mut().zip(&forces) {
+                    product[e] += m * Vector3::new(g[0][at], g[1][at], g[2][at]);
+                }
+            }
+        }
+        products
+            .iter()
+            .map(|v| consistent.solve_vectors(v, false))
+            .collect()
+    }
+
     /// `B = ∂(A(X) y)/∂X` at fixed `y`: `B[(3i+a, 3j+b)] = ∂(A(X) y)_{3i+a} / ∂x_{j,b}`
     /// (`3N x 3N`, not symmetric). Analytic, `O((N Q)^2)`; equations in the
     /// [module documentation](self).
@@ -477,7 +643,7 @@ impl Rpy {
         let q = self.points_per_edge();
         let edges = n - 1;
         let w = &self.basis.w;
-        let z = self.basis.consistent.solve_transposed_vectors(y);
+        let z = self.basis.consistent.solve_vectors(y, true);
         let forces = self.point_forces(&z);
         let mut b = Mat::zeros(3 * n, 3 * n);
         in_parallel_batches(
