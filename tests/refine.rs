@@ -4,7 +4,7 @@
 //! corrected (a mesh of a few nodes per turn) the rung is followed from rest and says why.
 
 use helixbif::analysis::locate::{LocateSettings, locate};
-use helixbif::analysis::refine::refine;
+use helixbif::analysis::refine::{ladder, refine};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
@@ -141,14 +141,16 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
     physical.fluid.model = FluidModel::Rpy;
     physical.rod.r0 = 6.32e-3;
     physical.discretization.nodes = 21;
-    let refined = refine(&physical, None, 21, &settings, &mut Silent).unwrap();
+    // Two rungs (21, 41): the quadrature is measured at the coarsest where a finer one follows.
+    let refined = refine(&physical, None, 41, &settings, &mut Silent).unwrap();
     let quadrature = refined.quadrature.as_ref().unwrap();
+    assert_eq!(quadrature.nodes, 21);
     assert_eq!(
         (quadrature.points_per_blob, quadrature.compared_with),
         (8.0, 16.0)
     );
     let e = quadrature.error.unwrap();
-    let v8 = refined.finest.omega_b.unwrap();
+    let v8 = refined.rungs[0].omega_b.unwrap();
     physical.fluid.points_per_blob = Some(32.0);
     let (direct, _) = locate(&Model::new(&physical).unwrap(), &settings, &mut Silent).unwrap();
     let difference = v8 - direct.omega_b.unwrap();
@@ -165,4 +167,11 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
     assert!(!short.reached);
     let why = short.stopped.as_deref().unwrap();
     assert!(why.contains("raise fluid.points_per_blob"), "{why}");
+    // `locate --extrapolate` measures it at its ladder's coarsest rung (whatever the order of
+    // the ladder) and widens the limit's bar by it: the limit in N keeps the quadrature's offset.
+    let extrapolated = ladder(&physical, &[41, 21, 81], &settings, &mut Silent).unwrap();
+    let measured = extrapolated.quadrature.as_ref().unwrap();
+    assert_eq!(measured.nodes, 21);
+    assert!((measured.error.unwrap() - e).abs() <= 1e-9 * e.abs());
+    assert!(extrapolated.omega_b_error >= extrapolated.extrapolation_error + 0.999 * e.abs());
 }

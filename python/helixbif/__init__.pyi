@@ -163,15 +163,18 @@ class Located(_Result):
     estimate: dict[str, Any] | None
     """The discretization error in N: `error` (rad/s), `limit`, `observed_order`, `method`."""
     quadrature: dict[str, Any] | None
-    """The RPY quadrature's own error, measured at the coarsest rung: `error` (rad/s, signed),
-    `points_per_blob`, `compared_with`, `nodes`, `omega_b_compared`, `failed` (why it could not
-    be measured); None on Lighthill's operator."""
+    """The RPY quadrature's own error, measured at the coarsest rung (refined and ladder):
+    `error` (rad/s, signed), `points_per_blob`, `compared_with`, `nodes`, `omega_b_compared`,
+    `failed` (why it could not be measured); None on Lighthill's operator."""
     rungs: list[dict[str, Any]]
     stopped: str | None
     fluid: Literal["lighthill", "rpy"]
     """The hydrodynamic model of the rungs (refined)."""
     omega_b_extrapolated: float
     """rad/s (ladder)"""
+    extrapolation_error: float
+    """rad/s (ladder): the extrapolation's own error; `error` adds the size of the quadrature's
+    error on the RPY line."""
     omegabar_b_extrapolated: float
     coefficients: list[float]
     """The ladder's fit of omegabar_b(N), lowest order first (see `model`)."""

@@ -16,7 +16,7 @@ use crate::engine::events::Event;
 use crate::engine::events::EventKind;
 use crate::engine::newton;
 use crate::engine::stop::{Observer, Silent};
-use crate::model::fluid::FluidModel;
+use crate::model::fluid::{FluidModel, rpy};
 use crate::model::params::{ClampEdge, Physical};
 use crate::model::rod::Config;
 use crate::model::rod::frame::rechart;
@@ -56,7 +56,13 @@ pub struct Ladder {
     pub omegabar_b: Vec<f64>,
     pub kinds: Vec<Loss>,
     pub omega_b_extrapolated: f64,
+    /// The error of the limit: the extrapolation's ([`Extrapolated::error`]) plus, on the RPY
+    /// line, the size of the quadrature's own error (the limit in `N` keeps it).
     pub omega_b_error: f64,
+    pub extrapolation_error: f64,
+    /// The RPY quadrature's own error, measured at the ladder's coarsest rung (as for a
+    /// [`Refinement`]); `None` on Lighthill's operator.
+    pub quadrature: Option<QuadratureError>,
     pub omegabar_b_extrapolated: f64,
     /// The error model, and its coefficients `c1`, `c2` (rad/s).
     pub model: &'static str,
@@ -241,9 +247,6 @@ pub struct QuadratureError {
     pub failed: Option<String>,
 }
 
-/// The largest points per blob radius a model takes (`fluid.points_per_blob`).
-const MAX_POINTS_PER_BLOB: f64 = 64.0;
-
 /// [`QuadratureError`] at the rung `coarse` of `physical` (RPY line): the same `N` with the
 /// other rule, sequenced from its Hopf point.
 fn quadrature_error(
@@ -254,8 +257,8 @@ fn quadrature_error(
     let points_per_blob = physical
         .fluid
         .points_per_blob
-        .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
-    let r = if 2.0 * points_per_blob <= MAX_POINTS_PER_BLOB {
+        .unwrap_or(rpy::POINTS_PER_BLOB);
+    let r = if 2.0 * points_per_blob <= *rpy::POINTS_PER_BLOB_RANGE.end() {
         2.0
     } else {
         0.5
@@ -286,7 +289,8 @@ fn quadrature_error(
     // have one cell per edge they are the same rule and measure nothing; else `r` is their
     // actual ratio.
     let points = |model: &Model| model.fluid.points_per_edge().unwrap_or(0) as f64;
-    let (own, compared_points) = (points(&coarse.model), points(&Model::new(&other)?));
+    let other = Model::new(&other)?;
+    let (own, compared_points) = (points(&coarse.model), points(&other));
     if own == compared_points {
         measured.failed = Some(format!(
             "{} and {} points per blob radius give the same rule at N = {nodes} ({own} points \
@@ -296,14 +300,7 @@ fn quadrature_error(
         return Ok(measured);
     }
     let r = compared_points / own;
-    let compared = sequenced_rung(
-        &other,
-        nodes,
-        coarse,
-        critical.event.p,
-        settings,
-        &mut Silent,
-    );
+    let compared = sequenced_rung(other, coarse, critical.event.p, settings, &mut Silent);
     match compared {
         Ok(Ok((solved, _))) => match solved.located.omega_b {
             Some(w) => {
@@ -325,12 +322,11 @@ fn quadrature_error(
 }
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
-/// `coarse` carried onto the mesh of `nodes` nodes and located there ([`locate_crossing`]),
+/// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),
 /// started at `predicted` (`omegabar`), and its [`Certificate`]; `None` where the certificate
 /// fails (a point of the coarsest branch is unstable on this mesh), with the reason.
 fn sequenced_rung(
-    physical: &Physical,
-    nodes: usize,
+    fine: Model,
     coarse: &Solved,
     predicted: f64,
     settings: &LocateSettings,
@@ -340,7 +336,7 @@ fn sequenced_rung(
         .critical
         .as_ref()
         .expect("a sequenced rung follows a Hopf point");
-    let fine = Model::new(&at_nodes(physical, nodes))?;
+    let nodes = fine.nodes();
     fine.check_resolution()?;
     observer.rung(&fine);
     let omegabar_max = fine.scales.omega_to_bar(settings.omega_max);
@@ -527,9 +523,14 @@ pub fn ladder(
         ));
     }
     let mut results = Vec::new();
+    let mut coarsest: Option<Solved> = None;
     for &n in ladder {
-        let located = continuation_rung(physical, n, settings, observer)?.located;
+        let solved = continuation_rung(physical, n, settings, observer)?;
+        let located = solved.located.clone();
         observer.located(n, &located);
+        if coarsest.as_ref().is_none_or(|c| n < c.located.nodes) {
+            coarsest = Some(solved);
+        }
         let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) else {
             return Err(Error::Numerical(format!(
                 "no instability up to omega_max = {} rad/s at N = {n}: nothing to extrapolate",
@@ -552,6 +553,18 @@ pub fn ladder(
     let orders = error_orders(physical);
     let e: Extrapolated = extrapolate_with(orders, &nodes, &omega_b)?;
     let ratio = omegabar_b[0] / omega_b[0];
+    let quadrature = match (physical.fluid.model, &coarsest) {
+        (FluidModel::Rpy, Some(c)) => {
+            let quiet = LocateSettings {
+                criticality: false,
+                ..*settings
+            };
+            let measured = quadrature_error(physical, c, &quiet)?;
+            observer.quadrature(&measured);
+            Some(measured)
+        }
+        _ => None,
+    };
     Ok(Ladder {
         nodes_max: admissible_max_nodes(physical),
         kinds: results.into_iter().map(|r| r.3).collect(),
@@ -559,7 +572,13 @@ pub fn ladder(
         omega_b,
         omegabar_b,
         omega_b_extrapolated: e.value,
-        omega_b_error: e.error,
+        omega_b_error: e.error
+            + quadrature
+                .as_ref()
+                .and_then(|q| q.error)
+                .map_or(0.0, f64::abs),
+        extrapolation_error: e.error,
+        quadrature,
         omegabar_b_extrapolated: e.value * ratio,
         model: orders.model(),
         coefficients: e.coefficients,
@@ -665,7 +684,9 @@ pub fn refine(
                 } else {
                     values[k - 1]
                 };
-                match sequenced_rung(physical, n, coarse, predicted, &quiet, observer) {
+                let sequenced = Model::new(&at_nodes(physical, n))
+                    .and_then(|fine| sequenced_rung(fine, coarse, predicted, &quiet, observer));
+                match sequenced {
                     Ok(Ok((solved, certificate))) => {
                         (Ok(solved), "sequenced", None, Some(certificate))
                     }
@@ -730,24 +751,25 @@ pub fn refine(
                     .join(", ")
             ));
         }
-        if physical.fluid.model == FluidModel::Rpy && quadrature.is_none() {
+        // Measured where a finer rung follows (a single rung has no error bar to put it in).
+        if physical.fluid.model == FluidModel::Rpy
+            && quadrature.is_none()
+            && refined(n, limit).is_some()
+        {
             let coarsest = finest.as_ref().expect("the rung just solved");
             let measured = quadrature_error(physical, coarsest, &quiet)?;
             observer.quadrature(&measured);
             let value = coarsest.located.omega_b.map_or(f64::NAN, f64::abs);
             let too_large = measured.error.map(|q| q.abs() / value);
+            let points_per_blob = measured.points_per_blob;
             quadrature = Some(Box::new(measured));
             if let (Some(q), Some(a)) = (too_large, accuracy)
                 && q >= a
             {
                 break Some(format!(
-                    "the quadrature's own error, {q:.1e} relative at {} points per blob radius, is \
-                     not below the accuracy at any N: raise fluid.points_per_blob (the kernels \
-                     cost its square)",
-                    physical
-                        .fluid
-                        .points_per_blob
-                        .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB)
+                    "the quadrature's own error, {q:.1e} relative at {points_per_blob} points per \
+                     blob radius, is not below the accuracy at any N: raise \
+                     fluid.points_per_blob (the kernels cost its square)"
                 ));
             }
         }

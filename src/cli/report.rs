@@ -9,7 +9,7 @@ use serde::Serialize;
 use helixbif::analysis::boundary::BoundaryEvent;
 use helixbif::analysis::dynamics::Bisection;
 use helixbif::analysis::locate::{Located, Loss};
-use helixbif::analysis::refine::{Ladder, Refinement};
+use helixbif::analysis::refine::{Ladder, QuadratureError, Refinement};
 use helixbif::analysis::solve::SolutionSummary;
 use helixbif::model::fluid::FluidModel;
 use helixbif::numerics::fit::PowerLaw;
@@ -227,7 +227,44 @@ impl Section for Ladder {
             f,
             "  extrapolated: omega_b = {:.6} +- {:.6} rad/s ({}; {range})",
             self.omega_b_extrapolated, self.omega_b_error, self.model
-        )
+        )?;
+        if let Some(q) = &self.quadrature {
+            quadrature_line(f, q, Some(self.omega_b_extrapolated))?;
+            if q.error.is_some() {
+                write!(
+                    f,
+                    "\n  error of the limit: the extrapolation's, {:.2e} rad/s, plus the size of \
+                     the quadrature error",
+                    self.extrapolation_error
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The line of the RPY quadrature's own error `q` (docs/model.md section 10): its value, where
+/// it was measured, and the limit with exact quadrature from the limit in `N` (`limit`, where
+/// there is one); or why it was not measured, and so is not in the error.
+fn quadrature_line(f: &mut Formatter<'_>, q: &QuadratureError, limit: Option<f64>) -> fmt::Result {
+    match (q.error, &q.failed) {
+        (Some(e), _) => {
+            write!(
+                f,
+                "\n  quadrature error of omega_b: {e:+.2e} rad/s at {} points per blob radius \
+                 (from {} at N = {}: second order in the point spacing, the same at every rung",
+                q.points_per_blob, q.compared_with, q.nodes
+            )?;
+            if let Some(limit) = limit {
+                write!(f, "; limit with exact quadrature {:.8} rad/s", limit - e)?;
+            }
+            write!(f, ")")
+        }
+        (None, Some(why)) => write!(
+            f,
+            "\n  quadrature error of omega_b NOT measured, so not in the error: {why}"
+        ),
+        (None, None) => Ok(()),
     }
 }
 
@@ -318,26 +355,7 @@ impl Section for Refinement {
             write!(f, "; limit {:.8} rad/s)", est.limit)?;
         }
         if let Some(q) = &self.quadrature {
-            match (q.error, &q.failed) {
-                (Some(e), _) => write!(
-                    f,
-                    "\n  quadrature error of omega_b: {e:+.2e} rad/s at {} points per blob radius \
-                     (from {} at N = {}: second order in the point spacing, the same at every \
-                     rung{})",
-                    q.points_per_blob,
-                    q.compared_with,
-                    q.nodes,
-                    self.estimate.as_ref().map_or(String::new(), |est| format!(
-                        "; limit with exact quadrature {:.8} rad/s",
-                        est.limit - e
-                    ))
-                )?,
-                (None, Some(why)) => write!(
-                    f,
-                    "\n  quadrature error of omega_b NOT measured, so not in the error: {why}"
-                )?,
-                (None, None) => {}
-            }
+            quadrature_line(f, q, self.estimate.as_ref().map(|est| est.limit))?;
         }
         if let (Some(e), Some(rel)) = (self.omega_b_error, self.relative_error) {
             write!(

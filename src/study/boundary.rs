@@ -419,7 +419,10 @@ fn curve_figures(
         .flat_map(|(_, rows)| rows.iter().map(|r| error(r) / r.omegabar_b.abs()))
         .collect();
     let omega = Figure {
-        title: format!("Stability boundaries{}", error_range("band", &relative)),
+        title: format!(
+            "Stability boundaries{}",
+            error_range("band", "estimated discretization error in N", &relative)
+        ),
         x_label: axis_label(key),
         y_label: "ω̄_b = ω_b μℓ⁴/EI (–)".into(),
         x_scale: Scale::Log,

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::Result;
+use crate::model::fluid::FluidModel;
 use crate::numerics::fit::{
     PowerLaw, Slope, common_power_law, local_exponents, power_law, through_origin,
 };
@@ -481,7 +482,13 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
             .flatten()
             .filter(|r| r.is_finite())
             .collect();
-        let bars = error_range("bars", &relative);
+        // `omega_b_error` of a refinement: on the RPY line the error in `N` plus the size of
+        // the quadrature's own error (docs/model.md section 10).
+        let what = match study.fluid.model {
+            FluidModel::Rpy => "estimated error, discretization and quadrature",
+            FluidModel::Lighthill => "estimated discretization error",
+        };
+        let bars = error_range("bars", what, &relative);
         write_figure(
             &Figure {
                 title: format!(
@@ -503,23 +510,19 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
     Ok(Some(fits))
 }
 
-/// A fraction as a percentage with two significant digits (`0.0012` -> `0.12`).
-/// What the error bars (or band: `drawn`) of a figure show and their range, for its title:
-/// ` (bars: estimated discretization error, 0.05 to 0.2 %)` over the finite `relative` errors;
-/// empty where there are none.
-pub(crate) fn error_range(drawn: &str, relative: &[f64]) -> String {
+/// What the error bars (or band: `drawn`) of a figure show (`what`) and their range, for its
+/// title: ` (bars: estimated discretization error, 0.05 to 0.2 %)` over the finite `relative`
+/// errors; empty where there are none.
+pub(crate) fn error_range(drawn: &str, what: &str, relative: &[f64]) -> String {
     let mut finite = relative.iter().copied().filter(|r| r.is_finite());
     let Some(first) = finite.next() else {
         return String::new();
     };
     let (lo, hi) = finite.fold((first, first), |(lo, hi), r| (lo.min(r), hi.max(r)));
-    format!(
-        " ({drawn}: estimated discretization error, {} to {} %)",
-        percent(lo),
-        percent(hi)
-    )
+    format!(" ({drawn}: {what}, {} to {} %)", percent(lo), percent(hi))
 }
 
+/// A fraction as a percentage with two significant digits (`0.0012` -> `0.12`).
 fn percent(fraction: f64) -> String {
     let p = 100.0 * fraction;
     let decimals = (1.0 - p.abs().log10().floor()).clamp(0.0, 6.0) as usize;
