@@ -60,7 +60,7 @@ fn print_refinement(label: &str, refinement: &Refinement, seconds: f64) {
             q.nodes,
             q.error.unwrap_or(f64::NAN),
             q.points_per_blob,
-            q.compared_with,
+            q.compared_with.unwrap_or(f64::NAN),
             q.failed
                 .as_ref()
                 .map_or(String::new(), |why| format!(": NOT measured, {why}"))

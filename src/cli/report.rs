@@ -253,7 +253,9 @@ fn quadrature_line(f: &mut Formatter<'_>, q: &QuadratureError, limit: Option<f64
                 f,
                 "\n  quadrature error of omega_b: {e:+.2e} rad/s at {} points per blob radius \
                  (from {} at N = {}: second order in the point spacing, the same at every rung",
-                q.points_per_blob, q.compared_with, q.nodes
+                q.points_per_blob,
+                q.compared_with.unwrap_or(f64::NAN),
+                q.nodes
             )?;
             if let Some(limit) = limit {
                 write!(f, "; limit with exact quadrature {:.8} rad/s", limit - e)?;

@@ -137,7 +137,9 @@ impl RungObserver for RungProgress<'_> {
         progress::note(&match (quadrature.error, &quadrature.failed) {
             (Some(e), _) => format!(
                 "  quadrature error {e:+.2e} rad/s at N = {} ({} against {} points per blob radius)",
-                quadrature.nodes, quadrature.points_per_blob, quadrature.compared_with
+                quadrature.nodes,
+                quadrature.points_per_blob,
+                quadrature.compared_with.unwrap_or(f64::NAN)
             ),
             (None, why) => format!(
                 "  quadrature error not measured: {}",
