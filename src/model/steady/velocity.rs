@@ -65,11 +65,7 @@ impl<'a> Steady<'a> {
                 .model
                 .fluid
                 .mobility_product(&config.x, columns.as_ref());
-            let context = format!(
-                "velocity at omegabar = {:.6e}, N = {}",
-                self.omega,
-                config.x.len()
-            );
+            let context = self.context("velocity", config.x.len());
             let coupling = clamp_coupling(products.get(.., 1..), &context)?;
             free_velocity_of(products.get(.., 0..1), &coupling, &rigid)
         } else {
@@ -190,10 +186,15 @@ impl<'a> Steady<'a> {
     /// The mobility at `x` split at the clamp; where it is not positive definite by
     /// construction (Lighthill) it is checked by a factorization. Errors name `what`.
     fn clamped_mobility(&self, x: &[Vector3<f64>], what: &str) -> Result<ClampedMobility> {
-        let context = format!("{what} at omegabar = {:.6e}, N = {}", self.omega, x.len());
+        let context = self.context(what, x.len());
         let a = self.model.fluid.mobility(x);
         self.check_definite(&a, x, &context)?;
         ClampedMobility::split(a, &context)
+    }
+
+    /// What an error of `what` at this rate on `nodes` nodes names.
+    fn context(&self, what: &str, nodes: usize) -> String {
+        format!("{what} at omegabar = {:.6e}, N = {nodes}", self.omega)
     }
 
     /// Where the mobility `a` at `x` is not positive definite by construction (Lighthill), its
