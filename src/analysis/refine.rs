@@ -303,9 +303,10 @@ fn quadrature_error(
     }
     let Some((compared_with, other)) = chosen else {
         measured.failed = Some(format!(
-            "no other rule within {:?} points per blob radius differs from {points_per_blob} at \
-             N = {nodes} ({own} points per edge)",
-            rpy::POINTS_PER_BLOB_RANGE
+            "neither half nor twice {points_per_blob} points per blob radius (within [{}, {}]) \
+             gives another rule at N = {nodes} ({own} points per edge)",
+            rpy::POINTS_PER_BLOB_RANGE.start(),
+            rpy::POINTS_PER_BLOB_RANGE.end()
         ));
         return Ok(measured);
     };
@@ -496,10 +497,7 @@ pub(crate) fn hopf_point_error(
     }
     let coarse_nodes = nodes / 2 + 1;
     let coarse = Model::new(&at_nodes(physical, coarse_nodes))?;
-    let quiet = LocateSettings {
-        criticality: false,
-        ..*settings
-    };
+    let quiet = without_criticality(settings);
     let located = match locate(&coarse, &quiet, &mut Silent) {
         Ok((located, _)) => located,
         Err(e) if e.is_input() => return Err(e),
@@ -566,11 +564,7 @@ pub fn ladder(
     let ratio = omegabar_b[0] / omega_b[0];
     let quadrature = match (physical.fluid.model, &coarsest) {
         (FluidModel::Rpy, Some(c)) => {
-            let quiet = LocateSettings {
-                criticality: false,
-                ..*settings
-            };
-            let measured = quadrature_error(physical, c, &quiet)?;
+            let measured = quadrature_error(physical, c, &without_criticality(settings))?;
             observer.quadrature(&measured);
             Some(measured)
         }
@@ -583,11 +577,7 @@ pub fn ladder(
         omega_b,
         omegabar_b,
         omega_b_extrapolated: e.value,
-        omega_b_error: e.error
-            + quadrature
-                .as_ref()
-                .and_then(|q| q.error)
-                .map_or(0.0, f64::abs),
+        omega_b_error: total_error(e.error, quadrature.as_ref()),
         extrapolation_error: e.error,
         quadrature,
         omegabar_b_extrapolated: e.value * ratio,
@@ -673,10 +663,7 @@ pub fn refine(
     // The quadrature's own error, measured at the coarsest rung (RPY line).
     let mut quadrature: Option<Box<QuadratureError>> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
-    let quiet = LocateSettings {
-        criticality: false,
-        ..*settings
-    };
+    let quiet = without_criticality(settings);
     let mut n = start;
     let stopped = loop {
         let started = Instant::now();
@@ -787,7 +774,8 @@ pub fn refine(
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
-            let relative = total_error(&e, quadrature.as_deref()) / values[values.len() - 1].abs();
+            let relative =
+                total_error(e.error, quadrature.as_deref()) / values[values.len() - 1].abs();
             observer.estimated(relative, &e);
             estimate = Some(e);
             if accuracy.is_some_and(|a| relative < a) {
@@ -812,7 +800,7 @@ pub fn refine(
     }
     let omega_b_error = estimate
         .as_ref()
-        .map(|e| total_error(e, quadrature.as_deref()));
+        .map(|e| total_error(e.error, quadrature.as_deref()));
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
     Ok(Refinement {
@@ -829,10 +817,19 @@ pub fn refine(
     })
 }
 
-/// The error of `omega_b` against the continuous model: the discretization error in `N` plus the
-/// size of the quadrature's own error, where it was measured.
-fn total_error(estimate: &DiscretizationError, quadrature: Option<&QuadratureError>) -> f64 {
-    estimate.error + quadrature.and_then(|q| q.error).map_or(0.0, f64::abs)
+/// The error of `omega_b` against the continuous model: the error in `N` (`discretization`, of a
+/// rung or of a limit) plus the size of the quadrature's own error, where it was measured.
+fn total_error(discretization: f64, quadrature: Option<&QuadratureError>) -> f64 {
+    discretization + quadrature.and_then(|q| q.error).map_or(0.0, f64::abs)
+}
+
+/// `settings` without the Lyapunov coefficient: the rungs below the finest and the auxiliary
+/// rungs (the quadrature's, a boundary point's coarser mesh) do not need it.
+fn without_criticality<'a>(settings: &LocateSettings<'a>) -> LocateSettings<'a> {
+    LocateSettings {
+        criticality: false,
+        ..*settings
+    }
 }
 
 /// The node counts and `omegabar_b` of the rungs so far, the last one `last`'s.

@@ -5,11 +5,12 @@
 //!
 //! Two differences from faer's `PartialPivLu`:
 //!
-//! * From [`crate::numerics::parallel::FROM`] rows the factorization runs on two threads (faer's `Par::rayon(2)`), given
-//!   explicitly: faer's own type reads a process-wide setting, which would let concurrent cases
-//!   of a sweep change each other's parallelism (and so their round-off) by timing. The split of
-//!   the work is fixed at two parts whatever the number of threads rayon runs, so the factors
-//!   are the same bits on every machine (`the_factors_do_not_depend_on_the_thread_count`).
+//! * From [`crate::numerics::parallel::FROM`] rows the factorization runs on two threads
+//!   (faer's `Par::rayon(2)`), given explicitly: faer's own type reads a process-wide setting,
+//!   which would let concurrent cases of a sweep change each other's parallelism (and so their
+//!   round-off) by timing. The split of the work is fixed at two parts whatever the number of
+//!   threads rayon runs, so the factors are the same bits on every machine
+//!   (`the_factors_do_not_depend_on_the_thread_count`).
 //! * `L` (unit lower, below the diagonal) and `U` (upper, with the diagonal) stay in the one
 //!   matrix the factorization overwrote, as in LAPACK: faer's type copies them into two new
 //!   matrices, two more `n x n` allocations filled once per factorization.
@@ -32,9 +33,10 @@ use crate::numerics::parallel::FROM;
 /// complex Cholesky factorization, the triangular solves of [`Lu::solve_in_place`] and the
 /// Krylov operator's product by `M`: at RPY `N = 473` (order 1413) the Krylov-Schur iteration,
 /// one product and two triangular solves per step, took 0.08-0.12 s on two threads against
-/// 0.12-0.17 s on one (three runs of `locate` each, four spectra per run). On the 2-core machine an LU of order 1593 (the bordered matrix
-/// at RPY `N = 400`) took 76-96 ms on two threads against 88-113 ms on one (eight alternated runs
-/// in one process, a noisy phase of the machine).
+/// 0.12-0.17 s on one (three runs of `locate` each, four spectra per run). On the 2-core
+/// machine an LU of order 1593 (the bordered matrix at RPY `N = 400`) took 76-96 ms on two
+/// threads against 88-113 ms on one (eight alternated runs in one process, a noisy phase of the
+/// machine).
 pub(crate) fn parallelism(n: usize) -> Par {
     if n >= FROM { Par::rayon(2) } else { Par::Seq }
 }

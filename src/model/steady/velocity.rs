@@ -35,9 +35,12 @@ impl<'a> Steady<'a> {
     /// taken without assembling `A` ([`crate::model::fluid::Fluid::mobility_product`]): one pass
     /// of the kernel over the pairs of quadrature points for `g`, the clamp's columns a pass over
     /// the points of the first edges only (`cargo bench --bench fluid`: 4.7 ms at `N = 480`
-    /// against 25-33 ms for the assembly). Lighthill's `A`, not positive by construction, is
-    /// assembled and checked by a Cholesky factorization, as the resistance would be. Either
-    /// way no factorization of `A`, no solve with `3N` right-hand sides.
+    /// against 24 ms for the assembly; below about `N = 120` on the representative helix the
+    /// product costs up to 1.4 times the assembly, whose dense work is small there, and the
+    /// linearizations, not the residuals, dominate such runs). Lighthill's `A`, not positive by
+    /// construction, is assembled and checked by a Cholesky factorization, as the resistance
+    /// would be; that factorization is the only one, and nothing is solved with `3N`
+    /// right-hand sides.
     pub fn free_velocity(&self, u: &[f64]) -> Result<Vec<f64>> {
         let mut v = self.velocity_residual(u)?;
         v.truncate(self.layout().free_positions());

@@ -123,20 +123,26 @@ impl Rpy {
         }
     }
 
-    /// `M(r)` and, with `g`, `D(r, g) = d(M(r) g)/dr` (0 at `r = 0`) at one separation, from
-    /// [`Rpy::radial`]: the rows and columns of the point forces at the ends.
-    pub(super) fn kernel(&self, r: Vector3<f64>, g: Vector3<f64>) -> (Matrix3<f64>, Matrix3<f64>) {
+    /// `M(r)` at one separation, from [`Rpy::radial`]: the rows and columns of the point forces
+    /// at the ends.
+    pub(super) fn tensor(&self, r: Vector3<f64>) -> Matrix3<f64> {
         let c = self.radial(Lanes::splat(r.norm()));
-        let [alpha, beta, dalpha, dbeta, beta_over_r, inv] =
-            [c.alpha, c.beta, c.dalpha, c.dbeta, c.beta_over_r, c.inv].map(|v| v.0[0]);
+        let rhat = r * c.inv.0[0];
+        Matrix3::identity() * c.alpha.0[0] + rhat * rhat.transpose() * c.beta.0[0]
+    }
+
+    /// `D(r, g) = d(M(r) g)/dr` (0 at `r = 0`) at one separation, from [`Rpy::radial`]: the
+    /// shape derivative's rows and columns of the point forces at the ends.
+    pub(super) fn tensor_derivative(&self, r: Vector3<f64>, g: Vector3<f64>) -> Matrix3<f64> {
+        let c = self.radial(Lanes::splat(r.norm()));
+        let [dalpha, dbeta, beta_over_r, inv] =
+            [c.dalpha, c.dbeta, c.beta_over_r, c.inv].map(|v| v.0[0]);
         let rhat = r * inv;
         let rr = rhat * rhat.transpose();
-        let m = Matrix3::identity() * alpha + rr * beta;
         let rg = rhat.dot(&g);
-        let d = g * rhat.transpose() * dalpha
+        g * rhat.transpose() * dalpha
             + rr * (dbeta * rg)
-            + (rhat * g.transpose() + Matrix3::identity() * rg - rr * (2.0 * rg)) * beta_over_r;
-        (m, d)
+            + (rhat * g.transpose() + Matrix3::identity() * rg - rr * (2.0 * rg)) * beta_over_r
     }
 
     /// [`Rpy::edge_pairs_kernel`], compiled for AVX2 and FMA where the processor has them

@@ -416,14 +416,14 @@ impl Rpy {
         let ends = [0, n - 1];
         for (ie, &e) in ends.iter().enumerate() {
             for &e2 in &ends[ie..] {
-                let (m, _) = self.kernel(x[e] - x[e2], Vector3::zeros());
+                let m = self.tensor(x[e] - x[e2]);
                 add_block(&mut a, e, e2, &m);
                 if e2 != e {
                     add_block(&mut a, e2, e, &m);
                 }
             }
             for (p, y) in d.pos.iter().enumerate() {
-                let (m, _) = self.kernel(x[e] - y, Vector3::zeros());
+                let m = self.tensor(x[e] - y);
                 let k = p / q;
                 for (c, pw) in self.basis.pw[p].iter().enumerate() {
                     if *pw != 0.0 {
@@ -460,8 +460,19 @@ impl Rpy {
     /// [`Rpy::mobility`] times `Y` to round-off.
     ///
     /// # Panics
-    /// If `x` or the columns have another number of nodes than the polygon of the model.
+    /// If `x` has another number of nodes than the polygon of the model, or `Y` another number
+    /// of rows than `3N`.
     pub fn mobility_product(&self, x: &[Vector3<f64>], y: MatRef<'_, f64>) -> Mat<f64> {
+        assert_eq!(
+            y.nrows(),
+            3 * x.len(),
+            "mobility_product: {} rows for {} nodes",
+            y.nrows(),
+            x.len()
+        );
+        if y.ncols() == 0 {
+            return Mat::zeros(y.nrows(), 0);
+        }
         let columns: Vec<Vec<Vector3<f64>>> = (0..y.ncols())
             .map(|c| {
                 let mut v = unstack_vectors(y, c);
@@ -504,15 +515,7 @@ impl Rpy {
         let consistent = &self.basis.consistent;
         let z: Vec<Vec<Vector3<f64>>> = columns
             .iter()
-            .map(|y| {
-                assert_eq!(
-                    y.len(),
-                    n,
-                    "mobility_product: a column of {} nodes",
-                    y.len()
-                );
-                consistent.solve_vectors(y, true)
-            })
+            .map(|y| consistent.solve_vectors(y, true))
             .collect();
         let forces: Vec<[Vec<f64>; 3]> = z.iter().map(|z| self.point_forces(z)).collect();
         // The groups of LANES source edges that carry a force, per column.
@@ -560,7 +563,7 @@ impl Rpy {
                 for (i, u) in u.chunks_exact(z.len()).enumerate() {
                     let p = k * q + i;
                     // The point forces at the ends.
-                    let m = ends.map(|e| self.kernel(d.pos[p] - x[e], Vector3::zeros()).0);
+                    let m = ends.map(|e| self.tensor(d.pos[p] - x[e]));
                     for ((row, u), z) in rows.iter_mut().zip(u).zip(&z) {
                         let u = u + m[0] * z[ends[0]] + m[1] * z[ends[1]];
                         for (c, pw) in self.basis.pw[p].iter().enumerate() {
@@ -581,13 +584,13 @@ impl Rpy {
         // The rows of the point forces at the ends: from each other and every point of the edges.
         for &e in &ends {
             for &e2 in &ends {
-                let (m, _) = self.kernel(x[e] - x[e2], Vector3::zeros());
+                let m = self.tensor(x[e] - x[e2]);
                 for (product, z) in products.iter_mut().zip(&z) {
                     product[e] += m * z[e2];
                 }
             }
             for (p, y) in d.pos.iter().enumerate() {
-                let (m, _) = self.kernel(x[e] - y, Vector3::zeros());
+                let m = self.tensor(x[e] - y);
                 let at = (p % q) * d.lanes.stride + p / q;
                 for (product, g) in products.iter_mut().zip(&forces) {
                     product[e] += m * Vector3::new(g[0][at], g[1][at], g[2][at]);
@@ -663,7 +666,7 @@ impl Rpy {
         for &e in &ends {
             for &e2 in &ends {
                 if e2 != e {
-                    let (_, dm) = self.kernel(x[e] - x[e2], z[e2]);
+                    let dm = self.tensor_derivative(x[e] - x[e2], z[e2]);
                     add_block(&mut b, e, e, &dm);
                     add_block(&mut b, e, e2, &-dm);
                 }
@@ -671,11 +674,11 @@ impl Rpy {
             for (p, y) in d.pos.iter().enumerate() {
                 let (k, xi) = (p / q, self.rule.xi[p % q]);
                 let g = Vector3::from_fn(|c, _| forces[c][(p % q) * d.lanes.stride + k]);
-                let (_, dm) = self.kernel(x[e] - y, g);
+                let dm = self.tensor_derivative(x[e] - y, g);
                 add_block(&mut b, e, e, &dm);
                 add_block(&mut b, e, k, &(dm * -(1.0 - xi)));
                 add_block(&mut b, e, k + 1, &(dm * -xi));
-                let (_, dm) = self.kernel(y - x[e], z[e]);
+                let dm = self.tensor_derivative(y - x[e], z[e]);
                 for (c, pw) in self.basis.pw[p].iter().enumerate() {
                     if *pw != 0.0 {
                         let pi = pw / w[k + c];
