@@ -15,18 +15,23 @@
 //! unstable count (certified, [`crate::engine::stability`]), as for the events of a branch
 //! ([`crate::engine::events`]): from `p0` the secant method on `h` steps until the count changes,
 //! then Brent's method ([`Zeroin`]) narrows the bracket `[p_near, p_beyond]` until it is
-//! narrower than `event_tol |p|`, or until the interpolation puts the zero within `event_tol |p|`
-//! of the sample nearest it (a smooth `h`: the secant's own error is then far smaller). The near end is a state on the stable side whose unstable count is the
+//! narrower than `event_tol |p|`, or until the secant through its ends puts the zero within
+//! `event_tol |p|` of the near end (a smooth `h`: the secant's own error is then a small
+//! fraction of that distance, the bracket's width over the scale on which `h` bends). Brent's
+//! samples are moved by half the tolerance towards the near end, so that where the
+//! interpolation is that accurate the sample lands on the stable side and ends the search
+//! there. The near end is a state on the stable side whose unstable count is the
 //! count before the crossing, and the event's eigenvalue is the one that crossed between the
 //! ends ([`crossing_eigenvalue`]).
 
-use faer::c64;
+use faer::{Mat, c64};
 
 use super::arclength::{AtParameter, stability};
 use super::events::{Event, EventKind, Zeroin, crossing_eigenvalue};
-use super::newton::{self, NewtonSettings};
+use super::newton::{Chord, Jacobians, Newton, NewtonSettings};
 use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
+use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// A solved state and its spectrum at one `p`.
@@ -68,29 +73,82 @@ pub struct CrossingSettings {
     pub unstable_before: usize,
 }
 
-/// The solution at `p` from `guess`, its spectrum (after `prior`) and the eigenvalue nearest
-/// `track`. The samples lie close together, so the problem's coordinates stay where they are
-/// (unlike along a branch, no chart is moved): every state of the search is measured in them.
-fn evaluate<P: Problem>(
-    problem: &P,
-    guess: &[f64],
+/// The Jacobian at the solution of the sample before, and its `p`.
+struct Previous {
     p: f64,
-    track: c64,
-    prior: Option<&Spectrum>,
-    newton: &NewtonSettings,
-    settings: &ContinuationSettings,
-) -> Result<State> {
-    let system = AtParameter::new(problem, p);
-    let (u, _) = newton::solve(&system, guess.to_vec(), newton, &format!("at p = {p:e}"))?;
-    let lin = system.linearization_at(&u)?;
-    let spectrum = stability(problem, &u, p, &lin, settings, prior)?;
-    let s = spectrum.nearest(track);
-    Ok(State {
-        p,
-        u,
-        tracked: c64::new(s.re, s.im.abs()),
-        spectrum,
-    })
+    jacobian: Mat<f64>,
+}
+
+/// How near (relative to `|p|`) a sample must lie to the one before for Newton's method to run
+/// as the chord method on the Jacobian there. The last samples of a search lie within `1e-4`
+/// of each other; there the chord contracted the residual of the representative helix by about
+/// 100 per iteration, and an iteration costs a residual (at `N = 473` about a tenth of a
+/// linearization). Farther apart (the first steps of the secant, `1e-3` to `3e-2`) the
+/// Jacobian of a stiff rod changes enough that the chord contracted by only 5 to 7 and often
+/// had to start again, slower than Newton's method proper.
+const CHORD_RANGE: f64 = 1e-4;
+
+/// The evaluations of one search: the problem, Newton's method and the settings they share,
+/// and the Jacobian of the latest sample.
+struct Sampler<'a, P: Problem> {
+    problem: &'a P,
+    newton: Newton,
+    settings: &'a ContinuationSettings,
+    previous: Option<Previous>,
+}
+
+impl<P: Problem> Sampler<'_, P> {
+    /// The solution at `p` from `guess`, its spectrum (after `prior`) and the eigenvalue nearest
+    /// `track`. The samples lie close together, so the problem's coordinates stay where they
+    /// are (unlike along a branch, no chart is moved): every state of the search is measured in
+    /// them. Newton's method runs as the chord method ([`Jacobians::Reuse`]: rebuilt where the
+    /// residual falls by less than a factor 3 per iteration) on the Jacobian of the sample
+    /// before where `p` lies within [`CHORD_RANGE`] of it, as Newton's method proper elsewhere;
+    /// the solution's Jacobian is kept for the next sample.
+    fn evaluate(
+        &mut self,
+        guess: &[f64],
+        p: f64,
+        track: c64,
+        prior: Option<&Spectrum>,
+    ) -> Result<State> {
+        let system = AtParameter::new(self.problem, p);
+        let context = format!("at p = {p:e}");
+        let guess = guess.to_vec();
+        let newton = &self.newton;
+        let (u, _) = match self
+            .previous
+            .take()
+            .filter(|j| (p - j.p).abs() <= CHORD_RANGE * p.abs())
+        {
+            Some(j) => {
+                let mut chord = Chord::holding(Lu::of(j.jacobian));
+                newton.run(&system, guess, Jacobians::Reuse(&mut chord), &context)?
+            }
+            None => newton.run(&system, guess, Jacobians::Fresh, &context)?,
+        };
+        let lin = system.linearization_at(&u)?;
+        let spectrum = stability(self.problem, &u, p, &lin, self.settings, prior)?;
+        self.previous = Some(Previous {
+            p,
+            jacobian: lin.g_u,
+        });
+        let s = spectrum.nearest(track);
+        Ok(State {
+            p,
+            u,
+            tracked: c64::new(s.re, s.im.abs()),
+            spectrum,
+        })
+    }
+}
+
+/// Where the secant through the bracket's ends puts the zero of `h`, where their real parts
+/// have the signs of their sides (a tracked eigenvalue that does not is not the one whose
+/// crossing the counts see, and its line says nothing).
+fn secant_zero(near: &State, far: &State) -> Option<f64> {
+    let (a, b) = (near.tracked.re, far.tracked.re);
+    (a <= 0.0 && b > 0.0).then(|| near.p - a * (far.p - near.p) / (b - a))
 }
 
 /// The solution guess at `p` on the line through the states `a` and `b` (interpolated inside
@@ -119,13 +177,18 @@ pub fn locate_crossing<P: Problem>(
     search: &CrossingSettings,
     continuation: &ContinuationSettings,
 ) -> Result<Crossing> {
-    let newton = NewtonSettings {
-        tol: continuation.tol,
-        ..NewtonSettings::default()
+    let mut sampler = Sampler {
+        problem,
+        newton: Newton::from(&NewtonSettings {
+            tol: continuation.tol,
+            ..NewtonSettings::default()
+        }),
+        settings: continuation,
+        previous: None,
     };
     let tol = continuation.event_tol;
     let beyond = |s: &State| s.spectrum.unstable > search.unstable_before;
-    let first = evaluate(problem, u0, p0, track, None, &newton, continuation)?;
+    let first = sampler.evaluate(u0, p0, track, None)?;
     let mut evaluations = 1;
     let refuse = |why: &str, evaluations: usize| {
         Error::Numerical(format!(
@@ -143,14 +206,11 @@ pub fn locate_crossing<P: Problem>(
         None => towards_other * search.first_step * p0.abs(),
     };
     let mut before = first.clone();
-    let mut last = evaluate(
-        problem,
+    let mut last = sampler.evaluate(
         &first.u,
         p0 + first_step,
         first.tracked,
         Some(&first.spectrum),
-        &newton,
-        continuation,
     )?;
     evaluations += 1;
     while beyond(&last) == beyond(&before) {
@@ -173,14 +233,11 @@ pub fn locate_crossing<P: Problem>(
             2.0 * step.abs()
         };
         let p_next = last.p + towards * length;
-        let next = evaluate(
-            problem,
+        let next = sampler.evaluate(
             &along(&before, &last, p_next),
             p_next,
             last.tracked,
             Some(&last.spectrum),
-            &newton,
-            continuation,
         )?;
         evaluations += 1;
         before = std::mem::replace(&mut last, next);
@@ -191,24 +248,27 @@ pub fn locate_crossing<P: Problem>(
         (last, before)
     };
     // Brent's method inside the bracket, the sides by the unstable count, until the bracket is
-    // narrower than the tolerance or the interpolation puts the zero within the tolerance of
-    // the sample nearest it (the precision is then that distance).
+    // narrower than the tolerance or the secant through its ends puts the zero within the
+    // tolerance of its near end (the precision is then that distance).
     let mut zeroin = Zeroin::new((near.p, near.tracked.re), (far.p, far.tracked.re));
     let width = |near: &State, far: &State| (far.p - near.p).abs() / near.p.abs().max(far.p.abs());
     let mut precision = width(&near, &far);
     while precision > tol {
-        let min_step = 0.25 * tol * near.p.abs();
-        let p = zeroin.propose(min_step);
-        let best = if near.tracked.re.abs() <= far.tracked.re.abs() {
-            &near
-        } else {
-            &far
-        };
-        let predicted = (p - best.p).abs() / best.p.abs();
-        if predicted <= tol && (p - best.p).abs() > min_step {
+        let predicted = secant_zero(&near, &far).map(|z| (z - near.p).abs() / near.p.abs());
+        if let Some(predicted) = predicted.filter(|&d| d <= tol) {
             precision = predicted;
             break;
         }
+        let min_step = 0.25 * tol * near.p.abs();
+        let proposed = zeroin.propose(min_step);
+        // Half the tolerance towards the near end, so that an accurate interpolation samples
+        // the stable side and the search can end there.
+        let biased = proposed + 0.5 * tol * proposed.abs() * (near.p - proposed).signum();
+        let p = if (biased - near.p) * (far.p - near.p) > 0.0 {
+            biased
+        } else {
+            proposed
+        };
         if evaluations >= search.max_evaluations {
             return Err(refuse("the bracket did not close", evaluations));
         }
@@ -217,14 +277,11 @@ pub fn locate_crossing<P: Problem>(
         } else {
             &far
         };
-        let sample = evaluate(
-            problem,
+        let sample = sampler.evaluate(
             &along(&near, &far, p),
             p,
             from.tracked,
             Some(&from.spectrum),
-            &newton,
-            continuation,
         )?;
         evaluations += 1;
         let side = beyond(&sample);

@@ -23,7 +23,10 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::linalg::triangular_solve;
 use faer::perm::{PermRef, permute_rows_in_place, permute_rows_in_place_scratch};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::{SparseColMat, Triplet};
 use faer::traits::ComplexField;
+use faer::traits::math_utils::zero;
 use faer::{Conj, Mat, MatMut, MatRef, Par};
 
 use crate::numerics::parallel::FROM;
@@ -41,12 +44,82 @@ pub(crate) fn parallelism(n: usize) -> Par {
     if n >= FROM { Par::rayon(2) } else { Par::Seq }
 }
 
-/// `P A = L U`, the factors held in one matrix.
+/// `P A = L U`: dense, the factors held in one matrix, or sparse ([`SPARSE_FROM`]).
 #[derive(Clone)]
 pub struct Lu<T: ComplexField> {
-    factors: Mat<T>,
-    forward: Vec<usize>,
-    backward: Vec<usize>,
+    n: usize,
+    factors: Factors<T>,
+}
+
+#[derive(Clone)]
+enum Factors<T: ComplexField> {
+    Dense {
+        lu: Mat<T>,
+        forward: Vec<usize>,
+        backward: Vec<usize>,
+    },
+    Sparse(Box<SparseFactors<T>>),
+}
+
+#[derive(Clone)]
+struct SparseFactors<T: ComplexField> {
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, T>,
+}
+
+/// From this order a matrix with at most [`SPARSE_DENSITY`] of its entries nonzero is factorized
+/// as a sparse matrix (faer's sparse LU with partial pivoting after a fill-reducing ordering, on
+/// one thread: the same bits on every machine). Such are the Jacobians of the steady solve at
+/// rest, where no fluid acts and the elastic Hessian couples nodes at most two apart, and the
+/// twist block: at RPY `N = 473` (order 1884) the dense factorization took about 60 ms
+/// (two threads), a large part of each of the seven Newton iterations of the state at rest;
+/// the sparse one costs the nonzeros' fill, `O(N)` for a band. Counting the nonzeros reads the
+/// matrix once, stopping at the limit: a dense matrix pays a twentieth of a read.
+const SPARSE_FROM: usize = 200;
+/// The largest fraction of nonzero entries factorized as a sparse matrix.
+const SPARSE_DENSITY: f64 = 0.05;
+
+/// The sparse factors of `a` where its order and its nonzeros allow ([`SPARSE_FROM`]); `None`
+/// otherwise, or where the sparse factorization fails (the dense one then says what is wrong).
+fn sparse_factors<T: ComplexField>(a: MatRef<'_, T>) -> Option<Factors<T>> {
+    let n = a.nrows();
+    if n < SPARSE_FROM {
+        return None;
+    }
+    let limit = (SPARSE_DENSITY * (n * n) as f64) as usize;
+    let zero = zero::<T>();
+    let mut entries = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let v = &a[(i, j)];
+            if *v != zero {
+                if entries.len() == limit {
+                    return None;
+                }
+                entries.push(Triplet::new(i, j, v.clone()));
+            }
+        }
+    }
+    let matrix = SparseColMat::<usize, T>::try_new_from_triplets(n, n, &entries).ok()?;
+    let symbolic = factorize_symbolic_lu(matrix.symbolic(), Default::default()).ok()?;
+    let mut numeric = NumericLu::new();
+    let mut scratch = MemBuffer::try_new(
+        symbolic.factorize_numeric_lu_scratch::<T>(Par::Seq, Default::default()),
+    )
+    .ok()?;
+    symbolic
+        .factorize_numeric_lu(
+            &mut numeric,
+            matrix.as_ref(),
+            Par::Seq,
+            MemStack::new(&mut scratch),
+            Default::default(),
+        )
+        .ok()?;
+    Some(Factors::Sparse(Box::new(SparseFactors {
+        symbolic,
+        numeric,
+    })))
 }
 
 impl<T: ComplexField> Lu<T> {
@@ -55,10 +128,13 @@ impl<T: ComplexField> Lu<T> {
         Self::of(a.to_owned())
     }
 
-    /// The factorization of `a` (square), overwritten by its factors.
+    /// The factorization of `a` (square), overwritten by its factors where they are dense.
     pub fn of(mut a: Mat<T>) -> Self {
         let n = a.nrows();
         assert_eq!(n, a.ncols(), "LU of a {n} x {} matrix", a.ncols());
+        if let Some(factors) = sparse_factors(a.as_ref()) {
+            return Lu { n, factors };
+        }
         let par = parallelism(n);
         let mut forward = vec![0usize; n];
         let mut backward = vec![0usize; n];
@@ -77,39 +153,58 @@ impl<T: ComplexField> Lu<T> {
             Default::default(),
         );
         Lu {
-            factors: a,
-            forward,
-            backward,
+            n,
+            factors: Factors::Dense {
+                lu: a,
+                forward,
+                backward,
+            },
         }
     }
 
     /// The order of the matrix.
     pub fn dim(&self) -> usize {
-        self.factors.nrows()
-    }
-
-    fn perm(&self) -> PermRef<'_, usize> {
-        PermRef::new_checked(&self.forward, &self.backward, self.dim())
+        self.n
     }
 
     /// `rhs <- A^{-1} rhs`.
     pub(crate) fn solve_in_place(&self, rhs: MatMut<'_, T>) {
-        let par = parallelism(self.dim());
-        let mut scratch = MemBuffer::new(solve::solve_in_place_scratch::<usize, T>(
-            self.dim(),
-            rhs.ncols(),
-            par,
-        ));
-        // The unit lower solve reads only below the diagonal, the upper one only on and above.
-        solve::solve_in_place_with_conj(
-            self.factors.as_ref(),
-            self.factors.as_ref(),
-            self.perm(),
-            Conj::No,
-            rhs,
-            par,
-            MemStack::new(&mut scratch),
-        );
+        match &self.factors {
+            Factors::Dense {
+                lu,
+                forward,
+                backward,
+            } => {
+                let par = parallelism(self.n);
+                let mut scratch = MemBuffer::new(solve::solve_in_place_scratch::<usize, T>(
+                    self.n,
+                    rhs.ncols(),
+                    par,
+                ));
+                // The unit lower solve reads only below the diagonal, the upper one only on and
+                // above.
+                solve::solve_in_place_with_conj(
+                    lu.as_ref(),
+                    lu.as_ref(),
+                    PermRef::new_checked(forward, backward, self.n),
+                    Conj::No,
+                    rhs,
+                    par,
+                    MemStack::new(&mut scratch),
+                );
+            }
+            Factors::Sparse(f) => {
+                let SparseFactors { symbolic, numeric } = f.as_ref();
+                let mut scratch =
+                    MemBuffer::new(symbolic.solve_in_place_scratch::<T>(rhs.ncols(), Par::Seq));
+                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
+                    Conj::No,
+                    rhs,
+                    Par::Seq,
+                    MemStack::new(&mut scratch),
+                );
+            }
+        }
     }
 
     /// `A^{-1} rhs`.
@@ -122,29 +217,47 @@ impl<T: ComplexField> Lu<T> {
     /// `A^{-H} rhs` (the conjugate transpose; the transpose for a real matrix).
     pub(crate) fn solve_adjoint(&self, rhs: MatRef<'_, T>) -> Mat<T> {
         let mut x = rhs.to_owned();
-        let lu = self.factors.as_ref();
-        // A = P^T L U, so A^H = U^H L^H P: solve with U^H (lower), L^H (unit upper), then P^T.
-        triangular_solve::solve_lower_triangular_in_place_with_conj(
-            lu.transpose(),
-            Conj::Yes,
-            x.as_mut(),
-            Par::Seq,
-        );
-        triangular_solve::solve_unit_upper_triangular_in_place_with_conj(
-            lu.transpose(),
-            Conj::Yes,
-            x.as_mut(),
-            Par::Seq,
-        );
-        let mut scratch = MemBuffer::new(permute_rows_in_place_scratch::<usize, T>(
-            self.dim(),
-            x.ncols(),
-        ));
-        permute_rows_in_place(
-            x.as_mut(),
-            self.perm().inverse(),
-            MemStack::new(&mut scratch),
-        );
+        match &self.factors {
+            Factors::Dense {
+                lu,
+                forward,
+                backward,
+            } => {
+                // A = P^T L U, so A^H = U^H L^H P: solve with U^H (lower), L^H (unit upper), then
+                // P^T.
+                triangular_solve::solve_lower_triangular_in_place_with_conj(
+                    lu.transpose(),
+                    Conj::Yes,
+                    x.as_mut(),
+                    Par::Seq,
+                );
+                triangular_solve::solve_unit_upper_triangular_in_place_with_conj(
+                    lu.transpose(),
+                    Conj::Yes,
+                    x.as_mut(),
+                    Par::Seq,
+                );
+                let mut scratch =
+                    MemBuffer::new(permute_rows_in_place_scratch::<usize, T>(self.n, x.ncols()));
+                permute_rows_in_place(
+                    x.as_mut(),
+                    PermRef::new_checked(forward, backward, self.n).inverse(),
+                    MemStack::new(&mut scratch),
+                );
+            }
+            Factors::Sparse(f) => {
+                let SparseFactors { symbolic, numeric } = f.as_ref();
+                let mut scratch = MemBuffer::new(
+                    symbolic.solve_transpose_in_place_scratch::<T>(x.ncols(), Par::Seq),
+                );
+                LuRef::new_unchecked(symbolic, numeric).solve_transpose_in_place_with_conj(
+                    Conj::Yes,
+                    x.as_mut(),
+                    Par::Seq,
+                    MemStack::new(&mut scratch),
+                );
+            }
+        }
         x
     }
 }
@@ -181,6 +294,46 @@ mod tests {
             let xt = ours.solve_adjoint(b.as_ref());
             assert!(relative(&(a.transpose() * &xt), &b) < 1e-12, "n = {n}");
         }
+    }
+
+    /// A banded matrix of order `SPARSE_FROM + 50`, half-bandwidth 3, with a dense last row and
+    /// column (a bordered band, as the twist block beside the positions), real and complex, is
+    /// factorized sparse; its solves and adjoint solves agree with faer's dense LU to round-off,
+    /// and its residuals are at round-off. The diagonal is small against the band, so the rows
+    /// are pivoted.
+    #[test]
+    fn a_sparse_matrix_is_factorized_sparse_and_solved_as_the_dense_one() {
+        let n = SPARSE_FROM + 50;
+        let entry = |i: usize, j: usize| -> f64 {
+            let band = i.abs_diff(j) <= 3;
+            if band || i == n - 1 || j == n - 1 {
+                ((i * 7919 + j * 104_729) % 1000) as f64 / 500.0 - 1.0
+                    + if i == j { 0.1 } else { 0.0 }
+            } else {
+                0.0
+            }
+        };
+        let a = Mat::from_fn(n, n, entry);
+        let b = Mat::from_fn(n, 2, |i, j| ((i + 3 * j) as f64).sin());
+        let ours = Lu::new(a.as_ref());
+        assert!(matches!(ours.factors, Factors::Sparse(_)));
+        let x = ours.solve(b.as_ref());
+        assert!(relative(&x, &a.partial_piv_lu().solve(&b)) < 1e-10);
+        assert!(relative(&(&a * &x), &b) < 1e-12);
+        let xt = ours.solve_adjoint(b.as_ref());
+        assert!(relative(&(a.transpose() * &xt), &b) < 1e-12);
+        let ac = Mat::from_fn(n, n, |i, j| c64::new(entry(i, j), 0.3 * entry(j, i)));
+        let bc = Mat::from_fn(n, 1, |i, _| c64::new((i as f64).cos(), 1.0));
+        let lu = Lu::new(ac.as_ref());
+        assert!(matches!(lu.factors, Factors::Sparse(_)));
+        let err = |r: Mat<c64>| r.norm_l2() / bc.norm_l2();
+        assert!(err(&ac * lu.solve(bc.as_ref()) - &bc) < 1e-12);
+        assert!(err(ac.adjoint() * lu.solve_adjoint(bc.as_ref()) - &bc) < 1e-12);
+        // The dense test matrix of the same order stays dense.
+        assert!(matches!(
+            Lu::new(matrix(n).as_ref()).factors,
+            Factors::Dense { .. }
+        ));
     }
 
     #[test]
