@@ -36,5 +36,8 @@ pub fn machine() -> String {
         })
         .unwrap_or_else(|| "unknown CPU".into());
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
-    format!("{cpu}, {cores} cores, faer single-threaded")
+    format!(
+        "{cpu}, {cores} cores (dense LU, its solves and the RPY kernels on two threads, the rest \
+         of faer on one)"
+    )
 }
