@@ -399,3 +399,84 @@ fn newton_reports_the_indefinite_mobility_not_a_bare_line_search_failure() {
         other => panic!("expected the mobility's error, got {other:?}"),
     }
 }
+
+/// A Hopf pair whose real part bends with the parameter, `r(p) = (p^2 - 4) + a (p^2 - 4)^2`
+/// (`a = 2`), through a state that moves with it (`u0 = p^2`, so every solve has work): the
+/// Hopf point is at `p = 2`, where `dr/dp = 4` exactly.
+fn bent_hopf() -> Reference {
+    let a = 2.0;
+    let r = move |u0: f64| (u0 - 4.0) + a * (u0 - 4.0).powi(2);
+    let dr = move |u0: f64| 1.0 + 2.0 * a * (u0 - 4.0);
+    Analytic {
+        dim: 3,
+        g: Box::new(move |u: &[f64], p: f64| {
+            let (x, y) = (u[1], u[2]);
+            vec![p * p - u[0], r(u[0]) * x - y, x + r(u[0]) * y]
+        }) as Residual,
+        g_u: Box::new(move |u: &[f64], _: f64| {
+            let (x, y) = (u[1], u[2]);
+            vec![
+                vec![-1.0, 0.0, 0.0],
+                vec![dr(u[0]) * x, r(u[0]), -1.0],
+                vec![dr(u[0]) * y, 1.0, r(u[0])],
+            ]
+        }) as Jacobian,
+        g_p: Box::new(|_: &[f64], p: f64| vec![2.0 * p, 0.0, 0.0]) as Residual,
+    }
+}
+
+/// The crossing search of a sequenced rung ([`locate_crossing`]) from a state off the Hopf
+/// point, with a slope half again too steep: it ends within the event tolerance of the exact
+/// `p = 2`, on the stable side (the event is the bracket's near end, unstable count 0 and
+/// `Re s <= 0`), and its stated precision covers its distance to the zero. The slope of the
+/// eigenvalue over a relative step `1e-3` below the point equals the closed-form secant of
+/// `r(p)` to the Newton tolerance, within 2% of `dr/dp = 4`.
+#[test]
+fn a_crossing_is_located_from_a_nearby_state_on_its_stable_side() {
+    use faer::c64;
+    use helixbif::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
+    let problem = bent_hopf();
+    let continuation = ContinuationSettings::default();
+    let search = CrossingSettings {
+        first_step: 5e-3,
+        slope: Some(6.0),
+        max_evaluations: 40,
+        unstable_before: 0,
+    };
+    let u0 = [2.1f64 * 2.1, 0.0, 0.0];
+    let crossing = locate_crossing(
+        &problem,
+        &u0,
+        2.1,
+        c64::new(0.0, 1.0),
+        &search,
+        &continuation,
+    )
+    .unwrap();
+    let event = &crossing.event;
+    let tol = continuation.event_tol;
+    let distance = (event.p - 2.0).abs() / 2.0;
+    assert!(event.kind == EventKind::Hopf, "{:?}", event.kind);
+    assert!(distance <= tol, "p = {}", event.p);
+    assert!(distance <= event.precision, "{distance:e} {event:?}");
+    assert_eq!(event.unstable_before, 0);
+    assert_eq!(event.spectrum.unstable, 0);
+    assert!(event.eigenvalue.re <= 0.0, "{}", event.eigenvalue);
+    // Seven solves here, from 5% away with the wrong slope; the search allows forty.
+    assert!(crossing.evaluations <= 10, "{}", crossing.evaluations);
+    let r = |p: f64| (p * p - 4.0) + 2.0 * (p * p - 4.0).powi(2);
+    let slope = eigenvalue_slope(
+        &problem,
+        &event.u,
+        event.p,
+        event.eigenvalue,
+        1e-3,
+        &continuation,
+    )
+    .unwrap();
+    let below = event.p * (1.0 - 1e-3);
+    let secant = (r(event.p) - r(below)) / (event.p - below);
+    assert!((slope - secant).abs() < 1e-6, "{slope} against {secant}");
+    // The secant's own error against dr/dp = 4 is r''/2 times the step: 33 * 2e-3 = 0.066.
+    assert!((slope - 4.0).abs() < 0.02 * 4.0, "{slope}");
+}

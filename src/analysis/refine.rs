@@ -10,7 +10,7 @@ use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located, Lo
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Point;
 use crate::engine::arclength::{AtParameter, stability};
-use crate::engine::crossing::{CrossingSettings, locate_crossing};
+use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
 use crate::engine::curve::others;
 use crate::engine::events::Event;
 use crate::engine::events::EventKind;
@@ -180,7 +180,9 @@ fn at_nodes(physical: &Physical, nodes: usize) -> Physical {
 }
 
 /// A rung's result: its model, what it located, its first loss of stability, and the slope
-/// `d Re s / d omegabar` of the critical eigenvalue there.
+/// `d Re s / d omegabar` of the critical eigenvalue there (from a sequenced rung's final
+/// bracket; `None` for a rung followed from rest, whose slope [`event_slope`] makes when a finer
+/// rung needs it).
 struct Solved {
     model: Model,
     located: Located,
@@ -188,14 +190,35 @@ struct Solved {
     slope: Option<f64>,
 }
 
-/// The slope `d Re s / d omegabar` of the critical eigenvalue at the event of `critical`, from
-/// the last point of its branch before it (the eigenvalue tracked back to it).
-fn branch_slope(critical: &Critical) -> Option<f64> {
-    let lead = critical.branch.last()?;
-    let s = lead.spectrum.nearest(critical.event.eigenvalue);
-    let slope = (critical.event.eigenvalue.re - s.re) / (critical.event.p - lead.omegabar);
-    slope.is_finite().then_some(slope)
+/// The slope `d Re s / d omegabar` of the critical eigenvalue at the Hopf point of `critical`
+/// on `model`, over a relative step [`SLOPE_STEP`] below it ([`eigenvalue_slope`]; one Newton
+/// solve and spectrum on the coarsest mesh); where that solve fails, from the last point of its
+/// branch before it (the eigenvalue tracked back to it), a continuation step away.
+fn event_slope(model: &Model, critical: &Critical, settings: &LocateSettings) -> Option<f64> {
+    let event = &critical.event;
+    let omegabar_max = model.scales.omega_to_bar(settings.omega_max);
+    let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
+    let u = carry(model, &event.u, &critical.chart, model);
+    let local = eigenvalue_slope(
+        &problem,
+        &u,
+        event.p,
+        event.eigenvalue,
+        SLOPE_STEP,
+        settings.continuation,
+    );
+    local.ok().or_else(|| {
+        let lead = critical.branch.last()?;
+        let s = lead.spectrum.nearest(event.eigenvalue);
+        let slope = (event.eigenvalue.re - s.re) / (event.p - lead.omegabar);
+        slope.is_finite().then_some(slope)
+    })
 }
+
+/// The relative step of [`event_slope`]: well inside the first step of a finer rung's search
+/// (its Hopf point moves by about `1e-2` relative from `N = 60` to 119, less after), and far
+/// above the event tolerance.
+const SLOPE_STEP: f64 = 1e-3;
 
 /// One rung by continuation from rest: `locate` on `physical` at `nodes` nodes.
 fn continuation_rung(
@@ -208,7 +231,8 @@ fn continuation_rung(
     observer.rung(&model);
     let (located, critical) = locate(&model, settings, observer)?;
     Ok(Solved {
-        slope: critical.as_ref().and_then(branch_slope),
+        // Made where a finer rung is sequenced from this one ([`sequenced_rung`]).
+        slope: None,
         model,
         located,
         critical,
@@ -354,9 +378,12 @@ fn sequenced_rung(
     let omegabar_max = fine.scales.omega_to_bar(settings.omega_max);
     let problem = RodProblem::new(&fine, Parameter::Omega, omega_scale(omegabar_max));
     let u0 = carry(&coarse.model, &critical.event.u, &critical.chart, &fine);
+    let coarse_slope = coarse
+        .slope
+        .or_else(|| event_slope(&coarse.model, critical, settings));
     let search = CrossingSettings {
         first_step: 5e-3,
-        slope: coarse.slope,
+        slope: coarse_slope,
         max_evaluations: 40,
         unstable_before: 0,
     };
@@ -370,14 +397,16 @@ fn sequenced_rung(
     )?;
     let scales = fine.scales;
     // How far the real part of the critical eigenvalue moved from the coarser mesh at one
-    // rate: its slope in `omegabar` over the final bracket times the move of the crossing.
-    let (near, event) = (&crossing.near, &crossing.event);
-    let slope = (event.eigenvalue.re - near.tracked.re) / (event.p - near.p);
-    let slope = if slope.is_finite() && event.p != near.p {
-        Some(slope)
-    } else {
-        coarse.slope
-    };
+    // rate: its slope in `omegabar` between the event and the nearest other sample of the
+    // search (the near end of the final bracket, or where the search ended at it, the first
+    // sample) times the move of the crossing.
+    let event = &crossing.event;
+    let slope = [&crossing.near, &crossing.first]
+        .into_iter()
+        .find(|sample| sample.p != event.p)
+        .map(|sample| (event.eigenvalue.re - sample.tracked.re) / (event.p - sample.p))
+        .filter(|g| g.is_finite())
+        .or(coarse_slope);
     let shift = match slope {
         Some(g) => (g * (event.p - critical.event.p)).abs(),
         None => (crossing.first.tracked.re - critical.event.eigenvalue.re).abs(),
