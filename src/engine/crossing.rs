@@ -98,7 +98,20 @@ struct Sampler<'a, P: Problem> {
     previous: Option<Previous>,
 }
 
-impl<P: Problem> Sampler<'_, P> {
+impl<'a, P: Problem> Sampler<'a, P> {
+    /// The sampler of `problem`, its Newton solves to the continuation's tolerance.
+    fn new(problem: &'a P, settings: &'a ContinuationSettings) -> Self {
+        Sampler {
+            problem,
+            newton: Newton::from(&NewtonSettings {
+                tol: settings.tol,
+                ..NewtonSettings::default()
+            }),
+            settings,
+            previous: None,
+        }
+    }
+
     /// The solution at `p` from `guess`, its spectrum (after `prior`) and the eigenvalue nearest
     /// `track`. The samples lie close together, so the problem's coordinates stay where they
     /// are (unlike along a branch, no chart is moved): every state of the search is measured in
@@ -182,15 +195,7 @@ pub fn eigenvalue_slope<P: Problem>(
     step: f64,
     continuation: &ContinuationSettings,
 ) -> Result<f64> {
-    let mut sampler = Sampler {
-        problem,
-        newton: Newton::from(&NewtonSettings {
-            tol: continuation.tol,
-            ..NewtonSettings::default()
-        }),
-        settings: continuation,
-        previous: None,
-    };
+    let mut sampler = Sampler::new(problem, continuation);
     let below = p - step * p.abs();
     let sample = sampler.evaluate(u, below, s, None)?;
     let slope = (s.re - sample.tracked.re) / (p - below);
@@ -214,15 +219,7 @@ pub fn locate_crossing<P: Problem>(
     search: &CrossingSettings,
     continuation: &ContinuationSettings,
 ) -> Result<Crossing> {
-    let mut sampler = Sampler {
-        problem,
-        newton: Newton::from(&NewtonSettings {
-            tol: continuation.tol,
-            ..NewtonSettings::default()
-        }),
-        settings: continuation,
-        previous: None,
-    };
+    let mut sampler = Sampler::new(problem, continuation);
     let tol = continuation.event_tol;
     let beyond = |s: &State| s.spectrum.unstable > search.unstable_before;
     let first = sampler.evaluate(u0, p0, track, None)?;

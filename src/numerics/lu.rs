@@ -53,12 +53,22 @@ pub struct Lu<T: ComplexField> {
 
 #[derive(Clone)]
 enum Factors<T: ComplexField> {
-    Dense {
-        lu: Mat<T>,
-        forward: Vec<usize>,
-        backward: Vec<usize>,
-    },
+    Dense(DenseFactors<T>),
     Sparse(Box<SparseFactors<T>>),
+}
+
+/// `L` and `U` in one matrix and the row permutation.
+#[derive(Clone)]
+struct DenseFactors<T: ComplexField> {
+    lu: Mat<T>,
+    forward: Vec<usize>,
+    backward: Vec<usize>,
+}
+
+impl<T: ComplexField> DenseFactors<T> {
+    fn perm(&self) -> PermRef<'_, usize> {
+        PermRef::new_checked(&self.forward, &self.backward, self.lu.nrows())
+    }
 }
 
 #[derive(Clone)]
@@ -154,11 +164,11 @@ impl<T: ComplexField> Lu<T> {
         );
         Lu {
             n,
-            factors: Factors::Dense {
+            factors: Factors::Dense(DenseFactors {
                 lu: a,
                 forward,
                 backward,
-            },
+            }),
         }
     }
 
@@ -170,12 +180,8 @@ impl<T: ComplexField> Lu<T> {
     /// `rhs <- A^{-1} rhs`.
     pub(crate) fn solve_in_place(&self, rhs: MatMut<'_, T>) {
         match &self.factors {
-            Factors::Dense {
-                lu,
-                forward,
-                backward,
-            } => {
-                let par = parallelism(self.n);
+            Factors::Dense(dense) => {
+                let (lu, par) = (&dense.lu, parallelism(self.n));
                 let mut scratch = MemBuffer::new(solve::solve_in_place_scratch::<usize, T>(
                     self.n,
                     rhs.ncols(),
@@ -186,7 +192,7 @@ impl<T: ComplexField> Lu<T> {
                 solve::solve_in_place_with_conj(
                     lu.as_ref(),
                     lu.as_ref(),
-                    PermRef::new_checked(forward, backward, self.n),
+                    dense.perm(),
                     Conj::No,
                     rhs,
                     par,
@@ -218,11 +224,8 @@ impl<T: ComplexField> Lu<T> {
     pub(crate) fn solve_adjoint(&self, rhs: MatRef<'_, T>) -> Mat<T> {
         let mut x = rhs.to_owned();
         match &self.factors {
-            Factors::Dense {
-                lu,
-                forward,
-                backward,
-            } => {
+            Factors::Dense(dense) => {
+                let lu = &dense.lu;
                 // A = P^T L U, so A^H = U^H L^H P: solve with U^H (lower), L^H (unit upper), then
                 // P^T.
                 triangular_solve::solve_lower_triangular_in_place_with_conj(
@@ -241,7 +244,7 @@ impl<T: ComplexField> Lu<T> {
                     MemBuffer::new(permute_rows_in_place_scratch::<usize, T>(self.n, x.ncols()));
                 permute_rows_in_place(
                     x.as_mut(),
-                    PermRef::new_checked(forward, backward, self.n).inverse(),
+                    dense.perm().inverse(),
                     MemStack::new(&mut scratch),
                 );
             }
@@ -332,7 +335,7 @@ mod tests {
         // The dense test matrix of the same order stays dense.
         assert!(matches!(
             Lu::new(matrix(n).as_ref()).factors,
-            Factors::Dense { .. }
+            Factors::Dense(_)
         ));
     }
 
