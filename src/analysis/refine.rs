@@ -397,9 +397,9 @@ fn sequenced_rung(
     )?;
     let scales = fine.scales;
     // How far the real part of the critical eigenvalue moved from the coarser mesh at one
-    // rate: its slope in `omegabar` between the event and the nearest other sample of the
-    // search (the near end of the final bracket, or where the search ended at it, the first
-    // sample) times the move of the crossing.
+    // rate: its slope in `omegabar` between the event and another sample of the search (the
+    // near end of the final bracket, or where the search ended at it, the first sample) times
+    // the move of the crossing.
     let event = &crossing.event;
     let slope = [&crossing.near, &crossing.first]
         .into_iter()

@@ -18,10 +18,10 @@
 //! narrower than `event_tol |p|`, or until the secant through its ends puts the zero within
 //! half of `event_tol |p|` of the near end. The precision stated is then twice that distance:
 //! the secant's own error is a fraction of the distance, the bracket's width over the scale on
-//! which `h` bends (2% in `tests/event_logic.rs`, a bracket of `1.3e-3` relative on a real
-//! part quadratic in `p`). Brent's samples are moved by a quarter of the tolerance towards the
-//! near end, so that where the interpolation is that accurate the sample lands on the stable
-//! side and ends the search there. The near end is a state on the stable side whose unstable count is the
+//! which `h` bends (measured 2% over a bracket of `1.3e-3` relative on a real part quadratic
+//! in `p`). Brent's samples are moved by a quarter of the tolerance towards the near end, so
+//! that where the interpolation is that accurate the sample lands on the stable side and ends
+//! the search there. The near end is a state on the stable side whose unstable count is the
 //! count before the crossing, and the event's eigenvalue is the one that crossed between the
 //! ends ([`crossing_eigenvalue`]).
 
@@ -162,7 +162,7 @@ impl<'a, P: Problem> Sampler<'a, P> {
 /// crossing the counts see, and its line says nothing).
 fn secant_zero(near: &State, far: &State) -> Option<f64> {
     let (a, b) = (near.tracked.re, far.tracked.re);
-    (a <= 0.0 && b > 0.0).then(|| near.p - a * (far.p - near.p) / (b - a))
+    (a < 0.0 && b > 0.0).then(|| near.p - a * (far.p - near.p) / (b - a))
 }
 
 /// The solution guess at `p` on the line through the states `a` and `b` (interpolated inside

@@ -302,8 +302,7 @@ mod tests {
     /// A banded matrix of order `SPARSE_FROM + 50`, half-bandwidth 3, with a dense last row and
     /// column (a bordered band, as the twist block beside the positions), real and complex, is
     /// factorized sparse; its solves and adjoint solves agree with faer's dense LU to round-off,
-    /// and its residuals are at round-off. The diagonal is small against the band, so the rows
-    /// are pivoted.
+    /// and its residuals are at round-off.
     #[test]
     fn a_sparse_matrix_is_factorized_sparse_and_solved_as_the_dense_one() {
         let n = SPARSE_FROM + 50;

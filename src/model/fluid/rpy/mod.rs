@@ -470,6 +470,7 @@ impl Rpy {
             y.nrows(),
             x.len()
         );
+        assert_eq!(x.len(), self.nodes(), "mobility_product: {} nodes", x.len());
         if y.ncols() == 0 {
             return Mat::zeros(y.nrows(), 0);
         }
