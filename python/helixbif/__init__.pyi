@@ -152,10 +152,16 @@ class Located(_Result):
     l1_failure: str | None
     error: float | None
     """Estimated error of omega_b against the continuous model, rad/s (`omega_b_error`): the
-    discretization error in N (`estimate`) plus the size of the RPY quadrature's own error
-    (`quadrature`)."""
+    answer's error in N (the finest rung's discretization error, `estimate`, or the limit's,
+    `extrapolation_error`) plus the size of the RPY quadrature's own error (`quadrature`)."""
     omega_b_error: float | None
     relative_error: float | None
+    answer: Literal["finest_rung", "limit"]
+    """Where omega_b comes from (refined): the finest rung, or the limit in N of the three finest
+    rungs."""
+    omega_b_finest: float | None
+    """The finest rung's own omega_b, rad/s (refined), and its error (`finest_error`)."""
+    finest_error: float | None
     accuracy: float | None
     """The accuracy asked for; None for a study that fixes N (its error estimated from a coarser
     rung)."""
@@ -172,9 +178,9 @@ class Located(_Result):
     """The hydrodynamic model of the rungs (refined)."""
     omega_b_extrapolated: float
     """rad/s (ladder)"""
-    extrapolation_error: float
-    """rad/s (ladder): the extrapolation's own error; `error` adds the size of the quadrature's
-    error on the RPY line."""
+    extrapolation_error: float | None
+    """rad/s (ladder; refined where `answer` is `limit`, else None): the extrapolation's own
+    error; `error` adds the size of the quadrature's error on the RPY line."""
     omegabar_b_extrapolated: float
     coefficients: list[float]
     """The ladder's fit of omegabar_b(N), lowest order first (see `model`)."""

@@ -39,9 +39,16 @@ pub trait RungObserver: Observer<Point, Event> {
     fn located(&mut self, _nodes: usize, _located: &Located) {}
     /// The RPY quadrature's own error of `omega_b`, measured at the coarsest rung.
     fn quadrature(&mut self, _quadrature: &QuadratureError) {}
-    /// The estimated relative error of the finest `omega_b` so far: its discretization error
-    /// `estimate` plus the quadrature's (where measured).
-    fn estimated(&mut self, _relative: f64, _estimate: &DiscretizationError) {}
+    /// The estimated relative error of the answer so far ([`Answer`]: the finest `omega_b`, or
+    /// `limit`, that of the three finest rungs, where it is the answer): its error in `N` plus
+    /// the quadrature's (where measured). `estimate` is the finest rung's own.
+    fn estimated(
+        &mut self,
+        _relative: f64,
+        _estimate: &DiscretizationError,
+        _limit: Option<&Extrapolated>,
+    ) {
+    }
 }
 
 /// No progress to show.
@@ -72,27 +79,43 @@ pub struct Ladder {
     pub nodes_max: Option<usize>,
 }
 
-/// `locate --accuracy EPS` (the default of `locate`): `omega_b` refined in `N` until its
-/// estimated discretization error (docs/model.md section 10, [`discretization_error`]) is below
-/// `EPS` relative, or the model can go no further; or, without an accuracy, `omega_b` at a fixed
-/// `N` with its error estimated from a coarser rung ([`estimate_at_nodes`]).
+/// `locate --accuracy EPS` (the default of `locate`): `omega_b` refined in `N` until the
+/// estimated error of the answer (docs/model.md section 10) is below `EPS` relative, or the
+/// model can go no further; or, without an accuracy, `omega_b` at a fixed `N` with its error
+/// estimated from a coarser rung ([`estimate_at_nodes`]). The answer ([`Answer`]) is the finest
+/// rung's `omega_b` with its discretization error ([`discretization_error`]), or, where the
+/// model has the second order alone and the three finest rungs converge as it allows, their
+/// limit in `N` with its error ([`trusted_limit`]), whichever has the smaller error.
 #[derive(Serialize)]
 pub struct Refinement {
-    /// The finest rung, whose `omega_b` is the answer (its fields at the top level).
+    /// The finest rung (its fields at the top level), except that its `omega_b` and
+    /// `omegabar_b` are the answer's (the finest rung's own are in `omega_b_finest` and in
+    /// `rungs`).
     #[serde(flatten)]
     pub finest: Located,
+    /// Where the answer comes from.
+    pub answer: Answer,
     /// Relative accuracy asked for; `None` where the rungs were fixed instead (a study that fixes
     /// `N`: its error estimated from a coarser rung, [`estimate_at_nodes`]).
     pub accuracy: Option<f64>,
-    /// Whether the estimated relative error is below `accuracy`.
+    /// Whether the estimated relative error of the answer is below `accuracy`.
     pub reached: bool,
-    /// Estimated error of `omega_b` against the continuous model (rad/s) and relative: the
-    /// discretization error in `N` (`estimate`) plus the size of the quadrature's own error
-    /// (`quadrature`, RPY line); absent with one rung.
+    /// Estimated error of the answer against the continuous model (rad/s) and relative: its
+    /// error in `N` (the finest rung's discretization error, `estimate`, or the limit's,
+    /// `extrapolation_error`) plus the size of the quadrature's own error (`quadrature`, RPY
+    /// line); absent with one rung.
     pub omega_b_error: Option<f64>,
     pub relative_error: Option<f64>,
-    /// The discretization error in `N`: its size, limit, observed order and method.
-    pub estimate: Option<DiscretizationError>,
+    /// The finest rung's own `omega_b` (rad/s) and its error (its discretization error plus the
+    /// quadrature's), whatever the answer.
+    pub omega_b_finest: Option<f64>,
+    pub finest_error: Option<f64>,
+    /// The error in `N` of the limit where it is the answer: the change of the limit from the
+    /// pair of rungs before ([`extrapolate_with`]); without the quadrature's.
+    pub extrapolation_error: Option<f64>,
+    /// The discretization error in `N` of the finest rung: its size, limit, observed order and
+    /// method. Boxed, as `quadrature`.
+    pub estimate: Option<Box<DiscretizationError>>,
     /// The RPY line's quadrature error, measured at the coarsest rung (absent on Lighthill's
     /// operator, which has no quadrature of its own). Boxed: a refinement is moved whole.
     pub quadrature: Option<Box<QuadratureError>>,
@@ -103,6 +126,59 @@ pub struct Refinement {
     pub stopped: Option<String>,
     /// The hydrodynamic model the rungs use.
     pub fluid: FluidModel,
+}
+
+/// Where a refinement's answer comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Answer {
+    /// The finest rung's `omega_b`, with its discretization error.
+    FinestRung,
+    /// The limit in `N` of the three finest rungs, with its error ([`trusted_limit`]).
+    Limit,
+}
+
+/// The smallest order observed over the three finest rungs at which their limit is trusted
+/// ([`trusted_limit`]).
+const LIMIT_MIN_ORDER: f64 = 1.5;
+
+/// The limit in `N` of the three finest rungs `nodes`, `values` with the known order 2 alone
+/// ([`extrapolate_with`]: `c0` of `c0 + c2 h^2` through the two finest, its error the change of
+/// `c0` from the pair before), where that error can be trusted: on a model with the second
+/// order alone ([`Orders::Second`]: the RPY line with the centred clamp), three rungs or more
+/// whose increments have one sign and shrink with an observed order `p` (`observed_order`, the
+/// finest rung's estimate's, [`DiscretizationError::observed_order`]) of at least
+/// [`LIMIT_MIN_ORDER`]. Why that suffices: with a remainder of order
+/// `q`, `v = c + C h^q`, at a halving the change of the limit is `2^q - 1` times the finer
+/// limit's error (the second-order limit of a pair errs by `C h_f^q (4 - 2^q)/3`); it covers
+/// that error for every `q > 1`, by 1.8 at `q = 1.5` and 7 at a third-order remainder, and a
+/// pure second-order remainder leaves the finer limit exact. Below order 1 it would not, hence
+/// the floor on `p`. `None` where it does not hold.
+pub fn trusted_limit(
+    orders: Orders,
+    nodes: &[usize],
+    values: &[f64],
+    observed_order: Option<f64>,
+) -> Result<Option<Extrapolated>> {
+    let k = nodes.len();
+    if orders != Orders::Second || k < 3 || !observed_order.is_some_and(|p| p >= LIMIT_MIN_ORDER) {
+        return Ok(None);
+    }
+    extrapolate_with(orders, &nodes[k - 3..], &values[k - 3..]).map(Some)
+}
+
+/// The answer of rungs whose finest value `finest` has the discretization error `estimate`,
+/// and its error in `N`: the trusted `limit` where there is one and its error is the smaller,
+/// else the finest value.
+fn answer(
+    finest: f64,
+    estimate: &DiscretizationError,
+    limit: Option<&Extrapolated>,
+) -> (Answer, f64, f64) {
+    match limit {
+        Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error),
+        _ => (Answer::FinestRung, finest, estimate.error),
+    }
 }
 
 /// One rung of a refinement.
@@ -658,7 +734,7 @@ pub fn estimate_at_nodes(
 }
 
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated
-/// relative error of the finest `omega_b` is below `accuracy` (with none, until `max_nodes`),
+/// relative error of the answer ([`Refinement`]) is below `accuracy` (with none, until `max_nodes`),
 /// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
 /// section 3) or `max_nodes`, a rung fails (the rungs before it are kept), or the rungs stop
 /// finding one kind of event.
@@ -689,6 +765,8 @@ pub fn refine(
     let mut finest: Option<Solved> = None;
     // The estimate of the finest rung (none while it has no omega_b or another kind of event).
     let mut estimate: Option<DiscretizationError> = None;
+    // The limit of the three finest rungs, where it is trusted ([`trusted_limit`]).
+    let mut extrapolated: Option<Extrapolated> = None;
     // The quadrature's own error, measured at the coarsest rung (RPY line).
     let mut quadrature: Option<Box<QuadratureError>> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
@@ -758,6 +836,7 @@ pub fn refine(
             seconds: started.elapsed().as_secs_f64(),
         });
         estimate = None;
+        extrapolated = None;
         let kind_changed = rungs[0].kind != located.kind;
         let found = located.omega_b.is_some();
         finest = Some(solved);
@@ -803,9 +882,12 @@ pub fn refine(
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
-            let relative =
-                total_error(e.error, quadrature.as_deref()) / values[values.len() - 1].abs();
-            observer.estimated(relative, &e);
+            extrapolated = trusted_limit(orders, &nodes, &values, e.observed_order)?;
+            let (source, value, error) =
+                answer(values[values.len() - 1], &e, extrapolated.as_ref());
+            let relative = total_error(error, quadrature.as_deref()) / value.abs();
+            let answered = extrapolated.as_ref().filter(|_| source == Answer::Limit);
+            observer.estimated(relative, &e, answered);
             estimate = Some(e);
             if accuracy.is_some_and(|a| relative < a) {
                 break None;
@@ -827,18 +909,38 @@ pub fn refine(
     if let (true, Some(c)) = (settings.criticality, &critical) {
         finest = finest.with_criticality(&model, &c.event, &c.chart);
     }
-    let omega_b_error = estimate
+    let omega_b_finest = finest.omega_b;
+    let finest_error = estimate
         .as_ref()
         .map(|e| total_error(e.error, quadrature.as_deref()));
+    let (answer, omega_b_error) = match (&estimate, omega_b_finest) {
+        (Some(e), Some(w)) => {
+            let (source, value, error) = answer(w, e, extrapolated.as_ref());
+            if source == Answer::Limit {
+                let ratio = finest.omegabar_b.map_or(f64::NAN, |wb| wb / w);
+                finest.omega_b = Some(value);
+                finest.omegabar_b = Some(value * ratio);
+            }
+            (source, Some(total_error(error, quadrature.as_deref())))
+        }
+        _ => (Answer::FinestRung, None),
+    };
+    let extrapolation_error = extrapolated
+        .filter(|_| answer == Answer::Limit)
+        .map(|l| l.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
     Ok(Refinement {
         finest,
+        answer,
         accuracy,
         reached,
         omega_b_error,
         relative_error,
-        estimate,
+        omega_b_finest,
+        finest_error,
+        extrapolation_error,
+        estimate: estimate.map(Box::new),
         quadrature,
         rungs,
         stopped: if reached { None } else { stopped },

@@ -4,6 +4,7 @@
 
 mod args;
 mod commands;
+mod numbers;
 mod report;
 
 use std::io::Write;

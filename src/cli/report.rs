@@ -4,12 +4,14 @@
 
 use std::fmt::{self, Display, Formatter};
 
+use super::numbers::{maybe, rounded_up};
+
 use serde::Serialize;
 
 use helixbif::analysis::boundary::BoundaryEvent;
 use helixbif::analysis::dynamics::Bisection;
 use helixbif::analysis::locate::{Located, Loss};
-use helixbif::analysis::refine::{Ladder, QuadratureError, Refinement};
+use helixbif::analysis::refine::{Answer, Ladder, QuadratureError, Refinement};
 use helixbif::analysis::solve::SolutionSummary;
 use helixbif::model::fluid::FluidModel;
 use helixbif::numerics::fit::PowerLaw;
@@ -72,11 +74,6 @@ impl<T: Section> Display for Titled<T> {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         self.result.show(&self.study, f)
     }
-}
-
-/// `x` with `digits` significant digits, or `-` when absent.
-fn maybe(x: Option<f64>, digits: usize) -> String {
-    x.map_or("-".into(), |v| format!("{v:.digits$}"))
 }
 
 impl Section for SolutionSummary {
@@ -270,6 +267,22 @@ fn quadrature_line(f: &mut Formatter<'_>, q: &QuadratureError, limit: Option<f64
     }
 }
 
+/// Where a refinement's answer stands: `N = n` for the finest rung, `limit of N = a, b, c` for
+/// the limit of the three finest rungs.
+fn answered_at(r: &Refinement) -> String {
+    match r.answer {
+        Answer::FinestRung => format!("N = {}", r.finest.nodes),
+        Answer::Limit => format!(
+            "limit of N = {}",
+            r.rungs[r.rungs.len().saturating_sub(3)..]
+                .iter()
+                .map(|g| g.nodes.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
 impl Section for Refinement {
     fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
         let fluid = match self.fluid {
@@ -281,19 +294,24 @@ impl Section for Refinement {
             .criticality
             .map_or(String::new(), |v| format!(", {v}"));
         let n = self.finest.nodes;
-        // The one number first: omega_b with its discretization error.
+        let at = answered_at(self);
+        // The one number first: omega_b with its error.
         match (self.finest.omega_b, self.omega_b_error, self.relative_error) {
             (Some(w), Some(e), Some(rel)) if self.accuracy.is_none() => writeln!(
                 f,
-                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; estimated error {rel:.1e} \
+                "omega_b = {w:.6} +- {} rad/s ({}{verdict}; estimated error {} \
                  relative at the study's N = {n}, {fluid})",
-                self.finest.kind
+                rounded_up(e, 2),
+                self.finest.kind,
+                rounded_up(rel, 2)
             )?,
             (Some(w), Some(e), Some(rel)) if self.reached => writeln!(
                 f,
-                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; converged to {rel:.0e} relative{}, \
-                 {fluid}, N = {n})",
+                "omega_b = {w:.6} +- {} rad/s ({}{verdict}; converged to {} relative{}, \
+                 {fluid}, {at})",
+                rounded_up(e, 2),
                 self.finest.kind,
+                rounded_up(rel, 1),
                 if self.quadrature.as_ref().is_some_and(|q| q.error.is_none()) {
                     " in N, the quadrature's error NOT measured"
                 } else {
@@ -302,10 +320,12 @@ impl Section for Refinement {
             )?,
             (Some(w), Some(e), Some(rel)) => writeln!(
                 f,
-                "omega_b = {w:.6} +- {e:.1e} rad/s ({}{verdict}; NOT converged to {:.0e}: \
-                 estimated error {rel:.1e} relative, {fluid}, N = {n})",
+                "omega_b = {w:.6} +- {} rad/s ({}{verdict}; NOT converged to {:.0e}: \
+                 estimated error {} relative, {fluid}, {at})",
+                rounded_up(e, 2),
                 self.finest.kind,
-                self.accuracy.unwrap_or(f64::NAN)
+                self.accuracy.unwrap_or(f64::NAN),
+                rounded_up(rel, 2)
             )?,
             (Some(w), _, _) => writeln!(
                 f,
@@ -344,7 +364,18 @@ impl Section for Refinement {
                 )?;
             }
         }
-        self.finest.show(study, f)?;
+        // The finest rung's own point (the top-level omega_b may be the limit).
+        let ratio = self
+            .finest
+            .omegabar_b
+            .zip(self.finest.omega_b)
+            .map_or(f64::NAN, |(wb, w)| wb / w);
+        Located {
+            omega_b: self.omega_b_finest,
+            omegabar_b: self.omega_b_finest.map(|w| w * ratio),
+            ..self.finest.clone()
+        }
+        .show(study, f)?;
         if let Some(est) = &self.estimate {
             write!(
                 f,
@@ -356,17 +387,34 @@ impl Section for Refinement {
             }
             write!(f, "; limit {:.8} rad/s)", est.limit)?;
         }
+        let limit = match (self.answer, self.finest.omega_b, self.extrapolation_error) {
+            (Answer::Limit, Some(w), Some(e)) => {
+                write!(
+                    f,
+                    "\n  {at}: {w:.8} rad/s, its error in N {e:.2e} rad/s (the second-order \
+                     limit of the two finest rungs; its error the change from the limit of the \
+                     pair before, which covers it for any order above 1: docs/model.md section \
+                     10)"
+                )?;
+                Some(w)
+            }
+            _ => self.estimate.as_ref().map(|est| est.limit),
+        };
         if let Some(q) = &self.quadrature {
-            quadrature_line(f, q, self.estimate.as_ref().map(|est| est.limit))?;
+            quadrature_line(f, q, limit)?;
         }
         if let (Some(e), Some(rel)) = (self.omega_b_error, self.relative_error) {
+            let in_n = match self.answer {
+                Answer::Limit => "the error of the limit in N",
+                Answer::FinestRung => "the discretization error",
+            };
             write!(
                 f,
-                "\n  error of omega_b: {e:.2e} rad/s ({rel:.2e} relative){}",
+                "\n  error of omega_b: {e:.2e} rad/s ({rel:.2e} relative), {in_n}{}",
                 if self.quadrature.as_ref().is_some_and(|q| q.error.is_some()) {
-                    ", the discretization error plus the size of the quadrature error"
+                    " plus the size of the quadrature error"
                 } else {
-                    ", the discretization error"
+                    ""
                 }
             )?;
         }

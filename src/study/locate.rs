@@ -16,7 +16,7 @@ use crate::engine::arclength::Point;
 use crate::engine::events::Event;
 use crate::engine::stop::Observer;
 use crate::model::Model;
-use crate::numerics::extrapolation::DiscretizationError;
+use crate::numerics::extrapolation::{DiscretizationError, Extrapolated};
 use crate::study::Study;
 use crate::study::interrupt;
 use crate::study::progress::{self, progress};
@@ -148,14 +148,24 @@ impl RungObserver for RungProgress<'_> {
         });
     }
 
-    fn estimated(&mut self, relative: f64, estimate: &DiscretizationError) {
+    fn estimated(
+        &mut self,
+        relative: f64,
+        estimate: &DiscretizationError,
+        limit: Option<&Extrapolated>,
+    ) {
+        let quadrature = self.quadrature.map_or(String::new(), |q| {
+            format!("; plus the quadrature error, {:.2e} rad/s", q.abs())
+        });
+        let answer = match limit {
+            Some(l) => format!(
+                "the limit of the three finest rungs, {:.8} rad/s, its error in N {:.2e} rad/s",
+                l.value, l.error
+            ),
+            _ => format!("the finest rung: {}", estimate.method),
+        };
         progress::note(&format!(
-            "  estimated relative error {relative:.2e} ({}{})",
-            estimate.method,
-            self.quadrature.map_or(String::new(), |q| format!(
-                "; plus the quadrature error, {:.2e} rad/s",
-                q.abs()
-            ))
+            "  estimated relative error {relative:.2e} ({answer}{quadrature})"
         ));
     }
 }
