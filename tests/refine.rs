@@ -95,9 +95,9 @@ fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
 /// A study that fixes `N` keeps it and states its discretization error, from a coarser rung
 /// (`N/2 + 1`) and its own; a refinement's answer may be the limit of its three finest rungs,
 /// with the error of the limit. On a helix of its own (three turns, `l = 0.15 m`, RPY line,
-/// `N = 40`) each stated error covers the error against a refinement to `N = 313` with that
-/// refinement's own estimated error added, and is no more than a few times that error (an
-/// estimate, not a bound so loose that it says nothing).
+/// `N = 40`) each stated error covers the error against a refinement to `N = 625` (its answer
+/// the limit of 157, 313, 625) with that refinement's own estimated error added, and is no more
+/// than a few times that error (an estimate, not a bound so loose that it says nothing).
 #[test]
 fn the_errors_stated_at_a_fixed_n_and_of_a_limit_cover_the_error_against_a_finer_computation() {
     use helixbif::analysis::refine::estimate_at_nodes;
@@ -116,24 +116,22 @@ fn the_errors_stated_at_a_fixed_n_and_of_a_limit_cover_the_error_against_a_finer
     assert!(fixed.accuracy.is_none() && fixed.stopped.is_none());
     let stated = fixed.omega_b_error.unwrap();
     let value = fixed.finest.omega_b.unwrap();
-    let finer = refine(&physical, None, 313, &settings, &mut Silent).unwrap();
-    assert_eq!(finer.finest.nodes, 313);
-    // The finer refinement's answer is the limit of its three finest rungs (79, 157, 313).
+    let finer = refine(&physical, None, 625, &settings, &mut Silent).unwrap();
+    assert_eq!(finer.finest.nodes, 625);
     assert_eq!(finer.answer, Answer::Limit);
     let reference = finer.finest.omega_b.unwrap();
     let reference_error = finer.omega_b_error.unwrap();
     let actual = (value - reference).abs();
     assert!(
         actual + reference_error <= stated && stated <= 5.0 * actual,
-        "N = 40: {value} +- {stated}; limit of N = 79, 157, 313: {reference} +- {reference_error}"
+        "N = 40: {value} +- {stated}; limit of N = 157, 313, 625: {reference} +- \
+         {reference_error}"
     );
     // The limit of the rungs 40, 79, 157 as their refinement states it (not its answer there:
-    // the rung at 40 is not yet asymptotic, and the limit's error, 2.3e-3, is above the finest
-    // rung's, 1.8e-3): its error in N covers the distance to the limit of 79, 157, 313, which
-    // uses a rung it did not, with that limit's own error added, and is no more than twenty
-    // times that distance. (The second-order limit of a pair errs by the terms beyond h^2: at a
-    // halving they shrink at least eightfold, so the change from the pair before is about
-    // seven times the finer limit's error.)
+    // the rung at 40 is not yet asymptotic, and the limit's error is above the finest rung's):
+    // its error in N covers its distance to the limit of 157, 313, 625, which shares no pair of
+    // rungs with it, with that limit's own error in N added, and is no more than twenty times
+    // that distance.
     let coarse = refine(&physical, None, 157, &settings, &mut Silent).unwrap();
     let (nodes, values): (Vec<usize>, Vec<f64>) = coarse
         .rungs
@@ -145,17 +143,36 @@ fn the_errors_stated_at_a_fixed_n_and_of_a_limit_cover_the_error_against_a_finer
     let limit = trusted_limit(error_orders(&physical), &nodes, &values, observed)
         .unwrap()
         .expect("the rungs converge at an order of at least 1.5");
+    assert_eq!(coarse.answer, Answer::FinestRung);
     let reference_error = finer.extrapolation_error.unwrap();
     let actual = (limit.value - reference).abs();
     assert!(
         actual + reference_error <= limit.error && limit.error <= 20.0 * actual,
-        "limit of N = 40, 79, 157: {} +- {}; of 79, 157, 313: {reference} +- \
+        "limit of N = 40, 79, 157: {} +- {}; of 157, 313, 625: {reference} +- \
          {reference_error}",
         limit.value,
         limit.error
     );
-    // The finest rung's own value is kept beside the answer.
-    assert_eq!(finer.omega_b_finest, finer.rungs[3].omega_b);
+    // Rungs of a second-order law with a third-order remainder give a limit whose stated error
+    // covers its own; with a last rung that is not a halving (capped by `--max-nodes`), the
+    // change of the limit no longer measures its error, and no limit is given.
+    let law = |n: usize| {
+        let h = 1.0 / (n as f64 - 1.5);
+        0.5 + 3.0 * h * h + 40.0 * h * h * h
+    };
+    let orders = error_orders(&physical);
+    let halved = [119, 237, 473].map(law);
+    let limit = trusted_limit(orders, &[119, 237, 473], &halved, Some(2.0))
+        .unwrap()
+        .unwrap();
+    assert!((limit.value - 0.5).abs() < limit.error, "{limit:?}");
+    let capped = [237, 473, 500];
+    let values = capped.map(law);
+    assert!(
+        trusted_limit(orders, &capped, &values, Some(2.0))
+            .unwrap()
+            .is_none()
+    );
 }
 
 /// The quadrature's own error (docs/model.md section 10), measured at the coarsest rung from 8

@@ -156,9 +156,9 @@ class Located(_Result):
     `extrapolation_error`) plus the size of the RPY quadrature's own error (`quadrature`)."""
     omega_b_error: float | None
     relative_error: float | None
-    answer: Literal["finest_rung", "limit"]
-    """Where omega_b comes from (refined): the finest rung, or the limit in N of the three finest
-    rungs."""
+    answer: Literal["finest_rung", "limit"] | None
+    """Where omega_b comes from (refined; absent for single and ladder results): the finest rung,
+    or the limit in N of the three finest rungs."""
     omega_b_finest: float | None
     """The finest rung's own omega_b, rad/s (refined), and its error (`finest_error`)."""
     finest_error: float | None

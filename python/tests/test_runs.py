@@ -60,6 +60,18 @@ def test_locate_default_resolution(cli):
     assert located.to_dict() == cli.json("locate", "--single")
 
 
+def test_locate_converged_default_answers_with_the_limit_of_its_rungs(cli):
+    """The README's first command: the representative helix refined on the RPY line to 1e-3
+    (rungs 60, 119, 237; about four seconds), the same from Python as from the command line. Its
+    answer is the limit in N of the three rungs: the finest rung alone, whose own error is kept
+    beside it, would not have reached the accuracy."""
+    located = helixbif.Study.default().locate()
+    assert scrub(located.to_dict()) == scrub(cli.json("locate"))
+    assert located.answer == "limit" and located.reached
+    assert [r["nodes"] for r in located.rungs] == [60, 119, 237]
+    assert located.relative_error < 1e-3 < located.finest_error / located.omega_b_finest
+
+
 @pytest.fixture(scope="module")
 def refined():
     """A refinement of two rungs (N = 44, then 87, the largest admissible N: about a second)

@@ -145,15 +145,20 @@ const LIMIT_MIN_ORDER: f64 = 1.5;
 /// The limit in `N` of the three finest rungs `nodes`, `values` with the known order 2 alone
 /// ([`extrapolate_with`]: `c0` of `c0 + c2 h^2` through the two finest, its error the change of
 /// `c0` from the pair before), where that error can be trusted: on a model with the second
-/// order alone ([`Orders::Second`]: the RPY line with the centred clamp), three rungs or more
-/// whose increments have one sign and shrink with an observed order `p` (`observed_order`, the
-/// finest rung's estimate's, [`DiscretizationError::observed_order`]) of at least
-/// [`LIMIT_MIN_ORDER`]. Why that suffices: with a remainder of order
-/// `q`, `v = c + C h^q`, at a halving the change of the limit is `2^q - 1` times the finer
-/// limit's error (the second-order limit of a pair errs by `C h_f^q (4 - 2^q)/3`); it covers
-/// that error for every `q > 1`, by 1.8 at `q = 1.5` and 7 at a third-order remainder, and a
-/// pure second-order remainder leaves the finer limit exact. Below order 1 it would not, hence
-/// the floor on `p`. `None` where it does not hold.
+/// order alone ([`Orders::Second`]: the RPY line with the centred clamp), three rungs or more,
+/// the last three successive halvings of the spacing (`N -> 2N - 1`; a last rung capped by
+/// `--max-nodes` is not), whose increments have one sign and shrink with an observed order `p`
+/// (`observed_order`, the finest rung's estimate's, [`DiscretizationError::observed_order`]) of
+/// at least [`LIMIT_MIN_ORDER`]. Why the change is the error's measure: with a remainder
+/// `C h^q` beyond the known term, the second-order limit of a pair errs by
+/// `C h_f^q (4 - 2^q)/3` at a halving, so the change from the coarser pair is `2^q - 1` times
+/// the finer limit's error: it covers it for every `q > 1`, seven times for a third-order
+/// remainder (a pure second-order one leaves the finer limit exact). Below order 1 it would
+/// not, and the floor on `p` keeps out rungs whose leading term is not the known one (it does
+/// not fix `q`, which three rungs cannot see). Two remainder terms of opposite signs could make
+/// the change small by cancellation; on the models here no first-order term exists to cancel a
+/// third-order one (docs/model.md section 9), and the change shrinks about eightfold per halving
+/// where it was measured (section 10). `None` where it does not hold.
 pub fn trusted_limit(
     orders: Orders,
     nodes: &[usize],
@@ -161,7 +166,11 @@ pub fn trusted_limit(
     observed_order: Option<f64>,
 ) -> Result<Option<Extrapolated>> {
     let k = nodes.len();
-    if orders != Orders::Second || k < 3 || !observed_order.is_some_and(|p| p >= LIMIT_MIN_ORDER) {
+    if orders != Orders::Second
+        || k < 3
+        || nodes[k - 3..].windows(2).any(|w| w[1] != 2 * w[0] - 1)
+        || !observed_order.is_some_and(|p| p >= LIMIT_MIN_ORDER)
+    {
         return Ok(None);
     }
     extrapolate_with(orders, &nodes[k - 3..], &values[k - 3..]).map(Some)

@@ -171,7 +171,7 @@ impl Section for Located {
                 {
                     writeln!(
                         f,
-                        "  l1         = {l1:.6e} +- {dl1:.1e}   ({verdict}; first Lyapunov coefficient, critical mode scaled to a largest node displacement of ell, solver units)"
+                        "  l1         = {l1:.6e} +- {dl1:.1e}   ({verdict}; first Lyapunov coefficient at this N, +- the error of its finite differences, not of the discretization; critical mode scaled to a largest node displacement of ell, solver units)"
                     )?;
                 }
                 if let Some(why) = &self.l1_failure {
@@ -393,7 +393,7 @@ impl Section for Refinement {
                     f,
                     "\n  {at}: {w:.8} rad/s, its error in N {e:.2e} rad/s (the second-order \
                      limit of the two finest rungs; its error the change from the limit of the \
-                     pair before, which covers it for any order above 1: docs/model.md section \
+                     pair before, which covers it for a remainder of one order above 1: docs/model.md section \
                      10)"
                 )?;
                 Some(w)

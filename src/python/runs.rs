@@ -143,6 +143,7 @@ pub(crate) fn locate(py: Python<'_>, study: &Study, o: LocateOptions) -> PyResul
             "omega_b",
             "omega_b_extrapolated",
             "omegabar_b",
+            "answer",
             "nodes",
             "criticality",
             "relative_error",
