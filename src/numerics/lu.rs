@@ -84,7 +84,8 @@ struct SparseFactors<T: ComplexField> {
 /// twist block: at RPY `N = 473` (order 1884) the dense factorization took about 60 ms
 /// (two threads), a large part of each of the seven Newton iterations of the state at rest;
 /// the sparse one costs the nonzeros' fill, `O(N)` for a band. Counting the nonzeros reads the
-/// matrix once, stopping at the limit: a dense matrix pays a twentieth of a read.
+/// matrix once, stopping at the limit (a dense matrix pays a twentieth of a read and allocates
+/// nothing); a sparse one is read a second time to collect its entries.
 const SPARSE_FROM: usize = 200;
 /// The largest fraction of nonzero entries factorized as a sparse matrix.
 const SPARSE_DENSITY: f64 = 0.05;
@@ -98,14 +99,23 @@ fn sparse_factors<T: ComplexField>(a: MatRef<'_, T>) -> Option<Factors<T>> {
     }
     let limit = (SPARSE_DENSITY * (n * n) as f64) as usize;
     let zero = zero::<T>();
-    let mut entries = Vec::new();
+    // Counted before anything is allocated: a dense matrix stops the count at the limit.
+    let mut count = 0;
+    for j in 0..n {
+        for i in 0..n {
+            if a[(i, j)] != zero {
+                if count == limit {
+                    return None;
+                }
+                count += 1;
+            }
+        }
+    }
+    let mut entries = Vec::with_capacity(count);
     for j in 0..n {
         for i in 0..n {
             let v = &a[(i, j)];
             if *v != zero {
-                if entries.len() == limit {
-                    return None;
-                }
                 entries.push(Triplet::new(i, j, v.clone()));
             }
         }
