@@ -176,18 +176,28 @@ pub fn trusted_limit(
     extrapolate_with(orders, &nodes[k - 3..], &values[k - 3..]).map(Some)
 }
 
-/// The answer of rungs whose finest value `finest` has the discretization error `estimate`,
-/// and its error in `N`: the trusted `limit` where there is one and its error is the smaller,
-/// else the finest value.
-fn answer(
-    finest: f64,
-    estimate: &DiscretizationError,
-    limit: Option<&Extrapolated>,
-) -> (Answer, f64, f64) {
-    match limit {
-        Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error),
-        _ => (Answer::FinestRung, finest, estimate.error),
+/// The answer of rungs whose finest value `finest` has the discretization error `estimate`:
+/// the trusted `limit` where there is one and its error is the smaller, else the finest value.
+fn answer(finest: f64, estimate: &DiscretizationError, limit: Option<Extrapolated>) -> Answered {
+    let (source, value, error, limit) = match limit {
+        Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error, Some(l)),
+        _ => (Answer::FinestRung, finest, estimate.error, None),
+    };
+    Answered {
+        source,
+        value,
+        error,
+        limit,
     }
+}
+
+/// A refinement's answer so far ([`answer`]): where it comes from, its value (rad/s), its error
+/// in `N`, and the limit where that is the answer.
+struct Answered {
+    source: Answer,
+    value: f64,
+    error: f64,
+    limit: Option<Extrapolated>,
 }
 
 /// One rung of a refinement.
@@ -774,8 +784,8 @@ pub fn refine(
     let mut finest: Option<Solved> = None;
     // The estimate of the finest rung (none while it has no omega_b or another kind of event).
     let mut estimate: Option<DiscretizationError> = None;
-    // The limit of the three finest rungs, where it is trusted ([`trusted_limit`]).
-    let mut extrapolated: Option<Extrapolated> = None;
+    // The answer of the rungs so far ([`answer`]; none while `estimate` is).
+    let mut answered: Option<Answered> = None;
     // The quadrature's own error, measured at the coarsest rung (RPY line).
     let mut quadrature: Option<Box<QuadratureError>> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
@@ -845,7 +855,7 @@ pub fn refine(
             seconds: started.elapsed().as_secs_f64(),
         });
         estimate = None;
-        extrapolated = None;
+        answered = None;
         let kind_changed = rungs[0].kind != located.kind;
         let found = located.omega_b.is_some();
         finest = Some(solved);
@@ -891,13 +901,12 @@ pub fn refine(
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
-            extrapolated = trusted_limit(orders, &nodes, &values, e.observed_order)?;
-            let (source, value, error) =
-                answer(values[values.len() - 1], &e, extrapolated.as_ref());
-            let relative = total_error(error, quadrature.as_deref()) / value.abs();
-            let answered = extrapolated.as_ref().filter(|_| source == Answer::Limit);
-            observer.estimated(relative, &e, answered);
+            let limit = trusted_limit(orders, &nodes, &values, e.observed_order)?;
+            let a = answer(values[values.len() - 1], &e, limit);
+            let relative = total_error(a.error, quadrature.as_deref()) / a.value.abs();
+            observer.estimated(relative, &e, a.limit.as_ref());
             estimate = Some(e);
+            answered = Some(a);
             if accuracy.is_some_and(|a| relative < a) {
                 break None;
             }
@@ -922,21 +931,18 @@ pub fn refine(
     let finest_error = estimate
         .as_ref()
         .map(|e| total_error(e.error, quadrature.as_deref()));
-    let (answer, omega_b_error) = match (&estimate, omega_b_finest) {
-        (Some(e), Some(w)) => {
-            let (source, value, error) = answer(w, e, extrapolated.as_ref());
-            if source == Answer::Limit {
-                let ratio = finest.omegabar_b.map_or(f64::NAN, |wb| wb / w);
-                finest.omega_b = Some(value);
-                finest.omegabar_b = Some(value * ratio);
-            }
-            (source, Some(total_error(error, quadrature.as_deref())))
-        }
-        _ => (Answer::FinestRung, None),
-    };
-    let extrapolation_error = extrapolated
-        .filter(|_| answer == Answer::Limit)
-        .map(|l| l.error);
+    if let (Some(a), Some(w)) = (&answered, omega_b_finest)
+        && a.source == Answer::Limit
+    {
+        let ratio = finest.omegabar_b.map_or(f64::NAN, |wb| wb / w);
+        finest.omega_b = Some(a.value);
+        finest.omegabar_b = Some(a.value * ratio);
+    }
+    let answer = answered.as_ref().map_or(Answer::FinestRung, |a| a.source);
+    let omega_b_error = answered
+        .as_ref()
+        .map(|a| total_error(a.error, quadrature.as_deref()));
+    let extrapolation_error = answered.and_then(|a| a.limit).map(|l| l.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
     Ok(Refinement {
