@@ -526,7 +526,7 @@ fn locate_refines_until_the_lighthill_range_ends_and_says_so() {
 fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_computation() {
     // A thick rod (r0 = 6.32 mm, four times the representative's) on the RPY line: its
     // quadrature has a sixteenth of the points, so N = 161 is cheap. Rungs 21, 41, 81 (an
-    // accuracy below the quadrature's own error, 1.3e-4 relative, would stop at the first).
+    // accuracy below what the quadrature leaves, 4.4e-5 relative, would stop at the second).
     let common = [
         "--set",
         "fluid.model=rpy",

@@ -10,7 +10,7 @@ use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
 use helixbif::model::fluid::FluidModel;
-use helixbif::model::params::Physical;
+use helixbif::model::params::{ClampEdge, Physical};
 
 fn settings<'a>(
     newton: &'a NewtonSettings,
@@ -144,6 +144,9 @@ fn the_errors_stated_at_a_fixed_n_and_of_a_limit_cover_the_error_against_a_finer
         .unwrap()
         .expect("the rungs converge at an order of at least 1.5");
     assert_eq!(coarse.answer, Answer::FinestRung);
+    // That limit keeps the quadrature's error: compared with the finer limit before its
+    // correction.
+    let reference = reference + finer.quadrature_correction.as_ref().unwrap().subtracted;
     let reference_error = finer.extrapolation_error.unwrap();
     let actual = (limit.value - reference).abs();
     assert!(
@@ -210,14 +213,33 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
         (difference - predicted).abs() < 0.05 * difference.abs(),
         "v8 - v32 = {difference:e}, predicted {predicted:e}"
     );
-    // An accuracy below that error (1.3e-4 relative here) is out of reach at every N: the
-    // refinement stops at the coarsest rung and says what would reach it.
+    // Measured again at the second rung (a third follows, and the model's limit may be trusted),
+    // the error changes by the bound of the correction of a limit, |e(41) - e(21)| (1.3e-3
+    // rad/s, 4.4e-5 relative). An accuracy below that is out of reach at every N: the refinement
+    // stops at the second rung and says what would reach it. With the clamp on the first edge
+    // (first and second orders: no limit, so no correction) the rule's whole error (1.3e-4
+    // relative) is what remains, and an accuracy of 1e-4 stops at the coarsest rung.
     physical.fluid.points_per_blob = None;
-    let short = refine(&physical, Some(1e-4), 81, &settings, &mut Silent).unwrap();
-    assert_eq!(short.rungs.len(), 1);
+    let short = refine(&physical, Some(3e-5), 81, &settings, &mut Silent).unwrap();
+    assert_eq!(short.rungs.len(), 2);
     assert!(!short.reached);
     let why = short.stopped.as_deref().unwrap();
-    assert!(why.contains("raise fluid.points_per_blob"), "{why}");
+    assert!(
+        why.contains("correction") && why.contains("raise fluid.points_per_blob"),
+        "{why}"
+    );
+    let finer_rule = short.quadrature_finer.as_ref().unwrap();
+    assert_eq!(finer_rule.nodes, 41);
+    let e41 = finer_rule.error.unwrap();
+    let mut first_edge = physical.clone();
+    first_edge.discretization.clamp_edge = Some(ClampEdge::First);
+    let shorter = refine(&first_edge, Some(1e-4), 81, &settings, &mut Silent).unwrap();
+    assert_eq!(shorter.rungs.len(), 1);
+    let why = shorter.stopped.as_deref().unwrap();
+    assert!(
+        why.contains("own error") && why.contains("raise fluid.points_per_blob"),
+        "{why}"
+    );
     // `locate --extrapolate` measures it at its ladder's coarsest rung (whatever the order of
     // the ladder) and widens the limit's bar by it: the limit in N keeps the quadrature's offset.
     let extrapolated = ladder(&physical, &[41, 21, 81], &settings, &mut Silent).unwrap();
@@ -236,5 +258,54 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
         "limits {} (8 points per blob radius), {} (32); quadrature error {e:e}",
         extrapolated.omega_b_extrapolated,
         finer.omega_b_extrapolated
+    );
+    // The correction a refinement makes of a limit (docs/model.md section 10): less `e(41)`,
+    // with the error `|e(41) - e(21)|`, brings the limit at 8 points per blob radius to that at
+    // 32 (which keeps its own rule's error, at most about `|e| / 16`) within that error, and
+    // much closer than before it (measured: 5.7e-4 rad/s against 3.1e-3, bound 1.3e-3).
+    let corrected = distance - e41;
+    let bound = (e41 - e).abs();
+    assert!(
+        corrected.abs() <= bound + e.abs() / 16.0 && corrected.abs() < 0.5 * distance.abs(),
+        "limit at 8 less e(41) = {e41:e} is {corrected:e} from the limit at 32; bound {bound:e}"
+    );
+}
+
+/// The quadrature's correction of a limit (docs/model.md section 10) on a helix of its own
+/// (three turns, `l = 0.15 m`, rungs 40, 79, 157, 313): the limits at 8 and at 16 points per
+/// blob radius, each less its own rule's error as measured at its first two rungs, agree within
+/// the sum of the two corrections' stated errors, and far better than the limits themselves
+/// (which keep their rules' errors). Measured: 0.85029001 and 0.85029366 rad/s, 3.7e-6 apart,
+/// against stated errors 1.6e-5 and 3.6e-6; the limits 0.85047097 and 0.85033894, 1.3e-4 apart.
+#[test]
+fn the_limits_at_two_rules_less_their_quadrature_errors_agree_within_the_stated_errors() {
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let settings = settings(&newton, &continuation);
+    let at_rule = |points: f64| {
+        let overrides = [
+            "shape.l=0.15".to_string(),
+            "discretization.nodes=40".into(),
+            format!("fluid.points_per_blob={points}"),
+        ];
+        let physical = Study::load(None, &overrides).unwrap().physical();
+        let refined = refine(&physical, None, 313, &settings, &mut Silent).unwrap();
+        assert_eq!(
+            refined.answer,
+            Answer::Limit,
+            "{points} points per blob radius"
+        );
+        let correction = refined.quadrature_correction.clone().unwrap();
+        assert_eq!(correction.nodes, [40, 79]);
+        let answer = refined.finest.omega_b.unwrap();
+        (answer, answer + correction.subtracted, correction.error)
+    };
+    let (a8, l8, e8) = at_rule(8.0);
+    let (a16, l16, e16) = at_rule(16.0);
+    let corrected = (a8 - a16).abs();
+    assert!(
+        corrected <= e8 + e16 && corrected < 0.25 * (l8 - l16).abs(),
+        "8 points: {a8} +- {e8:e} (limit {l8}); 16 points: {a16} +- {e16:e} (limit {l16})"
     );
 }

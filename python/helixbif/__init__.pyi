@@ -153,12 +153,15 @@ class Located(_Result):
     error: float | None
     """Estimated error of omega_b against the continuous model, rad/s (`omega_b_error`): the
     answer's error in N (the finest rung's discretization error, `estimate`, or the limit's,
-    `extrapolation_error`) plus the size of the RPY quadrature's own error (`quadrature`)."""
+    `extrapolation_error`) plus, on the RPY line, the error of the quadrature's correction where
+    the answer is the limit less the quadrature's error (`quadrature_correction`), else the size
+    of the quadrature's own error (`quadrature`)."""
     omega_b_error: float | None
     relative_error: float | None
     answer: Literal["finest_rung", "limit"] | None
     """Where omega_b comes from (refined; absent for single and ladder results): the finest rung,
-    or the limit in N of the three finest rungs."""
+    or the limit in N of the three finest rungs (on the RPY line less the quadrature's own error,
+    `quadrature_correction`)."""
     omega_b_finest: float | None
     """The finest rung's own omega_b, rad/s (refined), and its error (`finest_error`)."""
     finest_error: float | None
@@ -172,6 +175,13 @@ class Located(_Result):
     """The RPY quadrature's own error, measured at the coarsest rung (refined and ladder):
     `error` (rad/s, signed), `points_per_blob`, `compared_with`, `nodes`, `omega_b_compared`,
     `failed` (why it could not be measured); None on Lighthill's operator."""
+    quadrature_finer: dict[str, Any] | None
+    """The same measured at the second rung (refined, where a third followed on a model whose
+    limit may be trusted)."""
+    quadrature_correction: dict[str, Any] | None
+    """Where the answer is the limit less the quadrature's error (refined): `nodes` of the two
+    measurements, `subtracted` (rad/s, the finer measurement) and its `error` (rad/s, the change
+    between the two)."""
     rungs: list[dict[str, Any]]
     stopped: str | None
     fluid: Literal["lighthill", "rpy"]

@@ -16,7 +16,7 @@ use crate::engine::events::Event;
 use crate::engine::events::EventKind;
 use crate::engine::newton;
 use crate::engine::stop::{Observer, Silent};
-use crate::model::fluid::{FluidModel, rpy};
+use crate::model::fluid::FluidModel;
 use crate::model::params::{ClampEdge, Physical};
 use crate::model::rod::Config;
 use crate::model::rod::frame::rechart;
@@ -30,6 +30,9 @@ use crate::problem::rod::{Parameter, RodProblem, omega_scale};
 use crate::problem::twist::{natural_chart_unknowns, slave_twist};
 use crate::{Error, Result};
 
+mod quadrature;
+pub use quadrature::{QuadratureCorrection, QuadratureError};
+
 /// Watches a refinement or a ladder: every rung's continuation as an engine [`Observer`], and
 /// each rung's result and error estimate as they come.
 pub trait RungObserver: Observer<Point, Event> {
@@ -37,17 +40,12 @@ pub trait RungObserver: Observer<Point, Event> {
     fn rung(&mut self, _model: &Model) {}
     /// The rung at `nodes` located `located`.
     fn located(&mut self, _nodes: usize, _located: &Located) {}
-    /// The RPY quadrature's own error of `omega_b`, measured at the coarsest rung.
+    /// The RPY quadrature's own error, measured at a rung (the coarsest, and the next where a
+    /// limit may need its correction).
     fn quadrature(&mut self, _quadrature: &QuadratureError) {}
-    /// The estimated relative error of the answer so far ([`Answer`]: the finest `omega_b`, or
-    /// `limit`, that of the three finest rungs, where it is the answer): its error in `N` plus
-    /// the quadrature's (where measured). `estimate` is the finest rung's own.
-    fn estimated(
-        &mut self,
-        _relative: f64,
-        _estimate: &DiscretizationError,
-        _limit: Option<&Extrapolated>,
-    ) {
+    /// The estimated relative error of the answer so far, `answered`. `estimate` is the finest
+    /// rung's own discretization error.
+    fn estimated(&mut self, _relative: f64, _estimate: &DiscretizationError, _answered: &Answered) {
     }
 }
 
@@ -64,7 +62,8 @@ pub struct Ladder {
     pub kinds: Vec<Loss>,
     pub omega_b_extrapolated: f64,
     /// The error of the limit: the extrapolation's ([`Extrapolated::error`]) plus, on the RPY
-    /// line, the size of the quadrature's own error (the limit in `N` keeps it).
+    /// line, the size of the quadrature's own error (this limit in `N` keeps it: a ladder has
+    /// no correction, [`QuadratureCorrection`]).
     pub omega_b_error: f64,
     pub extrapolation_error: f64,
     /// The RPY quadrature's own error, measured at the ladder's coarsest rung (as for a
@@ -85,7 +84,8 @@ pub struct Ladder {
 /// estimated from a coarser rung ([`estimate_at_nodes`]). The answer ([`Answer`]) is the finest
 /// rung's `omega_b` with its discretization error ([`discretization_error`]), or, where the
 /// model has the second order alone and the three finest rungs converge as it allows, their
-/// limit in `N` with its error ([`trusted_limit`]), whichever has the smaller error.
+/// limit in `N` with its error ([`trusted_limit`]) and, on the RPY line, the quadrature's error
+/// removed from it ([`QuadratureCorrection`]), whichever has the smaller error.
 #[derive(Serialize)]
 pub struct Refinement {
     /// The finest rung (its fields at the top level), except that its `omega_b` and
@@ -102,8 +102,9 @@ pub struct Refinement {
     pub reached: bool,
     /// Estimated error of the answer against the continuous model (rad/s) and relative: its
     /// error in `N` (the finest rung's discretization error, `estimate`, or the limit's,
-    /// `extrapolation_error`) plus the size of the quadrature's own error (`quadrature`, RPY
-    /// line); absent with one rung.
+    /// `extrapolation_error`) plus, on the RPY line, the size of the quadrature's own error
+    /// (`quadrature`) or, where it was removed from the limit, the error of that correction
+    /// (`quadrature_correction`); absent with one rung.
     pub omega_b_error: Option<f64>,
     pub relative_error: Option<f64>,
     /// The finest rung's own `omega_b` (rad/s) and its error (its discretization error plus the
@@ -119,6 +120,12 @@ pub struct Refinement {
     /// The RPY line's quadrature error, measured at the coarsest rung (absent on Lighthill's
     /// operator, which has no quadrature of its own). Boxed: a refinement is moved whole.
     pub quadrature: Option<Box<QuadratureError>>,
+    /// The same measured at the second rung, where a third followed and the model's limit may
+    /// be trusted ([`Orders::Second`]).
+    pub quadrature_finer: Option<Box<QuadratureError>>,
+    /// Where the answer is the limit: the quadrature's error removed from it, and the error of
+    /// that correction.
+    pub quadrature_correction: Option<Box<QuadratureCorrection>>,
     /// Every rung: node count, `omega_b`, kind.
     pub rungs: Vec<Rung>,
     /// Why the refinement ended without reaching `accuracy` (absent when it did); at a fixed
@@ -176,28 +183,64 @@ pub fn trusted_limit(
     extrapolate_with(orders, &nodes[k - 3..], &values[k - 3..]).map(Some)
 }
 
-/// The answer of rungs whose finest value `finest` has the discretization error `estimate`:
-/// the trusted `limit` where there is one and its error is the smaller, else the finest value.
-fn answer(finest: f64, estimate: &DiscretizationError, limit: Option<Extrapolated>) -> Answered {
-    let (source, value, error, limit) = match limit {
-        Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error, Some(l)),
-        _ => (Answer::FinestRung, finest, estimate.error, None),
+/// The answer of rungs whose finest value `finest` has the discretization error `estimate`,
+/// on a rule whose own error of `omega_b` has the size `offset` (0 where not measured): the
+/// trusted `limit`, less the quadrature's error where `correction` removes it, where there is
+/// one and its whole error is the smaller; else the finest value.
+fn answer(
+    finest: f64,
+    estimate: &DiscretizationError,
+    limit: Option<Extrapolated>,
+    offset: f64,
+    correction: Option<QuadratureCorrection>,
+) -> Answered {
+    let finest_answer = Answered {
+        source: Answer::FinestRung,
+        value: finest,
+        error: estimate.error,
+        quadrature: offset,
+        limit: None,
+        correction: None,
     };
-    Answered {
-        source,
+    let Some(limit) = limit else {
+        return finest_answer;
+    };
+    let (value, quadrature) = match &correction {
+        Some(c) => (limit.value - c.subtracted, c.error),
+        None => (limit.value, offset),
+    };
+    let limit_answer = Answered {
+        source: Answer::Limit,
         value,
-        error,
-        limit,
+        error: limit.error,
+        quadrature,
+        limit: Some(limit),
+        correction,
+    };
+    if limit_answer.total() <= finest_answer.total() {
+        limit_answer
+    } else {
+        finest_answer
     }
 }
 
 /// A refinement's answer so far ([`answer`]): where it comes from, its value (rad/s), its error
-/// in `N`, and the limit where that is the answer.
-struct Answered {
-    source: Answer,
-    value: f64,
-    error: f64,
-    limit: Option<Extrapolated>,
+/// in `N` and the quadrature's part of its error (rad/s), the limit where that is the answer,
+/// and the quadrature's correction where it was removed from the limit.
+pub struct Answered {
+    pub source: Answer,
+    pub value: f64,
+    pub error: f64,
+    pub quadrature: f64,
+    pub limit: Option<Extrapolated>,
+    pub correction: Option<QuadratureCorrection>,
+}
+
+impl Answered {
+    /// The whole error (rad/s): in `N` and of the quadrature.
+    pub fn total(&self) -> f64 {
+        self.error + self.quadrature
+    }
 }
 
 /// One rung of a refinement.
@@ -338,119 +381,6 @@ fn continuation_rung(
 /// branch must stay from the axis to be left unchecked on a finer mesh (docs/model.md
 /// section 10).
 const K_MARGIN: f64 = 10.0;
-
-/// The RPY line's quadrature error of `omega_b` (docs/model.md section 9): the product rule's
-/// error is second order in the point spacing and, the rules being nested across a halving
-/// ladder, the same at every rung, so it drops out of the increments in `N` and shifts the
-/// limit. It is measured at the coarsest rung by the same point with the points per blob radius
-/// multiplied by `r = 1/2` (by `2` where half would fall below the smallest allowed, 2, or give
-/// the same rule):
-///
-/// ```text
-/// v(P) - v(inf) = (v(P) - v(r P)) / (1 - r^-2)                                            (1)
-/// ```
-///
-/// (`-1/3` of the difference at `r = 1/2`, `4/3` at `r = 2`). Half the points cost a quarter of
-/// the kernels' time where twice cost four times; on the representative helix at `N = 60` the
-/// two give `+7.96e-5` and `+8.09e-5` rad/s (`v4, v8, v16 = 0.5104259, 0.5101870, 0.5101263`:
-/// observed order 1.98), 1.6% apart.
-#[derive(Clone, Debug, Serialize)]
-pub struct QuadratureError {
-    /// The points per blob radius of the rungs, and the other rule's.
-    pub points_per_blob: f64,
-    /// `None` where no other rule could be tried.
-    pub compared_with: Option<f64>,
-    /// The rung it was measured at.
-    pub nodes: usize,
-    /// `omega_b` there with the other rule (rad/s).
-    pub omega_b_compared: Option<f64>,
-    /// `v(P) - v(inf)` of (1) (rad/s): how far the rungs' `omega_b`, and their limit in `N`, lie
-    /// above the exact quadrature's.
-    pub error: Option<f64>,
-    /// Why it could not be measured (then it is not in the error bar, and the report says so).
-    pub failed: Option<String>,
-}
-
-/// [`QuadratureError`] at the rung `coarse` of `physical` (RPY line): the same `N` with the
-/// other rule, sequenced from its Hopf point.
-fn quadrature_error(
-    physical: &Physical,
-    coarse: &Solved,
-    settings: &LocateSettings,
-) -> Result<QuadratureError> {
-    let points_per_blob = physical
-        .fluid
-        .points_per_blob
-        .unwrap_or(rpy::POINTS_PER_BLOB);
-    let nodes = coarse.located.nodes;
-    let mut measured = QuadratureError {
-        points_per_blob,
-        compared_with: None,
-        nodes,
-        omega_b_compared: None,
-        error: None,
-        failed: None,
-    };
-    let hopf = coarse
-        .critical
-        .as_ref()
-        .filter(|c| c.event.kind == EventKind::Hopf);
-    let (Some(critical), Some(omega_b)) = (hopf, coarse.located.omega_b) else {
-        measured.failed = Some(format!(
-            "the rung at N = {nodes} has no Hopf point to measure it at ({})",
-            coarse.located.kind
-        ));
-        return Ok(measured);
-    };
-    // The rules' points per edge (powers of two, at least one cell per edge): where both rules
-    // have one cell per edge they are the same rule and measure nothing; else `r` is their
-    // actual ratio.
-    let points = |model: &Model| model.fluid.points_per_edge().unwrap_or(0) as f64;
-    let own = points(&coarse.model);
-    let mut chosen = None;
-    for r in [0.5, 2.0] {
-        if !rpy::POINTS_PER_BLOB_RANGE.contains(&(r * points_per_blob)) {
-            continue;
-        }
-        let mut physical = at_nodes(physical, nodes);
-        physical.fluid.points_per_blob = Some(r * points_per_blob);
-        let model = Model::new(&physical)?;
-        if points(&model) != own {
-            chosen = Some((r * points_per_blob, model));
-            break;
-        }
-    }
-    let Some((compared_with, other)) = chosen else {
-        measured.failed = Some(format!(
-            "neither half nor twice {points_per_blob} points per blob radius (within [{}, {}]) \
-             gives another rule at N = {nodes} ({own} points per edge)",
-            rpy::POINTS_PER_BLOB_RANGE.start(),
-            rpy::POINTS_PER_BLOB_RANGE.end()
-        ));
-        return Ok(measured);
-    };
-    let compared_points = points(&other);
-    measured.compared_with = Some(compared_with);
-    let r = compared_points / own;
-    let compared = sequenced_rung(other, coarse, critical.event.p, settings, &mut Silent);
-    match compared {
-        Ok(Ok((solved, _))) => match solved.located.omega_b {
-            Some(w) => {
-                measured.omega_b_compared = Some(w);
-                measured.error = Some((omega_b - w) / (1.0 - r.powi(-2)));
-            }
-            None => {
-                measured.failed = Some(format!(
-                    "no omega_b at N = {nodes} with {compared_with} points per blob radius"
-                ))
-            }
-        },
-        Ok(Err(why)) => measured.failed = Some(why),
-        Err(e) if e.is_input() => return Err(e),
-        Err(e) => measured.failed = Some(e.to_string()),
-    }
-    Ok(measured)
-}
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),
@@ -688,7 +618,7 @@ pub fn ladder(
     let ratio = omegabar_b[0] / omega_b[0];
     let quadrature = match (physical.fluid.model, &coarsest) {
         (FluidModel::Rpy, Some(c)) => {
-            let measured = quadrature_error(physical, c, &without_criticality(settings))?;
+            let measured = quadrature::measure(physical, c, &without_criticality(settings))?;
             observer.quadrature(&measured);
             Some(measured)
         }
@@ -701,7 +631,7 @@ pub fn ladder(
         omega_b,
         omegabar_b,
         omega_b_extrapolated: e.value,
-        omega_b_error: total_error(e.error, quadrature.as_ref()),
+        omega_b_error: e.error + quadrature::offset(quadrature.as_ref()),
         extrapolation_error: e.error,
         quadrature,
         omegabar_b_extrapolated: e.value * ratio,
@@ -786,8 +716,9 @@ pub fn refine(
     let mut estimate: Option<DiscretizationError> = None;
     // The answer of the rungs so far ([`answer`]; none while `estimate` is).
     let mut answered: Option<Answered> = None;
-    // The quadrature's own error, measured at the coarsest rung (RPY line).
+    // The quadrature's own error, measured at the coarsest rung and the next (RPY line).
     let mut quadrature: Option<Box<QuadratureError>> = None;
+    let mut quadrature_finer: Option<Box<QuadratureError>> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
     let quiet = without_criticality(settings);
     let mut n = start;
@@ -876,39 +807,68 @@ pub fn refine(
                     .join(", ")
             ));
         }
-        // Measured where a finer rung follows (a single rung has no error bar to put it in).
-        if physical.fluid.model == FluidModel::Rpy
-            && quadrature.is_none()
-            && refined(n, limit).is_some()
-        {
-            let coarsest = finest.as_ref().expect("the rung just solved");
-            let measured = quadrature_error(physical, coarsest, &quiet)?;
-            observer.quadrature(&measured);
-            let value = coarsest.located.omega_b.map_or(f64::NAN, f64::abs);
-            let too_large = measured.error.map(|q| q.abs() / value);
-            let points_per_blob = measured.points_per_blob;
-            quadrature = Some(Box::new(measured));
-            if let (Some(q), Some(a)) = (too_large, accuracy)
-                && q >= a
-            {
-                break Some(format!(
-                    "the quadrature's own error, {q:.1e} relative at {points_per_blob} points per \
-                     blob radius, is not below the accuracy at any N: raise \
-                     fluid.points_per_blob (the kernels cost its square)"
-                ));
-            }
-        }
         if rungs.len() >= 2 {
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
             let limit = trusted_limit(orders, &nodes, &values, e.observed_order)?;
-            let a = answer(values[values.len() - 1], &e, limit);
-            let relative = total_error(a.error, quadrature.as_deref()) / a.value.abs();
-            observer.estimated(relative, &e, a.limit.as_ref());
+            let offset = quadrature::offset(quadrature.as_deref());
+            let a = answer(
+                values[values.len() - 1],
+                &e,
+                limit,
+                offset,
+                QuadratureCorrection::between(quadrature.as_deref(), quadrature_finer.as_deref()),
+            );
+            let relative = a.total() / a.value.abs();
+            observer.estimated(relative, &e, &a);
             estimate = Some(e);
             answered = Some(a);
             if accuracy.is_some_and(|a| relative < a) {
                 break None;
+            }
+        }
+        // The quadrature's error (RPY line), where a finer rung follows: at the coarsest rung (a
+        // single rung has no error bar to put it in), and at the next where a limit may be
+        // trusted ([`Orders::Second`]), to remove it from that limit ([`QuadratureCorrection`]).
+        let correctable = orders == Orders::Second;
+        let second =
+            rungs.len() == 2 && correctable && quadrature::offset(quadrature.as_deref()) > 0.0;
+        if physical.fluid.model == FluidModel::Rpy
+            && refined(n, limit).is_some()
+            && (rungs.len() == 1 || second)
+        {
+            let rung = finest.as_ref().expect("the rung just solved");
+            let measured = Box::new(quadrature::measure(physical, rung, &quiet)?);
+            observer.quadrature(&measured);
+            let points_per_blob = measured.points_per_blob;
+            let measured_error = measured.error;
+            if second {
+                quadrature_finer = Some(measured);
+            } else {
+                quadrature = Some(measured);
+            }
+            // What the quadrature leaves in every answer to come: its correction's error, or
+            // the rule's whole error where no correction can come.
+            let correction =
+                QuadratureCorrection::between(quadrature.as_deref(), quadrature_finer.as_deref());
+            let remains = match correction {
+                Some(c) => Some(("the error of the quadrature's correction", c.error)),
+                None if !correctable || second => Some((
+                    "the quadrature's own error",
+                    quadrature::offset(quadrature.as_deref()),
+                )),
+                None => None,
+            };
+            let value = rung.located.omega_b.map_or(f64::NAN, f64::abs);
+            if let (Some((what, q)), Some(a), Some(_)) = (remains, accuracy, measured_error)
+                && q / value >= a
+            {
+                break Some(format!(
+                    "{what}, {:.1e} relative at {points_per_blob} points per blob radius, is not \
+                     below the accuracy at any N: raise fluid.points_per_blob (the kernels cost \
+                     its square)",
+                    q / value
+                ));
             }
         }
         match (refined(n, limit), accuracy) {
@@ -930,7 +890,7 @@ pub fn refine(
     let omega_b_finest = finest.omega_b;
     let finest_error = estimate
         .as_ref()
-        .map(|e| total_error(e.error, quadrature.as_deref()));
+        .map(|e| e.error + quadrature::offset(quadrature.as_deref()));
     if let (Some(a), Some(w)) = (&answered, omega_b_finest)
         && a.source == Answer::Limit
     {
@@ -939,9 +899,10 @@ pub fn refine(
         finest.omegabar_b = Some(a.value * ratio);
     }
     let answer = answered.as_ref().map_or(Answer::FinestRung, |a| a.source);
-    let omega_b_error = answered
+    let omega_b_error = answered.as_ref().map(Answered::total);
+    let quadrature_correction = answered
         .as_ref()
-        .map(|a| total_error(a.error, quadrature.as_deref()));
+        .and_then(|a| a.correction.clone().map(Box::new));
     let extrapolation_error = answered.and_then(|a| a.limit).map(|l| l.error);
     let relative_error = omega_b_error.zip(finest.omega_b).map(|(e, w)| e / w.abs());
     let reached = relative_error.zip(accuracy).is_some_and(|(r, a)| r < a);
@@ -957,16 +918,12 @@ pub fn refine(
         extrapolation_error,
         estimate: estimate.map(Box::new),
         quadrature,
+        quadrature_finer,
+        quadrature_correction,
         rungs,
         stopped: if reached { None } else { stopped },
         fluid: physical.fluid.model,
     })
-}
-
-/// The error of `omega_b` against the continuous model: the error in `N` (`discretization`, of a
-/// rung or of a limit) plus the size of the quadrature's own error, where it was measured.
-fn total_error(discretization: f64, quadrature: Option<&QuadratureError>) -> f64 {
-    discretization + quadrature.and_then(|q| q.error).map_or(0.0, f64::abs)
 }
 
 /// `settings` without the Lyapunov coefficient: the rungs below the finest and the auxiliary

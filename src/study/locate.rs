@@ -7,8 +7,8 @@ use serde::Serialize;
 use crate::Result;
 use crate::analysis::locate::{Critical, Located, locate};
 use crate::analysis::refine::{
-    Ladder, QuadratureError, Refinement, RungObserver, default_ladder, estimate_at_nodes, ladder,
-    refine,
+    Answered, Ladder, QuadratureError, Refinement, RungObserver, default_ladder, estimate_at_nodes,
+    ladder, refine,
 };
 use std::ops::ControlFlow;
 
@@ -16,7 +16,7 @@ use crate::engine::arclength::Point;
 use crate::engine::events::Event;
 use crate::engine::stop::Observer;
 use crate::model::Model;
-use crate::numerics::extrapolation::{DiscretizationError, Extrapolated};
+use crate::numerics::extrapolation::DiscretizationError;
 use crate::study::Study;
 use crate::study::interrupt;
 use crate::study::progress::{self, progress};
@@ -106,8 +106,6 @@ impl Observer<Point, Event> for LocateProgress {
 struct RungProgress<'a> {
     study: &'a Study,
     progress: LocateProgress,
-    /// The quadrature error measured (rad/s), part of every estimate after it.
-    quadrature: Option<f64>,
 }
 
 impl Observer<Point, Event> for RungProgress<'_> {
@@ -133,7 +131,6 @@ impl RungObserver for RungProgress<'_> {
     }
 
     fn quadrature(&mut self, quadrature: &QuadratureError) {
-        self.quadrature = quadrature.error;
         progress::note(&match (quadrature.error, &quadrature.failed) {
             (Some(e), _) => format!(
                 "  quadrature error {e:+.2e} rad/s at N = {} ({} against {} points per blob radius)",
@@ -148,17 +145,25 @@ impl RungObserver for RungProgress<'_> {
         });
     }
 
-    fn estimated(
-        &mut self,
-        relative: f64,
-        estimate: &DiscretizationError,
-        limit: Option<&Extrapolated>,
-    ) {
-        let quadrature = self.quadrature.map_or(String::new(), |q| {
-            format!("; plus the quadrature error, {:.2e} rad/s", q.abs())
-        });
-        let answer = match limit {
-            Some(l) => format!(
+    fn estimated(&mut self, relative: f64, estimate: &DiscretizationError, answered: &Answered) {
+        let quadrature = match &answered.correction {
+            Some(c) => format!(
+                "; plus the error of the quadrature's correction, {:.2e} rad/s",
+                c.error
+            ),
+            None if answered.quadrature > 0.0 => format!(
+                "; plus the quadrature error, {:.2e} rad/s",
+                answered.quadrature
+            ),
+            None => String::new(),
+        };
+        let answer = match (&answered.limit, &answered.correction) {
+            (Some(l), Some(c)) => format!(
+                "the limit of the three finest rungs less the quadrature error {:+.2e}, {:.8} \
+                 rad/s, its error in N {:.2e} rad/s",
+                c.subtracted, answered.value, l.error
+            ),
+            (Some(l), None) => format!(
                 "the limit of the three finest rungs, {:.8} rad/s, its error in N {:.2e} rad/s",
                 l.value, l.error
             ),
@@ -191,7 +196,6 @@ pub fn locate_study(study: &Study, resolution: &Resolution) -> Result<LocateResu
     let mut observer = RungProgress {
         study,
         progress: LocateProgress::new(),
-        quadrature: None,
     };
     Ok(match resolution {
         Resolution::Single => LocateResult::Single(run_locate(study, &Model::new(&physical)?)?),
