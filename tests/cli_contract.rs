@@ -617,11 +617,50 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
     assert_eq!(rung_field(&v, "nodes"), [20.0, 39.0], "{v}");
     assert_eq!(v["reached"], false);
     assert!(v["omega_b_error"].as_f64().unwrap() > 0.0);
+    // Without a [study] table, `run` answers as `locate` does: refined to the default accuracy
+    // (out of reach on Lighthill's operator, whose range ends at N = 87: exit 1 from both).
+    std::fs::write(&study, &base).unwrap();
+    let (code, _, stderr) = helixbif(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    let ran: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    let (code, located, stderr) = helixbif(&["locate", study.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 1, "{stderr}");
+    let located: serde_json::Value = serde_json::from_str(located.trim()).unwrap();
+    assert_eq!(ran["accuracy"], 1e-3);
+    for key in ["omega_b", "omega_b_error", "reached", "stopped"] {
+        assert_eq!(ran[key], located[key], "{key}");
+    }
+    assert_eq!(rung_field(&ran, "nodes"), rung_field(&located, "nodes"));
+    assert_eq!(rung_field(&ran, "omega_b"), rung_field(&located, "omega_b"));
+    // With `fixed_nodes`, at the study's N with its error from a coarser rung.
+    std::fs::write(
+        &study,
+        format!("{base}\n[study]\nkind = \"locate\"\nfixed_nodes = true\n"),
+    )
+    .unwrap();
+    let (code, _, stderr) = helixbif(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let fixed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    assert_eq!(rung_field(&fixed, "nodes"), [11.0, 20.0], "{fixed}");
+    assert!(fixed["accuracy"].is_null() && fixed["omega_b_error"].as_f64().unwrap() > 0.0);
     // Out of range, or together with an extrapolation: refused, naming the field.
     for (extra, field) in [
         ("accuracy = 0.5\n", "study.accuracy"),
         ("accuracy = 1e-3\nextrapolate = true\n", "study.accuracy"),
         ("max_nodes = 3\n", "study.max_nodes"),
+        ("fixed_nodes = true\naccuracy = 1e-3\n", "study.fixed_nodes"),
     ] {
         std::fs::write(
             &study,

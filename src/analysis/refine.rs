@@ -276,6 +276,10 @@ pub struct Certificate {
     pub checked: Vec<f64>,
 }
 
+/// The relative accuracy of `omega_b` a refinement is asked for unless told otherwise
+/// (`locate`, a `locate` study, Python's `Study.locate`).
+pub const DEFAULT_ACCURACY: f64 = 1e-3;
+
 /// The largest node count a refinement goes to unless told otherwise (`--max-nodes`): the
 /// RPY line has no admissible limit, and past a few hundred nodes the dense stability solve at
 /// every continuation point makes each rung cost `O(N^3)`.

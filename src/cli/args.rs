@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
-use helixbif::analysis::refine::DEFAULT_MAX_NODES;
+use helixbif::analysis::refine::{DEFAULT_ACCURACY, DEFAULT_MAX_NODES};
 
 pub const AFTER_HELP: &str = "\
 Every command that reads a study takes an optional study file (TOML, SI units); without one it
@@ -94,8 +94,9 @@ pub enum Command {
     Boundary(BoundaryArgs),
     /// Do what the study's [study] table declares, writing output/<study name>/.
     ///
-    /// Kinds: `locate` (omega_b at the study's N, the default without a [study] table; or
-    /// refined to an accuracy; or over a ladder of node counts), `branch` (branches from rest,
+    /// Kinds: `locate` (omega_b refined in N to an accuracy, 1e-3 unless the table says, as
+    /// `helixbif locate`: the default without a [study] table; or at the study's N with its
+    /// estimated error; or over a ladder of node counts), `branch` (branches from rest,
     /// one per case, drawn together), `sweep` (omega_b over a parameter grid, fits),
     /// `boundary` (omega_b as curves in one field, one per case, the local exponent m_loc along
     /// them), `phase` (propulsive force over lambda/l and omegabar (R/lambda)^m with the
@@ -196,7 +197,7 @@ pub struct LocateArgs {
     /// Relative accuracy of omega_b: N is refined from the study's (spacing halved each time)
     /// until the estimated discretization error is below it, or until --max-nodes (with
     /// Lighthill, its admissible range) stops it (docs/model.md section 10).
-    #[arg(long, default_value_t = 1e-3, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
+    #[arg(long, default_value_t = DEFAULT_ACCURACY, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub accuracy: f64,
     /// Largest node count of the refinement.
     #[arg(long, default_value_t = DEFAULT_MAX_NODES as i64, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]

@@ -12,7 +12,7 @@ use super::results::{Boundary, Branch, Frame, Located, Orbits, Record, Simulatio
 use super::run::{bad_input, detached, numerical, output_dir, provenance, to_json, to_python};
 use super::study::Study;
 use crate::Error;
-use crate::analysis::refine::DEFAULT_MAX_NODES;
+use crate::analysis::refine::{DEFAULT_ACCURACY, DEFAULT_MAX_NODES};
 use crate::analysis::solve::solve_at;
 use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
@@ -99,7 +99,7 @@ pub(crate) fn locate(py: Python<'_>, study: &Study, o: LocateOptions) -> PyResul
     } else if o.single {
         Resolution::Single
     } else {
-        let accuracy = o.accuracy.unwrap_or(1e-3);
+        let accuracy = o.accuracy.unwrap_or(DEFAULT_ACCURACY);
         let max_nodes = match o.max_nodes {
             Some(m) => count("max_nodes", m, 5)?,
             None => DEFAULT_MAX_NODES,

@@ -108,13 +108,15 @@ pub enum Plan {
         #[serde(default)]
         cases: Vec<Case>,
     },
-    /// `omega_b` at the study's `N` with its discretization error estimated from a coarser rung;
-    /// with `accuracy`, refined in `N` until its estimated
-    /// discretization error is below it (up to `max_nodes`); or over a ladder of node counts
-    /// extrapolated with the known orders.
+    /// `omega_b` refined in `N` until its estimated error is below `accuracy` (default
+    /// [`crate::analysis::refine::DEFAULT_ACCURACY`], as `helixbif locate`; up to `max_nodes`);
+    /// with `fixed_nodes`, at the study's `N` with its discretization error estimated from a
+    /// coarser rung; or over a ladder of node counts extrapolated with the known orders.
     Locate {
         #[serde(default)]
         extrapolate: bool,
+        #[serde(default)]
+        fixed_nodes: bool,
         #[serde(default)]
         nodes: Vec<usize>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -414,6 +416,7 @@ impl Plan {
                 accuracy,
                 max_nodes,
                 extrapolate,
+                fixed_nodes,
                 ..
             } => {
                 if let Some(a) = accuracy {
@@ -427,6 +430,13 @@ impl Plan {
                         "study.accuracy",
                         "a refinement to an accuracy and an extrapolation over a ladder \
                          exclude each other: set one",
+                    ));
+                }
+                if *fixed_nodes && (*extrapolate || accuracy.is_some() || max_nodes.is_some()) {
+                    return Err(Error::input(
+                        "study.fixed_nodes",
+                        "omega_b at the study's N excludes a refinement (accuracy, max_nodes) and \
+                         an extrapolation: set one",
                     ));
                 }
                 Ok(())

@@ -17,7 +17,7 @@ use super::plan::Plan;
 use super::shapes::ShapesResult;
 use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
-use crate::analysis::refine::DEFAULT_MAX_NODES;
+use crate::analysis::refine::{DEFAULT_ACCURACY, DEFAULT_MAX_NODES};
 use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
 use crate::model::params::ShapeParams;
@@ -83,15 +83,18 @@ fn resolution(plan: &Plan) -> Resolution {
             nodes,
             ..
         } => Resolution::Ladder(nodes.clone()),
+        // A study that fixes N keeps it, with its estimated discretization error.
         Plan::Locate {
-            accuracy: Some(eps),
+            fixed_nodes: true, ..
+        } => Resolution::Fixed,
+        Plan::Locate {
+            accuracy,
             max_nodes,
             ..
         } => Resolution::Refine {
-            accuracy: *eps,
+            accuracy: accuracy.unwrap_or(DEFAULT_ACCURACY),
             max_nodes: max_nodes.unwrap_or(DEFAULT_MAX_NODES),
         },
-        // A study that fixes N keeps it, with its estimated discretization error.
         _ => Resolution::Fixed,
     }
 }
@@ -109,6 +112,7 @@ pub fn run(
     create_dir(dir)?;
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
+        fixed_nodes: false,
         nodes: Vec::new(),
         accuracy: None,
         max_nodes: None,
