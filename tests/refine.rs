@@ -240,34 +240,41 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
         why.contains("own error") && why.contains("raise fluid.points_per_blob"),
         "{why}"
     );
-    // `locate --extrapolate` measures it at its ladder's coarsest rung (whatever the order of
-    // the ladder) and widens the limit's bar by it: the limit in N keeps the quadrature's offset.
+    // `locate --extrapolate` measures it at its ladder's two coarsest rungs (whatever the order
+    // of the ladder; the second halves the spacing) and removes it from the limit as a
+    // refinement does (docs/model.md section 10): less `e(41)`, with the error `|e(41) - e(21)|`.
     let extrapolated = ladder(&physical, &[41, 21, 81], &settings, &mut Silent).unwrap();
     let measured = extrapolated.quadrature.as_ref().unwrap();
     assert_eq!(measured.nodes, 21);
     assert!((measured.error.unwrap() - e).abs() <= 1e-9 * e.abs());
-    // The same ladder with 32 points per blob radius: the distance between the two limits is
-    // the quadrature's effect on the limit, which the widening by `|e|` alone must cover
-    // (measured: 3.1e-3 against |e| = 5.0e-3 rad/s; not `e (1 - 1/16)` exactly, since the
-    // offset of each rung changes with its rounded number of points per edge).
+    let correction = extrapolated.quadrature_correction.as_ref().unwrap();
+    assert_eq!(correction.nodes, [21, 41]);
+    assert!((correction.subtracted - e41).abs() <= 1e-9 * e41.abs());
+    // The same ladder with 32 points per blob radius. The distance between the two limits in N
+    // is the quadrature's effect on the limit (measured: 3.1e-3 against |e| = 5.0e-3 rad/s; not
+    // `e (1 - 1/16)` exactly, since the rule's error changes with N). Each less its own rule's
+    // error, they agree within the two corrections' errors, and much better than the limits
+    // (measured: 3.5e-4 rad/s apart, against errors 1.3e-3 and 7.7e-5).
     physical.fluid.points_per_blob = Some(32.0);
     let finer = ladder(&physical, &[21, 41, 81], &settings, &mut Silent).unwrap();
-    let distance = extrapolated.omega_b_extrapolated - finer.omega_b_extrapolated;
+    let finer_correction = finer.quadrature_correction.as_ref().unwrap();
+    let limit = |l: &helixbif::analysis::refine::Ladder| {
+        l.omega_b_extrapolated + l.quadrature_correction.as_ref().unwrap().subtracted
+    };
+    let distance = limit(&extrapolated) - limit(&finer);
     assert!(
         distance.abs() <= e.abs() && distance.abs() > 0.1 * e.abs(),
         "limits {} (8 points per blob radius), {} (32); quadrature error {e:e}",
+        limit(&extrapolated),
+        limit(&finer)
+    );
+    let corrected = extrapolated.omega_b_extrapolated - finer.omega_b_extrapolated;
+    let bound = correction.error + finer_correction.error;
+    assert!(
+        corrected.abs() <= bound && corrected.abs() < 0.5 * distance.abs(),
+        "corrected limits {} (8) and {} (32) are {corrected:e} apart; bound {bound:e}",
         extrapolated.omega_b_extrapolated,
         finer.omega_b_extrapolated
-    );
-    // The correction a refinement makes of a limit (docs/model.md section 10): less `e(41)`,
-    // with the error `|e(41) - e(21)|`, brings the limit at 8 points per blob radius to that at
-    // 32 (which keeps its own rule's error, at most about `|e| / 16`) within that error, and
-    // much closer than before it (measured: 5.7e-4 rad/s against 3.1e-3, bound 1.3e-3).
-    let corrected = distance - e41;
-    let bound = (e41 - e).abs();
-    assert!(
-        corrected.abs() <= bound + e.abs() / 16.0 && corrected.abs() < 0.5 * distance.abs(),
-        "limit at 8 less e(41) = {e41:e} is {corrected:e} from the limit at 32; bound {bound:e}"
     );
 }
 

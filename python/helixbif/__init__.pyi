@@ -177,20 +177,22 @@ class Located(_Result):
     `failed` (why it could not be measured); None on Lighthill's operator."""
     quadrature_finer: dict[str, Any] | None
     """The same measured at the second rung (refined, where a third followed on a model whose
-    limit may be trusted)."""
+    limit may be trusted; ladder, where it halves the spacing)."""
     quadrature_correction: dict[str, Any] | None
-    """Where the answer is the limit less the quadrature's error (refined): `nodes` of the two
-    measurements, `subtracted` (rad/s, the finer measurement) and its `error` (rad/s, the change
+    """Where the answer is the limit less the quadrature's error (refined and ladder): `nodes` of
+    the two measurements, `subtracted` (rad/s, the finer measurement) and its `error` (rad/s, the change
     between the two)."""
     rungs: list[dict[str, Any]]
     stopped: str | None
     fluid: Literal["lighthill", "rpy"]
     """The hydrodynamic model of the rungs (refined)."""
     omega_b_extrapolated: float
-    """rad/s (ladder)"""
+    """rad/s (ladder): the limit in N, on the RPY line less the quadrature's error
+    (`quadrature_correction`)."""
     extrapolation_error: float | None
     """rad/s (ladder; refined where `answer` is `limit`, else None): the extrapolation's own
-    error; `error` adds the size of the quadrature's error on the RPY line."""
+    error; `error` adds, on the RPY line, the error of the quadrature's correction (or the size of
+    the quadrature's error where none was made)."""
     omegabar_b_extrapolated: float
     coefficients: list[float]
     """The ladder's fit of omegabar_b(N), lowest order first (see `model`)."""

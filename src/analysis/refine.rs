@@ -60,15 +60,21 @@ pub struct Ladder {
     pub omega_b: Vec<f64>,
     pub omegabar_b: Vec<f64>,
     pub kinds: Vec<Loss>,
+    /// The limit in `N`, on the RPY line less the quadrature's own error where it was removed
+    /// (`quadrature_correction`).
     pub omega_b_extrapolated: f64,
     /// The error of the limit: the extrapolation's ([`Extrapolated::error`]) plus, on the RPY
-    /// line, the size of the quadrature's own error (this limit in `N` keeps it: a ladder has
-    /// no correction, [`QuadratureCorrection`]).
+    /// line, the error of the quadrature's correction, or the size of the quadrature's own error
+    /// where none was made.
     pub omega_b_error: f64,
     pub extrapolation_error: f64,
     /// The RPY quadrature's own error, measured at the ladder's coarsest rung (as for a
     /// [`Refinement`]); `None` on Lighthill's operator.
     pub quadrature: Option<QuadratureError>,
+    /// The same at the next rung, where that halves the spacing or more.
+    pub quadrature_finer: Option<QuadratureError>,
+    /// The quadrature's error removed from the limit, and the error of that correction.
+    pub quadrature_correction: Option<QuadratureCorrection>,
     pub omegabar_b_extrapolated: f64,
     /// The error model, and its coefficients `c1`, `c2` (rad/s).
     pub model: &'static str,
@@ -590,13 +596,16 @@ pub fn ladder(
         ));
     }
     let mut results = Vec::new();
-    let mut coarsest: Option<Solved> = None;
+    // The rungs at the two smallest node counts, where the quadrature's error is measured.
+    let mut coarsest: Vec<Solved> = Vec::new();
     for &n in ladder {
         let solved = continuation_rung(physical, n, settings, observer)?;
         let located = solved.located.clone();
         observer.located(n, &located);
-        if coarsest.as_ref().is_none_or(|c| n < c.located.nodes) {
-            coarsest = Some(solved);
+        if coarsest.iter().all(|c| c.located.nodes != n) {
+            coarsest.push(solved);
+            coarsest.sort_by_key(|c| c.located.nodes);
+            coarsest.truncate(2);
         }
         let (Some(w), Some(wb)) = (located.omega_b, located.omegabar_b) else {
             return Err(Error::Numerical(format!(
@@ -620,13 +629,30 @@ pub fn ladder(
     let orders = error_orders(physical);
     let e: Extrapolated = extrapolate_with(orders, &nodes, &omega_b)?;
     let ratio = omegabar_b[0] / omega_b[0];
-    let quadrature = match (physical.fluid.model, &coarsest) {
-        (FluidModel::Rpy, Some(c)) => {
-            let measured = quadrature::measure(physical, c, &without_criticality(settings))?;
-            observer.quadrature(&measured);
-            Some(measured)
+    // On the RPY line the quadrature's error, measured at the coarsest rung and, where the next
+    // halves its spacing or more (the bound of the correction needs it), at that one too, to
+    // remove it from the limit ([`QuadratureCorrection`]); else its size is in the bar.
+    let mut measured = Vec::new();
+    if physical.fluid.model == FluidModel::Rpy {
+        let halved = coarsest[1].located.nodes >= 2 * coarsest[0].located.nodes - 1;
+        let at = if halved {
+            &coarsest[..]
+        } else {
+            &coarsest[..1]
+        };
+        for rung in at {
+            let q = quadrature::measure(physical, rung, &without_criticality(settings))?;
+            observer.quadrature(&q);
+            measured.push(q);
         }
-        _ => None,
+    }
+    let mut measured = measured.into_iter();
+    let (quadrature, quadrature_finer) = (measured.next(), measured.next());
+    let quadrature_correction =
+        QuadratureCorrection::between(quadrature.as_ref(), quadrature_finer.as_ref());
+    let (value, quadrature_part) = match &quadrature_correction {
+        Some(c) => (e.value - c.subtracted, c.error),
+        None => (e.value, quadrature::offset(quadrature.as_ref())),
     };
     Ok(Ladder {
         nodes_max: admissible_max_nodes(physical),
@@ -634,11 +660,13 @@ pub fn ladder(
         nodes,
         omega_b,
         omegabar_b,
-        omega_b_extrapolated: e.value,
-        omega_b_error: e.error + quadrature::offset(quadrature.as_ref()),
+        omega_b_extrapolated: value,
+        omega_b_error: e.error + quadrature_part,
         extrapolation_error: e.error,
         quadrature,
-        omegabar_b_extrapolated: e.value * ratio,
+        quadrature_finer,
+        quadrature_correction,
+        omegabar_b_extrapolated: value * ratio,
         model: orders.model(),
         coefficients: e.coefficients,
     })

@@ -99,16 +99,28 @@ impl Section for Ladder {
             "  extrapolated: omega_b = {:.6} +- {:.6} rad/s ({}; {range})",
             self.omega_b_extrapolated, self.omega_b_error, self.model
         )?;
-        if let Some(q) = &self.quadrature {
-            quadrature_line(f, q, Some(self.omega_b_extrapolated))?;
-            if q.error.is_some() {
+        match (&self.quadrature_correction, &self.quadrature) {
+            (Some(c), coarse) => {
+                correction_line(f, coarse.as_ref(), c)?;
                 write!(
                     f,
-                    "\n  error of the limit: the extrapolation's, {:.2e} rad/s, plus the size of \
-                     the quadrature error",
+                    "\n  error of the limit: the extrapolation's, {:.2e} rad/s, plus that of the \
+                     quadrature's correction",
                     self.extrapolation_error
                 )?;
             }
+            (None, Some(q)) => {
+                quadrature_line(f, q, Some(self.omega_b_extrapolated))?;
+                if q.error.is_some() {
+                    write!(
+                        f,
+                        "\n  error of the limit: the extrapolation's, {:.2e} rad/s, plus the size \
+                         of the quadrature error",
+                        self.extrapolation_error
+                    )?;
+                }
+            }
+            (None, None) => {}
         }
         Ok(())
     }
@@ -144,25 +156,23 @@ fn quadrature_line(f: &mut Formatter<'_>, q: &QuadratureError, limit: Option<f64
 }
 
 /// The line of the quadrature's correction `c` of a limit in `N` (docs/model.md section 10):
-/// both measurements, what was subtracted and the error of that.
-fn correction_line(f: &mut Formatter<'_>, r: &Refinement, c: &QuadratureCorrection) -> fmt::Result {
-    let coarse = r.quadrature.as_ref().and_then(|q| q.error);
+/// both measurements (the coarser, `coarse`), what was subtracted and the error of that.
+fn correction_line(
+    f: &mut Formatter<'_>,
+    coarse: Option<&QuadratureError>,
+    c: &QuadratureCorrection,
+) -> fmt::Result {
     write!(
         f,
         "\n  quadrature error of omega_b: {:+.2e} rad/s at N = {}, {:+.2e} at N = {} ({} against \
          {} points per blob radius, second order in the point spacing); {:+.2e} removed from \
          the limit, with an error of {:.2e} rad/s (the change between the two rungs)",
-        coarse.unwrap_or(f64::NAN),
+        coarse.and_then(|q| q.error).unwrap_or(f64::NAN),
         c.nodes[0],
         c.subtracted,
         c.nodes[1],
-        r.quadrature
-            .as_ref()
-            .map_or(f64::NAN, |q| q.points_per_blob),
-        r.quadrature
-            .as_ref()
-            .and_then(|q| q.compared_with)
-            .unwrap_or(f64::NAN),
+        coarse.map_or(f64::NAN, |q| q.points_per_blob),
+        coarse.and_then(|q| q.compared_with).unwrap_or(f64::NAN),
         c.subtracted,
         c.error
     )
@@ -315,7 +325,7 @@ impl Section for Refinement {
             _ => self.estimate.as_ref().map(|est| est.limit),
         };
         match (correction, &self.quadrature) {
-            (Some(c), _) => correction_line(f, self, c)?,
+            (Some(c), coarse) => correction_line(f, coarse.as_deref(), c)?,
             (None, Some(q)) => quadrature_line(f, q, limit)?,
             (None, None) => {}
         }
