@@ -8,7 +8,7 @@
 //!    certificate) against a continuation from rest at `N = 473` (event search included), both
 //!    without the Lyapunov coefficient, with the ratio and the difference of `omega_b`;
 //! 3. the refinement to `1e-4` (at the default 8 quadrature points per blob radius, whose own
-//!    error, 1.6e-4 relative, the refinement removes from its limit), with its peak memory.
+//!    error, 1.5e-4 relative, the refinement removes from its limit), with its peak memory.
 //!
 //! Run: `cargo bench --bench refine`.
 

@@ -553,6 +553,19 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
     let w = rung_field(&v, "omega_b");
     assert_eq!(w.len(), 3, "{v}");
     assert!(v["stopped"].as_str().unwrap().contains("--max-nodes 81"));
+    // The answer is the finest rung's value (the limit of 21, 41, 81 has the larger error in N)
+    // less the quadrature's error measured at 41, with the change from 21 as its error.
+    assert_eq!(v["answer"], "finest_rung");
+    let correction = &v["quadrature_correction"];
+    assert_eq!(correction["nodes"], serde_json::json!([21, 41]));
+    let (e21, e41) = (
+        v["quadrature"]["error"].as_f64().unwrap(),
+        v["quadrature_finer"]["error"].as_f64().unwrap(),
+    );
+    assert_eq!(correction["subtracted"].as_f64().unwrap(), e41);
+    assert!((correction["error"].as_f64().unwrap() - (e41 - e21).abs()).abs() < 1e-15);
+    let answered = v["omega_b"].as_f64().unwrap();
+    assert!((answered - (w[2] - e41)).abs() < 1e-12 * w[2], "{v}");
     // The observed order reported is the rungs', in the spacing h = 1/(N - 3/2) of the clamped
     // edge centred on the clamp (the default on this line): the p at which
     // (h1^p - h2^p)/(h2^p - h3^p) is the ratio of the increments, by bisection here.
@@ -577,9 +590,10 @@ fn the_rpy_refinement_error_estimate_covers_the_error_against_a_finer_direct_com
     let f: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
     assert_eq!(f["kind"], "hopf");
     // The true error of the N = 81 value is at least its distance to the finer value (both
-    // converge from above); the estimate covers it, and by less than a factor of 20.
+    // converge from above); the estimate of the finest rung's own error (its discretization
+    // error plus the size of the quadrature's) covers it, and by less than a factor of 20.
     let measured = w[2] - f["omega_b"].as_f64().unwrap();
-    let error = v["omega_b_error"].as_f64().unwrap();
+    let error = v["finest_error"].as_f64().unwrap();
     assert!(measured > 0.0, "{measured}");
     assert!(
         error >= measured && error < 20.0 * measured,
@@ -661,6 +675,10 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
         ("accuracy = 1e-3\nextrapolate = true\n", "study.accuracy"),
         ("max_nodes = 3\n", "study.max_nodes"),
         ("fixed_nodes = true\naccuracy = 1e-3\n", "study.fixed_nodes"),
+        (
+            "fixed_nodes = true\nnodes = [20, 39, 77]\n",
+            "study.fixed_nodes",
+        ),
     ] {
         std::fs::write(
             &study,

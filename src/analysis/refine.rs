@@ -129,8 +129,8 @@ pub struct Refinement {
     /// The same measured at the second rung, where a third followed and the model's limit may
     /// be trusted ([`Orders::Second`]).
     pub quadrature_finer: Option<Box<QuadratureError>>,
-    /// Where the answer is the limit: the quadrature's error removed from it, and the error of
-    /// that correction.
+    /// The quadrature's error removed from the answer (the limit or the finest rung's value),
+    /// and the error of that correction, where both measurements were made.
     pub quadrature_correction: Option<Box<QuadratureCorrection>>,
     /// Every rung: node count, `omega_b`, kind.
     pub rungs: Vec<Rung>,
@@ -169,9 +169,10 @@ const LIMIT_MIN_ORDER: f64 = 1.5;
 /// remainder (a pure second-order one leaves the finer limit exact). Below order 1 it would
 /// not, and the floor on `p` keeps out rungs whose leading term is not the known one (it does
 /// not fix `q`, which three rungs cannot see). Two remainder terms of opposite signs could make
-/// the change small by cancellation; on the models here no first-order term exists to cancel a
-/// third-order one (docs/model.md section 9), and the change shrinks about eightfold per halving
-/// where it was measured (section 10). `None` where it does not hold.
+/// the change small by cancellation; on the models here no first-order term of the
+/// discretization exists to cancel a third-order one (docs/model.md section 9: the quadrature's
+/// change with `N`, about first order, is a hundredth of the increments), and the change shrinks
+/// about eightfold per halving where it was measured (section 10). `None` where it does not hold.
 pub fn trusted_limit(
     orders: Orders,
     nodes: &[usize],
@@ -191,8 +192,10 @@ pub fn trusted_limit(
 
 /// The answer of rungs whose finest value `finest` has the discretization error `estimate`,
 /// on a rule whose own error of `omega_b` has the size `offset` (0 where not measured): the
-/// trusted `limit`, less the quadrature's error where `correction` removes it, where there is
-/// one and its whole error is the smaller; else the finest value.
+/// trusted `limit` where there is one and its error in `N` is the smaller, else the finest
+/// value; either less the quadrature's error where `correction` removes it (the same
+/// correction whichever is chosen, so that the choice compares the errors in `N` alone), else
+/// keeping it, with `offset` in its error.
 fn answer(
     finest: f64,
     estimate: &DiscretizationError,
@@ -200,44 +203,32 @@ fn answer(
     offset: f64,
     correction: Option<QuadratureCorrection>,
 ) -> Answered {
-    let finest_answer = Answered {
-        source: Answer::FinestRung,
-        value: finest,
-        error: estimate.error,
-        quadrature: offset,
-        limit: None,
-        correction: None,
+    let (source, value, error, limit) = match limit {
+        Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error, Some(l)),
+        _ => (Answer::FinestRung, finest, estimate.error, None),
     };
-    let Some(limit) = limit else {
-        return finest_answer;
+    let (value, quadrature_part) = match &correction {
+        Some(c) => (value - c.subtracted, c.error),
+        None => (value, offset),
     };
-    let (value, quadrature) = match &correction {
-        Some(c) => (limit.value - c.subtracted, c.error),
-        None => (limit.value, offset),
-    };
-    let limit_answer = Answered {
-        source: Answer::Limit,
+    Answered {
+        source,
         value,
-        error: limit.error,
-        quadrature,
-        limit: Some(limit),
+        error,
+        quadrature_part,
+        limit,
         correction,
-    };
-    if limit_answer.total() <= finest_answer.total() {
-        limit_answer
-    } else {
-        finest_answer
     }
 }
 
 /// A refinement's answer so far ([`answer`]): where it comes from, its value (rad/s), its error
 /// in `N` and the quadrature's part of its error (rad/s), the limit where that is the answer,
-/// and the quadrature's correction where it was removed from the limit.
+/// and the quadrature's correction where it was removed from the answer.
 pub struct Answered {
     pub source: Answer,
     pub value: f64,
     pub error: f64,
-    pub quadrature: f64,
+    pub quadrature_part: f64,
     pub limit: Option<Extrapolated>,
     pub correction: Option<QuadratureCorrection>,
 }
@@ -245,7 +236,7 @@ pub struct Answered {
 impl Answered {
     /// The whole error (rad/s): in `N` and of the quadrature.
     pub fn total(&self) -> f64 {
-        self.error + self.quadrature
+        self.error + self.quadrature_part
     }
 }
 
@@ -860,11 +851,15 @@ pub fn refine(
             }
         }
         // The quadrature's error (RPY line), where a finer rung follows: at the coarsest rung (a
-        // single rung has no error bar to put it in), and at the next where a limit may be
-        // trusted ([`Orders::Second`]), to remove it from that limit ([`QuadratureCorrection`]).
+        // single rung has no error bar to put it in), and at the next where a trusted limit
+        // may follow ([`Orders::Second`], the next rung a halving), to remove it from the answer
+        // ([`QuadratureCorrection`]).
+        let halving = |m: usize| refined(m, limit) == Some(2 * m - 1);
         let correctable = orders == Orders::Second;
-        let second =
-            rungs.len() == 2 && correctable && quadrature::offset(quadrature.as_deref()) > 0.0;
+        let second = rungs.len() == 2
+            && correctable
+            && halving(n)
+            && quadrature::offset(quadrature.as_deref()) > 0.0;
         if physical.fluid.model == FluidModel::Rpy
             && refined(n, limit).is_some()
             && (rungs.len() == 1 || second)
@@ -873,26 +868,28 @@ pub fn refine(
             let measured = Box::new(quadrature::measure(physical, rung, &quiet)?);
             observer.quadrature(&measured);
             let points_per_blob = measured.points_per_blob;
-            let measured_error = measured.error;
             if second {
                 quadrature_finer = Some(measured);
             } else {
                 quadrature = Some(measured);
             }
             // What the quadrature leaves in every answer to come: its correction's error, or
-            // the rule's whole error where no correction can come.
+            // the rule's whole error where no correction can come (a correction may still come
+            // after the coarsest rung where the next two rungs halve the spacing).
             let correction =
                 QuadratureCorrection::between(quadrature.as_deref(), quadrature_finer.as_deref());
-            let remains = match correction {
-                Some(c) => Some(("the error of the quadrature's correction", c.error)),
-                None if !correctable || second => Some((
+            let may_come = !second && correctable && halving(n) && halving(2 * n - 1);
+            let (what, q) = match correction {
+                Some(c) => ("the error of the quadrature's correction", c.error),
+                None if may_come => ("", 0.0),
+                None => (
                     "the quadrature's own error",
                     quadrature::offset(quadrature.as_deref()),
-                )),
-                None => None,
+                ),
             };
             let value = rung.located.omega_b.map_or(f64::NAN, f64::abs);
-            if let (Some((what, q)), Some(a), Some(_)) = (remains, accuracy, measured_error)
+            if let Some(a) = accuracy
+                && q > 0.0
                 && q / value >= a
             {
                 break Some(format!(
@@ -923,9 +920,9 @@ pub fn refine(
     let finest_error = estimate
         .as_ref()
         .map(|e| e.error + quadrature::offset(quadrature.as_deref()));
-    if let (Some(a), Some(w)) = (&answered, omega_b_finest)
-        && a.source == Answer::Limit
-    {
+    // The answer where it is not the finest rung's own value (a limit, or less the
+    // quadrature's error).
+    if let (Some(a), Some(w)) = (&answered, omega_b_finest) {
         let ratio = finest.omegabar_b.map_or(f64::NAN, |wb| wb / w);
         finest.omega_b = Some(a.value);
         finest.omegabar_b = Some(a.value * ratio);

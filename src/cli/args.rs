@@ -195,7 +195,7 @@ pub struct LocateArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub tol: Option<f64>,
     /// Relative accuracy of omega_b: N is refined from the study's (spacing halved each time)
-    /// until the estimated discretization error is below it, or until --max-nodes (with
+    /// until the estimated error of the answer (in N and of the quadrature) is below it, or until --max-nodes (with
     /// Lighthill, its admissible range) stops it (docs/model.md section 10).
     #[arg(long, default_value_t = DEFAULT_ACCURACY, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub accuracy: f64,

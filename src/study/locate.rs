@@ -151,9 +151,9 @@ impl RungObserver for RungProgress<'_> {
                 "; plus the error of the quadrature's correction, {:.2e} rad/s",
                 c.error
             ),
-            None if answered.quadrature > 0.0 => format!(
+            None if answered.quadrature_part > 0.0 => format!(
                 "; plus the quadrature error, {:.2e} rad/s",
-                answered.quadrature
+                answered.quadrature_part
             ),
             None => String::new(),
         };
@@ -167,7 +167,11 @@ impl RungObserver for RungProgress<'_> {
                 "the limit of the three finest rungs, {:.8} rad/s, its error in N {:.2e} rad/s",
                 l.value, l.error
             ),
-            _ => format!("the finest rung: {}", estimate.method),
+            (None, Some(c)) => format!(
+                "the finest rung less the quadrature error {:+.2e}: {}",
+                c.subtracted, estimate.method
+            ),
+            (None, None) => format!("the finest rung: {}", estimate.method),
         };
         progress::note(&format!(
             "  estimated relative error {relative:.2e} ({answer}{quadrature})"

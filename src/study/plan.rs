@@ -417,7 +417,7 @@ impl Plan {
                 max_nodes,
                 extrapolate,
                 fixed_nodes,
-                ..
+                nodes,
             } => {
                 if let Some(a) = accuracy {
                     check_accuracy("study.accuracy", *a)?;
@@ -432,11 +432,12 @@ impl Plan {
                          exclude each other: set one",
                     ));
                 }
-                if *fixed_nodes && (*extrapolate || accuracy.is_some() || max_nodes.is_some()) {
+                let refines = accuracy.is_some() || max_nodes.is_some();
+                if *fixed_nodes && (*extrapolate || refines || !nodes.is_empty()) {
                     return Err(Error::input(
                         "study.fixed_nodes",
                         "omega_b at the study's N excludes a refinement (accuracy, max_nodes) and \
-                         an extrapolation: set one",
+                         an extrapolation (extrapolate, nodes): set one",
                     ));
                 }
                 Ok(())

@@ -157,6 +157,11 @@ impl QuadratureCorrection {
         finer: Option<&QuadratureError>,
     ) -> Option<Self> {
         let (coarse, finer) = (coarse?, finer?);
+        // Two measurements of one pair of rules (not one from half the points and one from
+        // twice: their formulas' own errors differ).
+        if coarse.compared_with != finer.compared_with {
+            return None;
+        }
         let (e1, e2) = (coarse.error?, finer.error?);
         Some(Self {
             nodes: [coarse.nodes, finer.nodes],

@@ -181,21 +181,21 @@ fn correction_line(
 /// Where a refinement's answer stands: `N = n` for the finest rung, `limit of N = a, b, c` for
 /// the limit of the three finest rungs.
 fn answered_at(r: &Refinement) -> String {
-    match r.answer {
+    let at = match r.answer {
         Answer::FinestRung => format!("N = {}", r.finest.nodes),
         Answer::Limit => format!(
-            "limit of N = {}{}",
+            "limit of N = {}",
             r.rungs[r.rungs.len().saturating_sub(3)..]
                 .iter()
                 .map(|g| g.nodes.to_string())
                 .collect::<Vec<_>>()
-                .join(", "),
-            if r.quadrature_correction.is_some() {
-                " less the quadrature error"
-            } else {
-                ""
-            }
+                .join(", ")
         ),
+    };
+    if r.quadrature_correction.is_some() {
+        format!("{at} less the quadrature error")
+    } else {
+        at
     }
 }
 
@@ -326,7 +326,21 @@ impl Section for Refinement {
         };
         match (correction, &self.quadrature) {
             (Some(c), coarse) => correction_line(f, coarse.as_deref(), c)?,
-            (None, Some(q)) => quadrature_line(f, q, limit)?,
+            (None, Some(q)) => {
+                quadrature_line(f, q, limit)?;
+                // A second measurement that could not be made (so no correction).
+                if let Some(why) = self
+                    .quadrature_finer
+                    .as_ref()
+                    .and_then(|q| q.failed.as_ref())
+                {
+                    write!(
+                        f,
+                        "\n  quadrature error NOT measured again at the second rung, so the \
+                         answer keeps it: {why}"
+                    )?;
+                }
+            }
             (None, None) => {}
         }
         if let (Some(e), Some(rel)) = (self.omega_b_error, self.relative_error) {
