@@ -41,7 +41,7 @@ pub trait RungObserver: Observer<Point, Event> {
     /// The rung at `nodes` located `located`.
     fn located(&mut self, _nodes: usize, _located: &Located) {}
     /// The RPY quadrature's own error, measured at a rung (the coarsest, and the next where a
-    /// limit may need its correction).
+    /// correction of the answer may follow).
     fn quadrature(&mut self, _quadrature: &QuadratureError) {}
     /// The estimated relative error of the answer so far, `answered`. `estimate` is the finest
     /// rung's own discretization error.
@@ -90,8 +90,9 @@ pub struct Ladder {
 /// estimated from a coarser rung ([`estimate_at_nodes`]). The answer ([`Answer`]) is the finest
 /// rung's `omega_b` with its discretization error ([`discretization_error`]), or, where the
 /// model has the second order alone and the three finest rungs converge as it allows, their
-/// limit in `N` with its error ([`trusted_limit`]) and, on the RPY line, the quadrature's error
-/// removed from it ([`QuadratureCorrection`]), whichever has the smaller error.
+/// limit in `N` with its error ([`trusted_limit`]), whichever has the smaller error in `N`; on the
+/// RPY line less the quadrature's own error where it was measured twice
+/// ([`QuadratureCorrection`]).
 #[derive(Serialize)]
 pub struct Refinement {
     /// The finest rung (its fields at the top level), except that its `omega_b` and
@@ -109,7 +110,7 @@ pub struct Refinement {
     /// Estimated error of the answer against the continuous model (rad/s) and relative: its
     /// error in `N` (the finest rung's discretization error, `estimate`, or the limit's,
     /// `extrapolation_error`) plus, on the RPY line, the size of the quadrature's own error
-    /// (`quadrature`) or, where it was removed from the limit, the error of that correction
+    /// (`quadrature`) or, where it was removed from the answer, the error of that correction
     /// (`quadrature_correction`); absent with one rung.
     pub omega_b_error: Option<f64>,
     pub relative_error: Option<f64>,
@@ -126,8 +127,8 @@ pub struct Refinement {
     /// The RPY line's quadrature error, measured at the coarsest rung (absent on Lighthill's
     /// operator, which has no quadrature of its own). Boxed: a refinement is moved whole.
     pub quadrature: Option<Box<QuadratureError>>,
-    /// The same measured at the second rung, where a third followed and the model's limit may
-    /// be trusted ([`Orders::Second`]).
+    /// The same measured at the second rung, where the model's limit may be trusted
+    /// ([`Orders::Second`]) and the next rung halves the spacing.
     pub quadrature_finer: Option<Box<QuadratureError>>,
     /// The quadrature's error removed from the answer (the limit or the finest rung's value),
     /// and the error of that correction, where both measurements were made.
@@ -207,10 +208,7 @@ fn answer(
         Some(l) if l.error <= estimate.error => (Answer::Limit, l.value, l.error, Some(l)),
         _ => (Answer::FinestRung, finest, estimate.error, None),
     };
-    let (value, quadrature_part) = match &correction {
-        Some(c) => (value - c.subtracted, c.error),
-        None => (value, offset),
-    };
+    let (value, quadrature_part) = quadrature::corrected(value, correction.as_ref(), offset);
     Answered {
         source,
         value,
@@ -641,10 +639,11 @@ pub fn ladder(
     let (quadrature, quadrature_finer) = (measured.next(), measured.next());
     let quadrature_correction =
         QuadratureCorrection::between(quadrature.as_ref(), quadrature_finer.as_ref());
-    let (value, quadrature_part) = match &quadrature_correction {
-        Some(c) => (e.value - c.subtracted, c.error),
-        None => (e.value, quadrature::offset(quadrature.as_ref())),
-    };
+    let (value, quadrature_part) = quadrature::corrected(
+        e.value,
+        quadrature_correction.as_ref(),
+        quadrature::offset(quadrature.as_ref()),
+    );
     Ok(Ladder {
         nodes_max: admissible_max_nodes(physical),
         kinds: results.into_iter().map(|r| r.3).collect(),
@@ -740,8 +739,7 @@ pub fn refine(
     // The answer of the rungs so far ([`answer`]; none while `estimate` is).
     let mut answered: Option<Answered> = None;
     // The quadrature's own error, measured at the coarsest rung and the next (RPY line).
-    let mut quadrature: Option<Box<QuadratureError>> = None;
-    let mut quadrature_finer: Option<Box<QuadratureError>> = None;
+    let mut measured = quadrature::Measured::default();
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
     let quiet = without_criticality(settings);
     let mut n = start;
@@ -834,14 +832,8 @@ pub fn refine(
             let (nodes, values) = rung_values(&rungs);
             let e = discretization_error(orders, &nodes, &values)?;
             let limit = trusted_limit(orders, &nodes, &values, e.observed_order)?;
-            let offset = quadrature::offset(quadrature.as_deref());
-            let a = answer(
-                values[values.len() - 1],
-                &e,
-                limit,
-                offset,
-                QuadratureCorrection::between(quadrature.as_deref(), quadrature_finer.as_deref()),
-            );
+            let last = values[values.len() - 1];
+            let a = answer(last, &e, limit, measured.offset(), measured.correction());
             let relative = a.total() / a.value.abs();
             observer.estimated(relative, &e, &a);
             estimate = Some(e);
@@ -856,40 +848,22 @@ pub fn refine(
         // ([`QuadratureCorrection`]).
         let halving = |m: usize| refined(m, limit) == Some(2 * m - 1);
         let correctable = orders == Orders::Second;
-        let second = rungs.len() == 2
-            && correctable
-            && halving(n)
-            && quadrature::offset(quadrature.as_deref()) > 0.0;
+        let second = rungs.len() == 2 && correctable && halving(n) && measured.offset() > 0.0;
         if physical.fluid.model == FluidModel::Rpy
             && refined(n, limit).is_some()
             && (rungs.len() == 1 || second)
         {
             let rung = finest.as_ref().expect("the rung just solved");
-            let measured = Box::new(quadrature::measure(physical, rung, &quiet)?);
-            observer.quadrature(&measured);
-            let points_per_blob = measured.points_per_blob;
-            if second {
-                quadrature_finer = Some(measured);
-            } else {
-                quadrature = Some(measured);
-            }
-            // What the quadrature leaves in every answer to come: its correction's error, or
-            // the rule's whole error where no correction can come (a correction may still come
-            // after the coarsest rung where the next two rungs halve the spacing).
-            let correction =
-                QuadratureCorrection::between(quadrature.as_deref(), quadrature_finer.as_deref());
+            let q = quadrature::measure(physical, rung, &quiet)?;
+            observer.quadrature(&q);
+            let points_per_blob = q.points_per_blob;
+            measured.record(q);
+            // A correction may still come after the coarsest rung where the next two rungs
+            // halve the spacing; what the quadrature leaves otherwise stops the refinement
+            // where it is not below the accuracy.
             let may_come = !second && correctable && halving(n) && halving(2 * n - 1);
-            let (what, q) = match correction {
-                Some(c) => ("the error of the quadrature's correction", c.error),
-                None if may_come => ("", 0.0),
-                None => (
-                    "the quadrature's own error",
-                    quadrature::offset(quadrature.as_deref()),
-                ),
-            };
             let value = rung.located.omega_b.map_or(f64::NAN, f64::abs);
-            if let Some(a) = accuracy
-                && q > 0.0
+            if let (Some((what, q)), Some(a)) = (measured.left(may_come), accuracy)
                 && q / value >= a
             {
                 break Some(format!(
@@ -917,9 +891,7 @@ pub fn refine(
         finest = finest.with_criticality(&model, &c.event, &c.chart);
     }
     let omega_b_finest = finest.omega_b;
-    let finest_error = estimate
-        .as_ref()
-        .map(|e| e.error + quadrature::offset(quadrature.as_deref()));
+    let finest_error = estimate.as_ref().map(|e| e.error + measured.offset());
     // The answer where it is not the finest rung's own value (a limit, or less the
     // quadrature's error).
     if let (Some(a), Some(w)) = (&answered, omega_b_finest) {
@@ -946,8 +918,8 @@ pub fn refine(
         finest_error,
         extrapolation_error,
         estimate: estimate.map(Box::new),
-        quadrature,
-        quadrature_finer,
+        quadrature: measured.coarse,
+        quadrature_finer: measured.finer,
         quadrature_correction,
         rungs,
         stopped: if reached { None } else { stopped },

@@ -171,8 +171,63 @@ impl QuadratureCorrection {
     }
 }
 
+/// `value` (rad/s) less the quadrature's error where `correction` removes it, and the
+/// quadrature's part of its error: the correction's error, else `offset`, the size of the
+/// rule's error it keeps ([`offset`]).
+pub(super) fn corrected(
+    value: f64,
+    correction: Option<&QuadratureCorrection>,
+    offset: f64,
+) -> (f64, f64) {
+    match correction {
+        Some(c) => (value - c.subtracted, c.error),
+        None => (value, offset),
+    }
+}
+
 /// The size of the quadrature's error where it was measured (rad/s), else 0: what a value that
 /// keeps the rule's offset adds to its error bar.
 pub(super) fn offset(quadrature: Option<&QuadratureError>) -> f64 {
     quadrature.and_then(|q| q.error).map_or(0.0, f64::abs)
+}
+
+/// A refinement's measurements of the quadrature's error: at its coarsest rung, and at the next
+/// where a correction may follow.
+#[derive(Default)]
+pub(super) struct Measured {
+    pub(super) coarse: Option<Box<QuadratureError>>,
+    pub(super) finer: Option<Box<QuadratureError>>,
+}
+
+impl Measured {
+    /// Records a measurement: the coarsest rung's first, then the next rung's.
+    pub(super) fn record(&mut self, measured: QuadratureError) {
+        let slot = if self.coarse.is_none() {
+            &mut self.coarse
+        } else {
+            &mut self.finer
+        };
+        *slot = Some(Box::new(measured));
+    }
+
+    /// The size of the coarsest rung's measurement ([`offset`]).
+    pub(super) fn offset(&self) -> f64 {
+        offset(self.coarse.as_deref())
+    }
+
+    /// The correction of (2), where both were measured.
+    pub(super) fn correction(&self) -> Option<QuadratureCorrection> {
+        QuadratureCorrection::between(self.coarse.as_deref(), self.finer.as_deref())
+    }
+
+    /// What the quadrature leaves in every answer to come (rad/s), and what that is: the
+    /// correction's error, or the rule's whole error where no correction can come (`may_come`:
+    /// one still may); `None` where nothing is known to be left.
+    pub(super) fn left(&self, may_come: bool) -> Option<(&'static str, f64)> {
+        match self.correction() {
+            Some(c) => Some(("the error of the quadrature's correction", c.error)),
+            None if may_come => None,
+            None => Some(("the quadrature's own error", self.offset())).filter(|&(_, q)| q > 0.0),
+        }
+    }
 }
