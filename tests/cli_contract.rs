@@ -611,38 +611,37 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
         .unwrap()
         .replace("model = \"rpy\"", "model = \"lighthill\"")
         .replace("nodes = 60", "nodes = 20");
-    std::fs::write(
-        &study,
-        format!("{base}\n[study]\nkind = \"locate\"\naccuracy = 1e-6\nmax_nodes = 39\n"),
-    )
-    .unwrap();
     let out = dir.join("out");
-    let (code, _, stderr) = helixbif(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    // `run` on the study with `table` appended: its exit code, stderr and, where it wrote one,
+    // its `locate.json`.
+    let run = |table: &str| {
+        std::fs::write(&study, format!("{base}{table}")).unwrap();
+        let _ = std::fs::remove_file(out.join("locate.json"));
+        let (code, _, stderr) = helixbif(&[
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let json = std::fs::read_to_string(out.join("locate.json"))
+            .ok()
+            .map(|text| serde_json::from_str::<serde_json::Value>(&text).unwrap());
+        (code, stderr, json)
+    };
+    let locate_table = |extra: &str| format!("\n[study]\nkind = \"locate\"\n{extra}");
+    let (code, stderr, v) = run(&locate_table("accuracy = 1e-6\nmax_nodes = 39\n"));
     // The accuracy asked for is out of reach: a numerical failure, the rungs on disk.
     assert_eq!(code, 1, "{stderr}");
     assert!(stderr.contains("accuracy 1e-6 not reached"), "{stderr}");
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    let v = v.unwrap();
     assert_eq!(rung_field(&v, "nodes"), [20.0, 39.0], "{v}");
     assert_eq!(v["reached"], false);
     assert!(v["omega_b_error"].as_f64().unwrap() > 0.0);
     // Without a [study] table, `run` answers as `locate` does: refined to the default accuracy
     // (out of reach on Lighthill's operator, whose range ends at N = 87: exit 1 from both).
-    std::fs::write(&study, &base).unwrap();
-    let (code, _, stderr) = helixbif(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stderr, ran) = run("");
     assert_eq!(code, 1, "{stderr}");
-    let ran: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    let ran = ran.unwrap();
     let (code, located, stderr) = helixbif(&["locate", study.to_str().unwrap(), "--json"]);
     assert_eq!(code, 1, "{stderr}");
     let located: serde_json::Value = serde_json::from_str(located.trim()).unwrap();
@@ -653,20 +652,9 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
     assert_eq!(rung_field(&ran, "nodes"), rung_field(&located, "nodes"));
     assert_eq!(rung_field(&ran, "omega_b"), rung_field(&located, "omega_b"));
     // With `fixed_nodes`, at the study's N with its error from a coarser rung.
-    std::fs::write(
-        &study,
-        format!("{base}\n[study]\nkind = \"locate\"\nfixed_nodes = true\n"),
-    )
-    .unwrap();
-    let (code, _, stderr) = helixbif(&[
-        "run",
-        study.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stderr, fixed) = run(&locate_table("fixed_nodes = true\n"));
     assert_eq!(code, 0, "{stderr}");
-    let fixed: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("locate.json")).unwrap()).unwrap();
+    let fixed = fixed.unwrap();
     assert_eq!(rung_field(&fixed, "nodes"), [11.0, 20.0], "{fixed}");
     assert!(fixed["accuracy"].is_null() && fixed["omega_b_error"].as_f64().unwrap() > 0.0);
     // Out of range, or together with an extrapolation: refused, naming the field.
@@ -680,17 +668,7 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
             "study.fixed_nodes",
         ),
     ] {
-        std::fs::write(
-            &study,
-            format!("{base}\n[study]\nkind = \"locate\"\n{extra}"),
-        )
-        .unwrap();
-        let (code, _, stderr) = helixbif(&[
-            "run",
-            study.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let (code, stderr, _) = run(&locate_table(extra));
         assert_eq!(code, 2, "{extra}: {stderr}");
         assert!(stderr.contains(field), "{stderr}");
     }
