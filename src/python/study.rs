@@ -182,10 +182,11 @@ impl Study {
 
     /// The critical rate omega_b (rad/s): the first loss of stability of the branch from rest
     /// (`helixbif locate`). By default N is refined (spacing halved) until the estimated
-    /// relative discretization error of omega_b is below `accuracy` (default 1e-3) or
-    /// `max_nodes` (default 500) or the model's admissible range stops it; `single=True`
-    /// locates at the study's N only; `extrapolate=True` runs a ladder of node counts `nodes`
-    /// (default: five inside the admissible range) and extrapolates. `tol` is the relative
+    /// relative error of omega_b (in N and, on the RPY line, of the quadrature) is below
+    /// `accuracy` (default 1e-3) or `max_nodes` (default 500) or the model's admissible range
+    /// stops it; `single=True` locates at the study's N only; `extrapolate=True` runs a ladder
+    /// of node counts `nodes` (default: N, 2N - 1, 4N - 3 on the RPY line, five inside the
+    /// admissible range on Lighthill's operator) and extrapolates. `tol` is the relative
     /// precision of omega_b (default the study's continuation.event_tol, 1e-8). Returns a
     /// `Located`. Raises ValueError on bad input, NumericalError when the continuation fails
     /// or the refinement stops short of `accuracy` (the `Located` in its `partial`).
