@@ -155,8 +155,9 @@ fn quadrature_line(f: &mut Formatter<'_>, q: &QuadratureError, limit: Option<f64
     }
 }
 
-/// The line of the quadrature's correction `c` of a limit in `N` (docs/model.md section 10):
-/// both measurements (the coarser, `coarse`), what was subtracted and the error of that.
+/// The line of the quadrature's correction `c` of an answer (a limit in `N`, or a refinement's
+/// finest rung; docs/model.md section 10): both measurements (the coarser, `coarse`), what was
+/// subtracted and the error of that.
 fn correction_line(
     f: &mut Formatter<'_>,
     coarse: Option<&QuadratureError>,
@@ -166,7 +167,7 @@ fn correction_line(
         f,
         "\n  quadrature error of omega_b: {:+.2e} rad/s at N = {}, {:+.2e} at N = {} ({} against \
          {} points per blob radius, second order in the point spacing); {:+.2e} removed from \
-         the limit, with an error of {:.2e} rad/s (the change between the two rungs)",
+         the answer, with an error of {:.2e} rad/s (the change between the two rungs)",
         coarse.and_then(|q| q.error).unwrap_or(f64::NAN),
         c.nodes[0],
         c.subtracted,
@@ -178,19 +179,21 @@ fn correction_line(
     )
 }
 
+/// The node counts of a refinement's three finest rungs, those of its limit: `a, b, c`.
+fn limit_rungs(r: &Refinement) -> String {
+    r.rungs[r.rungs.len().saturating_sub(3)..]
+        .iter()
+        .map(|g| g.nodes.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Where a refinement's answer stands: `N = n` for the finest rung, `limit of N = a, b, c` for
-/// the limit of the three finest rungs.
+/// the limit of the three finest rungs; either `less the quadrature error` where it was removed.
 fn answered_at(r: &Refinement) -> String {
     let at = match r.answer {
         Answer::FinestRung => format!("N = {}", r.finest.nodes),
-        Answer::Limit => format!(
-            "limit of N = {}",
-            r.rungs[r.rungs.len().saturating_sub(3)..]
-                .iter()
-                .map(|g| g.nodes.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+        Answer::Limit => format!("limit of N = {}", limit_rungs(r)),
     };
     if r.quadrature_correction.is_some() {
         format!("{at} less the quadrature error")
@@ -314,11 +317,7 @@ impl Section for Refinement {
                      second-order limit of the two finest rungs; its error the change from the \
                      limit of the pair before, which covers it for a remainder of one order \
                      above 1: docs/model.md section 10)",
-                    self.rungs[self.rungs.len().saturating_sub(3)..]
-                        .iter()
-                        .map(|g| g.nodes.to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    limit_rungs(self)
                 )?;
                 Some(w)
             }
