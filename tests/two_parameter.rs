@@ -6,6 +6,7 @@ use std::ops::ControlFlow;
 use std::rc::Rc;
 
 use helixbif::engine::arclength::{Branch, Limits, follow};
+use helixbif::engine::criticality::Verdict;
 use helixbif::engine::curve::{
     Curve, CurveEnd, CurvePoint, CurveSettings, Special, SpecialKind, follow_curve, others,
 };
@@ -242,11 +243,7 @@ fn a_curve_that_turns_back_in_q_is_passed_and_its_turning_point_located() {
             r - 1.0
         );
     }
-    let turning: Vec<&Special> = curve
-        .special
-        .iter()
-        .filter(|s| s.kind == SpecialKind::Turning)
-        .collect();
+    let turning = of_kind(&curve, SpecialKind::Turning);
     assert_eq!(turning.len(), 1, "{:?}", curve.special);
     let t = &turning[0].point;
     println!("turning point at (p, q) = ({:e}, 1 {:+e})", t.p, t.q - 1.0);
@@ -376,11 +373,14 @@ fn the_branch_point_curve_of_the_shifted_pitchfork_is_p_equals_q() {
     assert!(curve.points.len() >= 10);
 }
 
-#[test]
-fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_sign() {
-    // Bautin normal form with cubic coefficient c(q) = q + 0.5 q^2 - 0.3: the Hopf curve is
-    // p = 0, l1 = 2 c(q), zero at q* = sqrt(1.6) - 1.
-    let c = |q: f64| q + 0.5 * q * q - 0.3;
+/// The special points of `curve` of one kind.
+fn of_kind(curve: &Curve, kind: SpecialKind) -> Vec<&Special> {
+    curve.special.iter().filter(|s| s.kind == kind).collect()
+}
+
+/// The Hopf curve `p = 0` of the Bautin normal form with cubic coefficient `c(q)`, followed
+/// over `q` in `[-1, 1]` with the Lyapunov coefficient at every point.
+fn bautin_curve(c: impl Fn(f64) -> f64 + Copy + 'static) -> Curve {
     let family = Members(move |q| bautin(c(q)));
     let mut curve_settings = CurveSettings::new(-1.0, 1.0);
     curve_settings.criticality = true;
@@ -395,6 +395,15 @@ fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_si
         &mut Silent,
     )
     .unwrap();
+    curve
+}
+
+#[test]
+fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_sign() {
+    // Bautin normal form with cubic coefficient c(q) = q + 0.5 q^2 - 0.3: the Hopf curve is
+    // p = 0, l1 = 2 c(q), zero at q* = sqrt(1.6) - 1.
+    let c = |q: f64| q + 0.5 * q * q - 0.3;
+    let curve = bautin_curve(c);
     assert_eq!(curve.stop, Stop::ParameterLimit);
     for point in &curve.points {
         let l = point
@@ -409,11 +418,7 @@ fn a_generalized_hopf_point_is_located_where_the_lyapunov_coefficient_changes_si
             l.l1
         );
     }
-    let gh: Vec<&Special> = curve
-        .special
-        .iter()
-        .filter(|s| s.kind == SpecialKind::GeneralizedHopf)
-        .collect();
+    let gh = of_kind(&curve, SpecialKind::GeneralizedHopf);
     assert_eq!(gh.len(), 1, "{:?}", curve.special);
     let exact = 1.6f64.sqrt() - 1.0;
     let error = (gh[0].point.q - exact).abs();
@@ -571,4 +576,37 @@ fn an_obliquely_approached_bogdanov_takens_point_is_located_with_its_own_state_a
     // No Lyapunov coefficient: it has no meaning where the frequency vanishes.
     assert!(point.lyapunov.is_none(), "{:?}", point.lyapunov);
     assert_eq!(observer.found.len(), 1);
+}
+
+/// A sign change of `l1` through points where it is not resolved (its precision larger than its
+/// value) is a generalized Hopf point all the same: with the cubic coefficient `c(q) = k (q -
+/// 0.3)^3`, `k = 1e-7`, the point at `q = 0.29` is `undetermined` between a supercritical one at
+/// 0.19 and a subcritical one at 0.39, and the zero (where `|l1|` falls within its precision
+/// over `|q - 0.3| < 0.04`) is located within its stated precision, which reaches to the
+/// nearest samples of resolved sign on either side.
+#[test]
+fn a_generalized_hopf_point_is_located_across_a_point_of_unresolved_sign() {
+    let c = |q: f64| 1e-7 * (q - 0.3).powi(3);
+    let curve = bautin_curve(c);
+    let verdict = |q: f64| {
+        curve
+            .points
+            .iter()
+            .find(|p| (p.q - q).abs() < 1e-6)
+            .and_then(|p| p.lyapunov.as_ref())
+            .map(|l| l.verdict)
+    };
+    // The situation the test is about (the steps of the curve put points there).
+    assert_eq!(verdict(0.19), Some(Verdict::Supercritical));
+    assert_eq!(verdict(0.29), Some(Verdict::Undetermined));
+    assert_eq!(verdict(0.39), Some(Verdict::Subcritical));
+    let gh = of_kind(&curve, SpecialKind::GeneralizedHopf);
+    assert_eq!(gh.len(), 1, "{:?}", curve.special);
+    // Where |l1| is within its precision (|q - 0.3| < 0.04), and within the stated precision
+    // (along the curve, in units of the range of q, 2, on this curve p = 0).
+    let (q, precision) = (gh[0].point.q, 2.0 * gh[0].precision);
+    assert!(
+        (q - 0.3).abs() < 0.04 && (q - 0.3).abs() <= precision,
+        "at q = {q} +- {precision:e}, exact 0.3"
+    );
 }

@@ -50,10 +50,11 @@
 //! bracketed by the curve's point past it, each sample a point of that curve; its own state,
 //! no Lyapunov coefficient).
 //! With [`CurveSettings::criticality`], every point carries its first Lyapunov coefficient
-//! ([`super::criticality`]), and where it changes sign (both signs resolved) the curve passes a
-//! **generalized Hopf** (Bautin) point, the zero of `l1` along the curve (Brent's method, each sample a
-//! point of the curve with its coefficient), where the Hopf bifurcation turns from super- to
-//! subcritical.
+//! ([`super::criticality`]), and where its resolved verdicts change (`supercritical` to
+//! `subcritical` or back, with or without `undetermined` points between them) the curve passes
+//! a **generalized Hopf** (Bautin) point, the zero of `l1` along the curve in the step where
+//! its value changed sign (Brent's method, each sample a point of the curve with its
+//! coefficient), where the Hopf bifurcation turns from super- to subcritical.
 //!
 //! The code: `tracked.rs` holds the tracked eigenvalue and the rest of the spectrum,
 //! `corrector.rs` the solved states and the secant corrector, `special.rs` the special points

@@ -16,7 +16,7 @@ use faer::c64;
 use super::corrector::{At, Corrected, REACH, Step, Tracer};
 use super::tracked::others;
 use super::{CurvePoint, Family};
-use crate::engine::criticality::{Lyapunov, Verdict};
+use crate::engine::criticality::Verdict;
 use crate::engine::events::{Zeroin, crossing_eigenvalue};
 use crate::engine::stability::{Spectrum, is_complex};
 use crate::{Error, Result};
@@ -199,18 +199,46 @@ fn corrected_between<F: Family>(
     tracer.correct(near, step, sigma, None, None, track, reach)
 }
 
-/// True when both coefficients have a resolved sign and the signs differ.
-pub(super) fn resolved_signs_differ(a: &Lyapunov, b: &Lyapunov) -> bool {
-    let known = |l: &Lyapunov| l.verdict != Verdict::Undetermined;
-    known(a) && known(b) && a.verdict != b.verdict
+/// The zero of `l1` in a step where its value changed sign ([`locate_generalized_hopf`]), and
+/// where the samples nearest it on either side whose sign is resolved (`|l1|` above its
+/// precision) lie: as fractions of the step, `None` on a side where no sample inside the step
+/// is, so that the zero is known only to the nearest resolved point of the curve beyond it.
+pub(super) struct SignChange<M> {
+    pub special: Special,
+    pub member: Rc<M>,
+    pub resolved: (Option<f64>, Option<f64>),
+}
+
+impl<M> SignChange<M> {
+    /// The resolved samples' fractions of the step as arclengths, the step running from
+    /// `start` over `length` along the curve.
+    pub(super) fn along(mut self, start: f64, length: f64) -> Self {
+        let at = |f: Option<f64>| f.map(|f| start + f * length);
+        self.resolved = (at(self.resolved.0), at(self.resolved.1));
+        self
+    }
+
+    /// The generalized Hopf point, its precision the distance along the curve between the
+    /// resolved samples on either side ([`SignChange::along`]), or where the step has none on a
+    /// side, the curve's resolved points `before` and `after` it (arclengths).
+    pub(super) fn settled(mut self, before: f64, after: f64) -> (Special, Rc<M>) {
+        let (lo, hi) = (
+            self.resolved.0.unwrap_or(before),
+            self.resolved.1.unwrap_or(after),
+        );
+        self.special.precision = hi - lo;
+        self.special.point.precision = hi - lo;
+        (self.special, self.member)
+    }
 }
 
 /// Pins down the zero of the first Lyapunov coefficient between `last` (`sigma = 0`) and `new`
-/// (`sigma = sigma_new`), whose signs differ, by Brent's method on `l1`,
-/// each sample a corrected point of the curve with its coefficient. It ends when the bracket is
-/// within `event_tol` or when a sample's `|l1|` is within its precision (the zero is then known
-/// as well as `l1` is); the precision reported is the bracket's width, or the precision of `l1`
-/// over its slope along the curve when that is smaller.
+/// (`sigma = sigma_new`), where its value changes sign, by Brent's method on `l1`, each sample
+/// a corrected point of the curve with its coefficient. It ends when the bracket is within
+/// `event_tol` or when a sample's `|l1|` is within its precision (the zero is then known as well
+/// as `l1` is): the point is that sample, or the end of the bracket with the smaller `|l1|`, and
+/// the zero lies between the samples nearest it whose signs are resolved ([`SignChange`]; the
+/// ends of the step count where their signs are resolved).
 pub(super) fn locate_generalized_hopf<F: Family>(
     tracer: &Tracer<'_, F>,
     last: &At<F::Member>,
@@ -218,10 +246,19 @@ pub(super) fn locate_generalized_hopf<F: Family>(
     step: &Step,
     sigma_new: f64,
     s_last: f64,
-) -> Result<(Special, Rc<F::Member>)> {
+) -> Result<SignChange<F::Member>> {
     let l1 = |at: &At<F::Member>| at.lyapunov.as_ref().map_or(f64::NAN, |l| l.l1);
+    let resolved = |at: &At<F::Member>| {
+        at.lyapunov
+            .as_ref()
+            .is_some_and(|l| l.verdict != Verdict::Undetermined)
+    };
     // Oriented so that f < 0 at `last`.
     let sign = if l1(last) < 0.0 { 1.0 } else { -1.0 };
+    let mut bounds = (
+        resolved(last).then_some(0.0),
+        resolved(new).then_some(sigma_new),
+    );
     let (mut lo, mut hi) = ((0.0, last.clone()), (sigma_new, new.clone()));
     let tol = tracer.continuation.event_tol;
     let mut zeroin = Zeroin::new((0.0, sign * l1(last)), (sigma_new, sign * l1(new)));
@@ -244,21 +281,13 @@ pub(super) fn locate_generalized_hopf<F: Family>(
         let beyond = sign * l.l1 > 0.0;
         zeroin.record(sigma, sign * l.l1, beyond);
         if beyond {
+            bounds.1 = Some(sigma);
             hi = (sigma, at);
         } else {
+            bounds.0 = Some(sigma);
             lo = (sigma, at);
         }
     }
-    // Known to the bracket, or, where l1 itself ran out of precision, to that precision over
-    // the slope of l1 along the curve.
-    let slope = (l1(&hi.1) - l1(&lo.1)) / (hi.0 - lo.0);
-    let width = match &best {
-        Some((_, at)) => {
-            let resolution = at.lyapunov.as_ref().map_or(f64::INFINITY, |l| l.precision);
-            (hi.0 - lo.0).min(resolution / slope.abs())
-        }
-        None => hi.0 - lo.0,
-    };
     let (sigma, at) = best.unwrap_or_else(|| {
         if l1(&lo.1).abs() <= l1(&hi.1).abs() {
             lo
@@ -266,14 +295,21 @@ pub(super) fn locate_generalized_hopf<F: Family>(
             hi
         }
     });
+    // The precision is set once the resolved points on either side are known
+    // ([`SignChange::settled`]).
     let special = Special {
         kind: SpecialKind::GeneralizedHopf,
-        point: at.point(s_last + sigma, width, 0),
+        point: at.point(s_last + sigma, f64::NAN, 0),
         other: at.eigenvalue,
         gains: false,
-        precision: width,
+        precision: f64::NAN,
     };
-    Ok((special, at.member))
+    let fraction = |b: Option<f64>| b.map(|b| b / sigma_new);
+    Ok(SignChange {
+        special,
+        member: at.member,
+        resolved: (fraction(bounds.0), fraction(bounds.1)),
+    })
 }
 
 /// The turning point of the curve in `q` near `last`: the extremum of `q(p)` along the curve

@@ -11,11 +11,12 @@ use faer::c64;
 
 use super::corrector::{At, Corrected, REACH, Step, Tracer, accept};
 use super::special::{
-    Special, locate_bogdanov_takens, locate_codim2, locate_generalized_hopf, locate_turning,
-    resolved_signs_differ,
+    SignChange, Special, SpecialKind, locate_bogdanov_takens, locate_codim2,
+    locate_generalized_hopf, locate_turning,
 };
 use super::tracked::others;
 use super::{Curve, CurveEnd, CurvePoint, CurveSettings, Family};
+use crate::engine::criticality::Verdict;
 use crate::engine::newton::NewtonSettings;
 use crate::engine::stability::is_complex;
 use crate::engine::step::StepControl;
@@ -91,7 +92,20 @@ struct Trace<'a, F: Family> {
     /// it predicts `w^2 = 0` within two steps may have met a Bogdanov-Takens point.
     w2_rate: Option<f64>,
     step: StepControl,
+    /// The last resolved verdict of the Lyapunov coefficient along the curve, and the
+    /// arclength of its point.
+    resolved: Option<(Verdict, f64)>,
+    /// The zero of `l1` located in the latest step where its value changed sign, while no
+    /// resolved verdict has followed: a generalized Hopf point once the next resolved verdict
+    /// differs from `resolved` ([`Trace::generalized_hopf`]).
+    candidate: Option<SignChange<F::Member>>,
 }
+
+/// A special point found in a step, and the member of the family where it lies.
+type Found<M> = (Special, Rc<M>);
+
+/// What a step holds: its special points, and the zero of `l1` where its value changes sign.
+type InStep<M> = (Vec<Found<M>>, Option<SignChange<M>>);
 
 /// The next step from the last point.
 struct Next {
@@ -151,7 +165,22 @@ impl<'a, F: Family> Trace<'a, F> {
             rate: None,
             w2_rate: None,
             step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
+            resolved: None,
+            candidate: None,
         }
+        .with_resolved_start()
+    }
+
+    /// The start's verdict as the last resolved one, where it is resolved.
+    fn with_resolved_start(mut self) -> Self {
+        self.resolved = self
+            .last
+            .lyapunov
+            .as_ref()
+            .map(|l| l.verdict)
+            .filter(|v| *v != Verdict::Undetermined)
+            .map(|v| (v, 0.0));
+        self
     }
 
     /// The arclength of the last point.
@@ -190,13 +219,18 @@ impl<'a, F: Family> Trace<'a, F> {
         let length = dp.hypot(dq);
         let t_new = (dp / length, dq / length);
         // A special point that cannot be pinned down is retried from a shorter step.
-        let specials = match self.specials(&new, &next, t_new) {
+        let (mut specials, sign_change) = match self.specials(&new, &next, t_new) {
             Ok(found) => found,
             Err(e) => {
                 return self
                     .ran_out(|| Stop::StepTooSmall(format!("locating a special point: {e}")));
             }
         };
+        let s_last = self.s_last();
+        specials.extend(self.generalized_hopf(&new, (s_last, length), sign_change));
+        // In their order along the curve (a generalized Hopf point may be settled a few steps
+        // after the step that holds it).
+        specials.sort_by(|a, b| a.0.point.s.total_cmp(&b.0.point.s));
         for (special, member) in specials {
             let special = self.tracer.with_criticality(special, &member);
             let stop = observer.event(&special);
@@ -343,14 +377,15 @@ impl<'a, F: Family> Trace<'a, F> {
     }
 
     /// The special points between the last point and `new` (the tangent there `t_new`):
-    /// codimension-two points inside the step, a generalized Hopf point, then a turning point
-    /// at its end.
+    /// codimension-two points inside the step and a turning point at its end; and where the
+    /// sign of `l1` changes inside the step, its zero (a generalized Hopf point where resolved
+    /// verdicts of both signs lie on either side: [`Trace::generalized_hopf`]).
     fn specials(
         &self,
         new: &At<F::Member>,
         next: &Next,
         t_new: (f64, f64),
-    ) -> Result<Vec<(Special, Rc<F::Member>)>> {
+    ) -> Result<InStep<F::Member>> {
         let (tracer, last, line, sigma) = (&self.tracer, &self.last, &next.line, next.sigma);
         let s_last = self.s_last();
         let before = others(&last.spectrum, last.eigenvalue);
@@ -361,13 +396,12 @@ impl<'a, F: Family> Trace<'a, F> {
                 tracer, last, new, line, sigma, &before, &after, s_last,
             )?);
         }
-        if let (Some(a), Some(b)) = (&last.lyapunov, &new.lyapunov)
-            && resolved_signs_differ(a, b)
-        {
-            found.push(locate_generalized_hopf(
+        let sign_change = match (&last.lyapunov, &new.lyapunov) {
+            (Some(a), Some(b)) if a.l1 * b.l1 < 0.0 => Some(locate_generalized_hopf(
                 tracer, last, new, line, sigma, s_last,
-            )?);
-        }
+            )?),
+            _ => None,
+        };
         if self.t.1 * t_new.1 < 0.0
             && let Some(previous) = self.curve.points.iter().rev().nth(1)
         {
@@ -380,7 +414,52 @@ impl<'a, F: Family> Trace<'a, F> {
                 s_last,
             )?);
         }
-        Ok(found)
+        Ok((found, sign_change))
+    }
+
+    /// A generalized Hopf point, where the verdict of `l1` changes between resolved ones: the
+    /// zero `sign_change` of `l1` located in the step to `new` (the step from arclength `start`
+    /// over `length`; if its value changed sign there) is kept as the candidate; at a point
+    /// whose verdict is resolved, the candidate is reported where that verdict differs from the
+    /// last resolved one, and dropped otherwise (`l1` touched zero and came back). So a change of
+    /// sign through points whose `|l1|` lies within its precision is found too, at the zero in
+    /// the step where the value changed sign, its precision reaching to the resolved points on
+    /// either side ([`SignChange::settled`]). Where the verdict changed with no zero located (the
+    /// coefficient failed, or was exactly zero, where the value changed sign), the point is
+    /// reported at `new`, its precision the whole distance from the last resolved point. Called
+    /// once the step is taken.
+    fn generalized_hopf(
+        &mut self,
+        new: &At<F::Member>,
+        (start, length): (f64, f64),
+        sign_change: Option<SignChange<F::Member>>,
+    ) -> Option<Found<F::Member>> {
+        if let Some(change) = sign_change {
+            self.candidate = Some(change.along(start, length));
+        }
+        let verdict = new
+            .lyapunov
+            .as_ref()
+            .map(|l| l.verdict)
+            .filter(|v| *v != Verdict::Undetermined)?;
+        let s_new = start + length;
+        let before = self.resolved.replace((verdict, s_new));
+        let candidate = self.candidate.take();
+        let (_, s_before) = before.filter(|(v, _)| *v != verdict)?;
+        Some(match candidate {
+            Some(c) => c.settled(s_before, s_new),
+            None => {
+                let width = s_new - s_before;
+                let special = Special {
+                    kind: SpecialKind::GeneralizedHopf,
+                    point: new.point(s_new, width, 0),
+                    other: new.eigenvalue,
+                    gains: false,
+                    precision: width,
+                };
+                (special, new.member.clone())
+            }
+        })
     }
 
     /// Takes `new` as the last point, `length` along the curve from the one before with the
