@@ -316,3 +316,62 @@ fn the_limits_at_two_rules_less_their_quadrature_errors_agree_within_the_stated_
         "8 points: {a8} +- {e8:e} (limit {l8}); 16 points: {a16} +- {e16:e} (limit {l16})"
     );
 }
+
+/// The error in `N` of the Lyapunov coefficient (docs/model.md section 12) on a helix of its
+/// own (two turns, `l = 0.1 m`, Hopf point near 2.17 rad/s): the error stated at `N = 209` (from
+/// the rungs 53, 105, 209) covers the change to `N = 417`, a rung it did not use, and the
+/// verdict is the sign; from the rungs 27, 53, 105, whose increments do not yet shrink as at
+/// first order (0.069, 0.048), no error is stated. Measured: `l1 = 0.44052, 0.48809, 0.50210,
+/// 0.50566` at `N = 53, 105, 209, 417`, stated error at 209 `1.39e-2` against a change of
+/// `3.6e-3` (and `4.8e-3` to the second-order limit of 209 and 417); at 417, `3.6e-3`.
+#[test]
+fn the_error_of_l1_in_n_covers_a_finer_rung_it_did_not_use() {
+    use helixbif::engine::criticality::Verdict;
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let with_l1 = LocateSettings {
+        omega_max: 6.0,
+        criticality: true,
+        ..settings(&newton, &continuation)
+    };
+    let from = |nodes: usize, max: usize| {
+        let overrides = [
+            "shape.l=0.1".to_string(),
+            format!("discretization.nodes={nodes}"),
+        ];
+        let physical = Study::load(None, &overrides).unwrap().physical();
+        refine(&physical, None, max, &with_l1, &mut Silent).unwrap()
+    };
+    let at_209 = from(53, 209);
+    let stated = at_209.lyapunov_error.as_ref().unwrap();
+    let rungs: Vec<usize> = stated.rungs.iter().map(|r| r.nodes).collect();
+    assert_eq!(rungs, [53, 105]);
+    let error = stated.error.unwrap();
+    let l1_209 = at_209.finest.l1.unwrap();
+    let at_417 = from(53, 417);
+    let l1_417 = at_417.finest.l1.unwrap();
+    assert!(
+        (l1_417 - l1_209).abs() <= error && error < 0.1 * l1_209.abs(),
+        "l1 = {l1_209} +- {error:e} at N = 209, {l1_417} at 417"
+    );
+    assert_eq!(at_209.finest.criticality, Some(Verdict::Subcritical));
+    // The error at 417 from 105, 209, 417: smaller, as the rungs converge.
+    let finer = at_417.lyapunov_error.as_ref().unwrap().error.unwrap();
+    assert!(
+        finer < 0.5 * error,
+        "{finer:e} at 417 against {error:e} at 209"
+    );
+    // Rungs before the range where l1 converges at first order: no error stated.
+    let coarse = from(27, 105);
+    let refused = coarse.lyapunov_error.as_ref().unwrap();
+    assert!(refused.error.is_none());
+    assert!(
+        refused
+            .failed
+            .as_deref()
+            .is_some_and(|why| why.contains("do not shrink")),
+        "{:?}",
+        refused.failed
+    );
+}

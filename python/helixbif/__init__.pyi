@@ -182,6 +182,11 @@ class Located(_Result):
     """Where the answer is the limit less the quadrature's error (refined and ladder): `nodes` of
     the two measurements, `subtracted` (rad/s, the finer measurement) and its `error` (rad/s, the change
     between the two)."""
+    lyapunov_error: dict[str, Any] | None
+    """The error in N of the finest rung's `l1` (refined, at a Hopf point): `rungs` (`nodes`,
+    `l1`, `precision` of the two rungs before the finest), `error` (first order from the two
+    finest rungs, or None) and `failed` (why not); `criticality` is then the sign only where it
+    is settled in N."""
     rungs: list[dict[str, Any]]
     stopped: str | None
     fluid: Literal["lighthill", "rpy"]

@@ -30,7 +30,9 @@ use crate::problem::rod::{Parameter, RodProblem, omega_scale};
 use crate::problem::twist::{natural_chart_unknowns, slave_twist};
 use crate::{Error, Result};
 
+mod lyapunov;
 mod quadrature;
+pub use lyapunov::{LyapunovError, RungLyapunov};
 pub use quadrature::{QuadratureCorrection, QuadratureError};
 
 /// Watches a refinement or a ladder: every rung's continuation as an engine [`Observer`], and
@@ -133,6 +135,11 @@ pub struct Refinement {
     /// The quadrature's error removed from the answer (the limit or the finest rung's value),
     /// and the error of that correction, where both measurements were made.
     pub quadrature_correction: Option<Box<QuadratureCorrection>>,
+    /// The error in `N` of the finest rung's Lyapunov coefficient, from the two rungs before it
+    /// (where they have one kind of point and the coefficient was asked for); the finest's
+    /// verdict (`criticality`) is then that of the sign settled in `N`
+    /// ([`LyapunovError::verdict`]).
+    pub lyapunov_error: Option<Box<LyapunovError>>,
     /// Every rung: node count, `omega_b`, kind.
     pub rungs: Vec<Rung>,
     /// Why the refinement ended without reaching `accuracy` (absent when it did); at a fixed
@@ -734,6 +741,9 @@ pub fn refine(
     };
     let mut rungs: Vec<Rung> = Vec::new();
     let mut finest: Option<Solved> = None;
+    // The two rungs before the finest (coarsest first), for the error in `N` of the Lyapunov
+    // coefficient.
+    let mut coarser: Vec<Solved> = Vec::new();
     // The estimate of the finest rung (none while it has no omega_b or another kind of event).
     let mut estimate: Option<DiscretizationError> = None;
     // The answer of the rungs so far ([`answer`]; none while `estimate` is).
@@ -810,7 +820,12 @@ pub fn refine(
         answered = None;
         let kind_changed = rungs[0].kind != located.kind;
         let found = located.omega_b.is_some();
-        finest = Some(solved);
+        if let Some(before) = finest.replace(solved) {
+            if coarser.len() == 2 {
+                coarser.remove(0);
+            }
+            coarser.push(before);
+        }
         if !found {
             break Some(format!(
                 "no omega_b at N = {n} (kind {}): nothing to refine",
@@ -887,8 +902,22 @@ pub fn refine(
         critical,
         ..
     } = finest.expect("at least one rung ran");
+    let mut lyapunov_error = None;
     if let (true, Some(c)) = (settings.criticality, &critical) {
         finest = finest.with_criticality(&model, &c.event, &c.chart);
+        // Against the two rungs before, where the rungs have one kind of point (an estimate of
+        // omega_b between them).
+        lyapunov_error = estimate
+            .as_ref()
+            .and_then(|_| LyapunovError::measure(&coarser, &finest, orders));
+        if let (Some(e), Some(l1), Some(precision), Some(own)) = (
+            &lyapunov_error,
+            finest.l1,
+            finest.l1_precision,
+            finest.criticality,
+        ) {
+            finest.criticality = Some(e.verdict(l1, precision, own));
+        }
     }
     let omega_b_finest = finest.omega_b;
     let finest_error = estimate.as_ref().map(|e| e.error + measured.offset());
@@ -921,6 +950,7 @@ pub fn refine(
         quadrature: measured.coarse,
         quadrature_finer: measured.finer,
         quadrature_correction,
+        lyapunov_error: lyapunov_error.map(Box::new),
         rungs,
         stopped: if reached { None } else { stopped },
         fluid: physical.fluid.model,

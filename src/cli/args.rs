@@ -78,8 +78,9 @@ pub enum Command {
     /// The first loss of stability of the branch from rest: kind hopf, fold or branch_point;
     /// unstable_at_rest when the rest state is already unstable; none when the branch stays
     /// stable up to branch.omega_max. At a Hopf point, the first Lyapunov coefficient
-    /// (supercritical or subcritical). By default N is refined until the estimated error is
-    /// below --accuracy; --single locates at the study's N, --extrapolate over a ladder of node
+    /// (supercritical, subcritical or undetermined; refined, also its error in N from the two
+    /// rungs before the finest). By default N is refined until the estimated error is below
+    /// --accuracy; --single locates at the study's N, --extrapolate over a ladder of node
     /// counts. Writes no files.
     #[command(after_help = REPORT_HELP)]
     Locate(LocateArgs),

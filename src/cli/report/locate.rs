@@ -8,8 +8,9 @@ use crate::cli::numbers::{maybe, rounded_up};
 
 use helixbif::analysis::locate::{Located, Loss};
 use helixbif::analysis::refine::{
-    Answer, Ladder, QuadratureCorrection, QuadratureError, Refinement,
+    Answer, Ladder, LyapunovError, QuadratureCorrection, QuadratureError, Refinement,
 };
+use helixbif::engine::criticality::Verdict;
 use helixbif::model::fluid::FluidModel;
 use helixbif::study::locate::LocateResult;
 
@@ -177,6 +178,49 @@ fn correction_line(
         c.subtracted,
         c.error
     )
+}
+
+/// The line of the Lyapunov coefficient's error in `N`, `e`, and the verdict it leaves
+/// (docs/model.md section 12).
+fn lyapunov_line(
+    f: &mut Formatter<'_>,
+    e: &LyapunovError,
+    verdict: Option<Verdict>,
+) -> fmt::Result {
+    let rungs = e
+        .rungs
+        .iter()
+        .map(|r| format!("{:.6e} +- {:.1e} at N = {}", r.l1, r.precision, r.nodes))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let rungs = if rungs.is_empty() {
+        String::new()
+    } else {
+        format!(" (l1 = {rungs})")
+    };
+    match (e.error, &e.failed) {
+        (Some(error), _) => {
+            let settled = match verdict {
+                Some(Verdict::Undetermined) | None => {
+                    "undetermined: its sign is not settled in N (|l1| within its errors, or the \
+                     rungs disagree)"
+                        .to_owned()
+                }
+                Some(v) => format!("{v}: its sign settled in N"),
+            };
+            write!(
+                f,
+                "\n  error in N of l1: {error:.1e}, first order from the two finest rungs{rungs}, \
+                 docs/model.md section 12; {settled}"
+            )
+        }
+        (None, why) => write!(
+            f,
+            "\n  error in N of l1 NOT estimated{rungs}: {}; the verdict is the finest rung's where \
+             the rungs agree in sign, else undetermined",
+            why.as_deref().unwrap_or("no reason given")
+        ),
+    }
 }
 
 /// The node counts of a refinement's three finest rungs, those of its limit: `a, b, c`.
@@ -358,6 +402,9 @@ impl Section for Refinement {
                     ""
                 }
             )?;
+        }
+        if let Some(e) = &self.lyapunov_error {
+            lyapunov_line(f, e, self.finest.criticality)?;
         }
         match (&self.stopped, self.accuracy) {
             (None, Some(a)) => write!(f, "\n  accuracy {a:.1e} reached"),
