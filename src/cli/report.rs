@@ -292,11 +292,18 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
         p.m
     )?;
     for c in &p.columns {
+        let error = match (c.omegabar_b_error, &c.error_missing) {
+            (Some(e), _) => format!(" +- {e:.1e}"),
+            (None, why) => format!(
+                " (its error not estimated: {})",
+                why.as_deref().unwrap_or("no reason given")
+            ),
+        };
         let loss = match (c.omegabar_b, &c.kind) {
             (Some(w), Some(kind)) => {
-                format!("first loss of stability ({kind}) at omegabar_b = {w:.6e}")
+                format!("first loss of stability ({kind}) at omegabar_b = {w:.6e}{error}")
             }
-            (Some(w), None) => format!("first loss of stability at omegabar_b = {w:.6e}"),
+            (Some(w), None) => format!("first loss of stability at omegabar_b = {w:.6e}{error}"),
             _ => "stable over the branch".to_owned(),
         };
         write!(

@@ -16,8 +16,10 @@ use super::sweep::variant;
 use super::{LAMBDA_OVER_L, Study};
 use crate::analysis::boundary::BoundaryPoint;
 use crate::analysis::branch::{observables_at, trace};
-use crate::analysis::locate::Loss;
+use crate::analysis::locate::{LocateSettings, Loss};
+use crate::analysis::refine::estimate_at_nodes;
 use crate::analysis::solve::rest_state;
+use crate::engine::arclength::Branch;
 use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::params::Field;
@@ -49,7 +51,9 @@ struct ColumnLossRow {
     #[serde(rename = "R_over_lambda")]
     r_over_lambda: f64,
     omegabar_b: f64,
+    omegabar_b_error: Option<f64>,
     y_b: f64,
+    y_b_error: Option<f64>,
     kind: Loss,
 }
 
@@ -71,6 +75,9 @@ pub struct ColumnSummary {
     #[serde(rename = "R_over_lambda")]
     pub r_over_lambda: f64,
     pub omegabar_b: Option<f64>,
+    /// The estimated discretization error of `omegabar_b` ([`ColumnLoss`]), or why it has none.
+    pub omegabar_b_error: Option<f64>,
+    pub error_missing: Option<String>,
     pub kind: Option<Loss>,
     pub points: usize,
 }
@@ -95,8 +102,17 @@ struct Column {
     r_over_lambda: f64,
     /// `(omegabar, Fpbar, stable)` from rest up to the first fold (or the end).
     points: Vec<(f64, f64, bool)>,
-    /// First loss of stability: `(omegabar_b, kind)`.
-    boundary: Option<(f64, Loss)>,
+    /// First loss of stability at the column's `N`.
+    boundary: Option<ColumnLoss>,
+}
+
+/// A column's first loss of stability at its `N`, with the estimated discretization error of
+/// `omegabar_b` (from a coarser rung at `N/2 + 1` nodes, the quadrature's error included;
+/// [`estimate_at_nodes`]), or why it has none.
+struct ColumnLoss {
+    omegabar_b: f64,
+    error: std::result::Result<f64, String>,
+    kind: Loss,
 }
 
 fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Result<Column> {
@@ -135,17 +151,62 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
         let o = observables_at(&model, &rest, &p.u, p.p)?;
         points.push((p.p, o.fpbar, p.spectrum.unstable == 0));
     }
-    let boundary = branch
+    // The first loss of stability again with a coarser rung beside it, for its error (the
+    // branch above keeps every point for the map; its Lyapunov coefficient is not drawn).
+    let lost = branch
         .events
         .iter()
-        .find(|e| e.unstable_before == 0 && e.unstable_after > 0)
-        .map(|e| (e.p, Loss::Event(e.kind)));
+        .any(|e| e.unstable_before == 0 && e.unstable_after > 0);
+    let boundary = lost
+        .then(|| column_loss(&s, &branch))
+        .transpose()?
+        .flatten();
     Ok(Column {
         lambda_over_l,
         r_over_lambda: radius / lambda,
         points,
         boundary,
     })
+}
+
+/// The first loss of stability of the column study `s` whose branch is `branch`, with its
+/// error: the answer of [`estimate_at_nodes`] at the column's `N` (two rungs, as a sweep
+/// point's), or where that finds no `omega_b`, the branch's own event without an error.
+fn column_loss(s: &Study, branch: &Branch) -> Result<Option<ColumnLoss>> {
+    let settings = LocateSettings {
+        criticality: false,
+        ..s.locate_settings()
+    };
+    let refined = estimate_at_nodes(&s.physical(), &settings, &mut Silent)?;
+    let answer = &refined.finest;
+    if let (Some(omegabar_b), Some(omega_b)) = (answer.omegabar_b, answer.omega_b) {
+        let why = || {
+            refined
+                .stopped
+                .clone()
+                .unwrap_or_else(|| "no coarser rung to compare".into())
+        };
+        return Ok(Some(ColumnLoss {
+            omegabar_b,
+            error: refined
+                .omega_b_error
+                .map(|e| e * omegabar_b / omega_b)
+                .ok_or_else(why),
+            kind: answer.kind,
+        }));
+    }
+    Ok(branch
+        .events
+        .iter()
+        .find(|e| e.unstable_before == 0 && e.unstable_after > 0)
+        .map(|e| ColumnLoss {
+            omegabar_b: e.p,
+            error: Err(format!(
+                "locate at the column's N found no omega_b ({}) to estimate its error from",
+                answer.kind
+            )),
+            kind: Loss::Event(e.kind),
+        }))
 }
 
 /// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
@@ -283,13 +344,15 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 stable,
             })?;
         }
-        if let Some((omegabar_b, kind)) = &c.boundary {
+        if let Some(loss) = &c.boundary {
             bounds.row(&ColumnLossRow {
                 lambda_over_l: c.lambda_over_l,
                 r_over_lambda: c.r_over_lambda,
-                omegabar_b: *omegabar_b,
-                y_b: omegabar_b * shape,
-                kind: *kind,
+                omegabar_b: loss.omegabar_b,
+                omegabar_b_error: loss.error.as_ref().ok().copied(),
+                y_b: loss.omegabar_b * shape,
+                y_b_error: loss.error.as_ref().ok().map(|e| e * shape),
+                kind: loss.kind,
             })?;
         }
     }
@@ -334,14 +397,25 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 .collect()
         })
         .collect();
-    let (bx, by): (Vec<f64>, Vec<f64>) = columns
+    // The columns' first losses at `log10 y_b`, each with a symmetric bar that covers both
+    // ends of `omegabar_b (1 +- r)`, `r` the relative error: `-log10(1 - r)` decades (`r` taken
+    // at most 0.99; none where the error could not be estimated).
+    let marked: Vec<(f64, f64, f64)> = columns
         .iter()
         .filter_map(|c| {
-            c.boundary
-                .as_ref()
-                .map(|(wb, _)| (c.lambda_over_l, (wb * c.r_over_lambda.powf(m)).log10()))
+            c.boundary.as_ref().map(|loss| {
+                let y = (loss.omegabar_b * c.r_over_lambda.powf(m)).log10();
+                let bar = loss
+                    .error
+                    .as_ref()
+                    .map_or(0.0, |e| -(1.0f64 - (e / loss.omegabar_b).min(0.99)).log10());
+                (c.lambda_over_l, y, bar)
+            })
         })
-        .unzip();
+        .collect();
+    let bx: Vec<f64> = marked.iter().map(|t| t.0).collect();
+    let by: Vec<f64> = marked.iter().map(|t| t.1).collect();
+    let bars: Vec<f64> = marked.iter().map(|t| t.2).collect();
     // The stability boundary as a curve in lambda/l (two-parameter continuation of the Hopf
     // point, `R/lambda` held where the study holds it), the columns' own first losses of
     // stability marked on it; the columns joined by a line where the curve cannot be followed.
@@ -365,12 +439,12 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         }],
     };
     overlays.push(Series {
-        label: "first loss of stability (own N)".into(),
+        label: "first loss of stability (own N, estimated error)".into(),
         x: bx,
         y: by,
         style: Style::Markers(MarkerShape::Circle),
         stable: None,
-        err: None,
+        err: Some(bars),
     });
     let mut skipped = Vec::new();
     if let Some(path) = bacteria {
@@ -419,8 +493,10 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
             .map(|c| ColumnSummary {
                 lambda_over_l: c.lambda_over_l,
                 r_over_lambda: c.r_over_lambda,
-                omegabar_b: c.boundary.map(|b| b.0),
-                kind: c.boundary.map(|b| b.1),
+                omegabar_b: c.boundary.as_ref().map(|b| b.omegabar_b),
+                omegabar_b_error: c.boundary.as_ref().and_then(|b| b.error.clone().ok()),
+                error_missing: c.boundary.as_ref().and_then(|b| b.error.clone().err()),
+                kind: c.boundary.as_ref().map(|b| b.kind),
                 points: c.points.len(),
             })
             .collect(),
