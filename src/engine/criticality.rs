@@ -89,6 +89,18 @@ pub enum Verdict {
     Undetermined,
 }
 
+impl Verdict {
+    /// The verdict of a coefficient `l1` whose sign is `settled` (by its precision, or also by
+    /// its error in `N`): the side its sign gives, else `undetermined`.
+    pub fn of(l1: f64, settled: bool) -> Verdict {
+        match (settled, l1 < 0.0) {
+            (false, _) => Verdict::Undetermined,
+            (true, true) => Verdict::Supercritical,
+            (true, false) => Verdict::Subcritical,
+        }
+    }
+}
+
 impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         f.write_str(match self {
@@ -159,12 +171,7 @@ pub fn first_lyapunov(
     let size = problem.mode_size(&re, &im);
     let square = size * size;
     let (l1, precision) = (l1 / square, precision / square);
-    let resolved = l1.abs() > precision;
-    let verdict = match (resolved, l1 < 0.0) {
-        (false, _) => Verdict::Undetermined,
-        (true, true) => Verdict::Supercritical,
-        (true, false) => Verdict::Subcritical,
-    };
+    let verdict = Verdict::of(l1, l1.abs() > precision);
     Ok(Some(Lyapunov {
         l1,
         precision,

@@ -114,11 +114,7 @@ impl LyapunovError {
             Some(error) => one_sign && l1.abs() > error + precision,
             None => one_sign && own != Verdict::Undetermined,
         };
-        match (settled, l1 < 0.0) {
-            (false, _) => Verdict::Undetermined,
-            (true, true) => Verdict::Supercritical,
-            (true, false) => Verdict::Subcritical,
-        }
+        Verdict::of(l1, settled)
     }
 }
 

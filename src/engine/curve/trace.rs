@@ -151,6 +151,13 @@ impl<'a, F: Family> Trace<'a, F> {
             ..start
         };
         let settings = tracer.settings;
+        // The start's verdict as the last resolved one, where it is resolved.
+        let resolved = last
+            .lyapunov
+            .as_ref()
+            .map(|l| l.verdict)
+            .filter(|v| *v != Verdict::Undetermined)
+            .map(|v| (v, start.s));
         Trace {
             tracer,
             curve: Curve {
@@ -165,22 +172,9 @@ impl<'a, F: Family> Trace<'a, F> {
             rate: None,
             w2_rate: None,
             step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
-            resolved: None,
+            resolved,
             candidate: None,
         }
-        .with_resolved_start()
-    }
-
-    /// The start's verdict as the last resolved one, where it is resolved.
-    fn with_resolved_start(mut self) -> Self {
-        self.resolved = self
-            .last
-            .lyapunov
-            .as_ref()
-            .map(|l| l.verdict)
-            .filter(|v| *v != Verdict::Undetermined)
-            .map(|v| (v, 0.0));
-        self
     }
 
     /// The arclength of the last point.
