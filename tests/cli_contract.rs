@@ -190,6 +190,25 @@ fn a_node_count_far_outside_the_range_is_refused_before_any_work() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
 }
 
+/// A value of the wrong type is refused in one line naming the field and the values its type
+/// takes, in words (not the Rust type it is read into).
+#[test]
+fn a_negative_or_non_numeric_node_count_is_refused_with_its_range_in_words() {
+    for (value, shown) in [("-3", "integer `-3`"), ("abc", "string \"abc\"")] {
+        let set = format!("discretization.nodes={value}");
+        let (code, _, stderr) = helixbif(&["locate", "--single", "--set", &set]);
+        assert_eq!(code, 2, "{stderr}");
+        assert!(
+            stderr.contains("discretization.nodes")
+                && stderr.contains(shown)
+                && stderr.contains("expected a whole number >= 0")
+                && !stderr.contains("usize"),
+            "{stderr}"
+        );
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    }
+}
+
 #[test]
 fn a_thin_tight_helix_buckling_at_a_high_rate_is_located_within_the_default_budget() {
     // R/lambda = 0.05 on the exponent study's rod: omegabar_b near 3.5e4, a hundred and fifty

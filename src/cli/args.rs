@@ -46,6 +46,11 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// The study argument of the commands that need a sweep study (the built-in default is one
+/// helix, not a sweep).
+const SWEEP_STUDY: &str =
+    "Study file (TOML) of kind \"sweep\" (needed: the built-in default is one helix)";
+
 /// Options shared by every command that reads a study.
 #[derive(Args, Debug)]
 pub struct StudyArgs {
@@ -111,20 +116,20 @@ pub enum Command {
     /// For a study of kind "sweep" (any other study is refused): each point a locate at its own
     /// N, appended to sweep.csv as it finishes; a re-run skips the points already there.
     /// `--shard K/N` runs every N-th point (from the K-th) for array jobs.
-    #[command(after_help = FOLDER_HELP)]
+    #[command(after_help = FOLDER_HELP, mut_arg("study", |a| a.help(SWEEP_STUDY)))]
     Sweep(SweepArgs),
     /// A sweep as a Slurm array job (one shard per task) and a merge job after it.
     ///
     /// Needs a study file of kind "sweep". Writes slurm-sweep.sbatch and slurm-merge.sbatch into
     /// the output folder and prints the two sbatch commands, or with --submit submits them (the
     /// merge after the array, afterok) and records both job ids in slurm.json.
-    #[command(after_help = FOLDER_HELP)]
+    #[command(after_help = FOLDER_HELP, mut_arg("study", |a| a.help(SWEEP_STUDY)))]
     Slurm(SlurmArgs),
     /// Join the shard files of a sweep into sweep.csv.
     ///
     /// For a study of kind "sweep" (any other study is refused). Refuses shards of another study
     /// and missing or repeated points; draws the study's figures.
-    #[command(after_help = FOLDER_HELP)]
+    #[command(after_help = FOLDER_HELP, mut_arg("study", |a| a.help(SWEEP_STUDY)))]
     Merge(MergeArgs),
     /// The branch of periodic orbits born at the Hopf point, with their stability.
     ///

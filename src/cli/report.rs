@@ -75,7 +75,13 @@ impl<T: Section> Display for Titled<T> {
 impl Section for SolutionSummary {
     fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
         let o = &self.observables;
-        writeln!(f, "steady state of `{study}` at N = {} nodes", self.nodes)?;
+        writeln!(
+            f,
+            "steady state of `{study}` at N = {} nodes (values at this N: their discretization \
+             error is not estimated here; compare with --set discretization.nodes={})",
+            self.nodes,
+            2 * self.nodes - 1
+        )?;
         writeln!(
             f,
             "  omega    = {:.6e} rad/s   (omegabar = {:.6e})",

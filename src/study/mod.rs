@@ -147,7 +147,7 @@ impl Study {
                     } else {
                         path
                     },
-                    e.into_inner().message().to_string(),
+                    in_words(e.into_inner().message()),
                 )
             })?;
         let mut study = study;
@@ -228,6 +228,24 @@ impl Study {
             }
         }
     }
+}
+
+/// A deserialization message with the Rust types it names in the user's words: the range of
+/// values a field of that type takes (`-3` for a node count: `expected a whole number >= 0`,
+/// the field's own bounds checked once it is one).
+fn in_words(message: &str) -> String {
+    [
+        ("expected usize", "expected a whole number >= 0"),
+        ("expected u64", "expected a whole number >= 0"),
+        ("expected u32", "expected a whole number >= 0"),
+        ("expected i64", "expected a whole number"),
+        ("expected f64", "expected a number"),
+        ("expected a boolean", "expected true or false"),
+    ]
+    .iter()
+    .fold(message.to_string(), |m, (rust, words)| {
+        m.replace(rust, words)
+    })
 }
 
 /// Applies one `dotted.key=value` override to a TOML table. The value is read as a TOML value
