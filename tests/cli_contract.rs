@@ -201,7 +201,7 @@ fn a_negative_or_non_numeric_node_count_is_refused_with_its_range_in_words() {
         assert!(
             stderr.contains("discretization.nodes")
                 && stderr.contains(shown)
-                && stderr.contains("expected a whole number >= 0")
+                && stderr.contains("expected an integer >= 0")
                 && !stderr.contains("usize"),
             "{stderr}"
         );
@@ -412,9 +412,12 @@ fn help_lists_the_study_kinds_the_exit_codes_and_the_set_syntax() {
             "run --help lacks {kind}: {run}"
         );
     }
-    for command in ["sweep", "merge"] {
+    for command in ["sweep", "merge", "slurm"] {
         let (_, text, _) = helixbif(&[command, "--help"]);
-        assert!(text.contains("kind \"sweep\""), "{command}: {text}");
+        assert!(
+            text.contains("kind \"sweep\"") && text.contains("the built-in default is one helix"),
+            "{command}: {text}"
+        );
     }
     let (_, bisect, _) = helixbif(&["bisect", "--help"]);
     assert!(

@@ -7,8 +7,8 @@ use helixbif::analysis::refine::{DEFAULT_ACCURACY, DEFAULT_MAX_NODES};
 
 pub const AFTER_HELP: &str = "\
 Every command that reads a study takes an optional study file (TOML, SI units); without one it
-uses the built-in representative helix (docs/model.md section 7). Relative paths inside a study
-resolve against the study file's folder.
+uses the built-in representative helix (docs/model.md section 7); sweep, merge and slurm need
+one of kind \"sweep\". Relative paths inside a study resolve against the study file's folder.
 
 --set KEY=VALUE overrides any study field by its dotted path, the value in TOML syntax:
   --set rod.E=2e6   --set discretization.nodes=80   --set shape.handedness=left
@@ -49,7 +49,7 @@ pub struct Cli {
 /// The study argument of the commands that need a sweep study (the built-in default is one
 /// helix, not a sweep).
 const SWEEP_STUDY: &str =
-    "Study file (TOML) of kind \"sweep\" (needed: the built-in default is one helix)";
+    "Study file (TOML) of kind \"sweep\", to be given: the built-in default is one helix";
 
 /// Options shared by every command that reads a study.
 #[derive(Args, Debug)]

@@ -78,9 +78,8 @@ impl Section for SolutionSummary {
         writeln!(
             f,
             "steady state of `{study}` at N = {} nodes (values at this N: their discretization \
-             error is not estimated here; compare with --set discretization.nodes={})",
-            self.nodes,
-            2 * self.nodes - 1
+             error is not estimated here; compare at a finer N)",
+            self.nodes
         )?;
         writeln!(
             f,

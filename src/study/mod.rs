@@ -231,14 +231,12 @@ impl Study {
 }
 
 /// A deserialization message with the Rust types it names in the user's words: the range of
-/// values a field of that type takes (`-3` for a node count: `expected a whole number >= 0`,
-/// the field's own bounds checked once it is one).
+/// values a field of that type takes (`-3` for a node count: `expected an integer >= 0`, the
+/// field's own bounds checked once it is one). The study's fields are `usize`, `f64` and
+/// `bool` (besides strings, tables and arrays of them).
 fn in_words(message: &str) -> String {
     [
-        ("expected usize", "expected a whole number >= 0"),
-        ("expected u64", "expected a whole number >= 0"),
-        ("expected u32", "expected a whole number >= 0"),
-        ("expected i64", "expected a whole number"),
+        ("expected usize", "expected an integer >= 0"),
         ("expected f64", "expected a number"),
         ("expected a boolean", "expected true or false"),
     ]
