@@ -56,6 +56,7 @@ fn main() {
             &study,
             "shape.R_over_lambda",
             (from, to),
+            None,
             &dir,
             &Provenance::default(),
         )

@@ -4,6 +4,7 @@
 mod common;
 
 use common::helixbif;
+use helixbif::analysis::boundary::PointAccuracy;
 use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
@@ -25,6 +26,7 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
         &study,
         "shape.R_over_lambda",
         (0.2, 0.24),
+        None,
         &dir,
         &Provenance::default(),
     )
@@ -76,32 +78,30 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
 
 #[test]
 fn boundary_refuses_bad_input_with_exit_code_2() {
+    let range = |from: &'static str, to: &'static str| {
+        vec!["--vary", "shape.R_over_lambda", "--from", from, "--to", to]
+    };
+    let with = |mut args: Vec<&'static str>, more: &[&'static str]| {
+        args.extend(more);
+        args
+    };
     for (args, field) in [
         (
             vec!["--vary", "rod.colour", "--from", "0.2", "--to", "0.3"],
             "--vary",
         ),
+        (range("0.3", "0.3"), "--from/--to"),
+        (range("0.3", "-1"), "shape"),
         (
-            vec![
-                "--vary",
-                "shape.R_over_lambda",
-                "--from",
-                "0.3",
-                "--to",
-                "0.3",
-            ],
-            "--from/--to",
+            with(range("0.3", "0.31"), &["--accuracy", "0.5"]),
+            "--accuracy: must lie in (0, 0.1)",
         ),
         (
-            vec![
-                "--vary",
-                "shape.R_over_lambda",
-                "--from",
-                "0.3",
-                "--to",
-                "-1",
-            ],
-            "shape",
+            with(
+                range("0.3", "0.31"),
+                &["--accuracy", "1e-3", "--max-nodes", "-4"],
+            ),
+            "--max-nodes: must be >= 5",
         ),
     ] {
         let mut all = vec!["boundary"];
@@ -129,6 +129,7 @@ fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points(
         &study,
         "shape.R_over_lambda",
         (0.14, 0.1),
+        None,
         &dir,
         &Provenance::default(),
     )
@@ -177,6 +178,7 @@ fn window_boundary(from: f64, to: f64, dir: &std::path::Path) -> BoundaryPoints 
         &study,
         "shape.R_over_lambda",
         (from, to),
+        None,
         dir,
         &Provenance::default(),
     )
@@ -252,53 +254,127 @@ fn a_window_opening_below_the_curve_gives_the_same_boundary_in_both_directions()
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The thick rod of the two tests below on the RPY line (`r0 = 6.32 mm`: few quadrature points)
+/// at `nodes` nodes, at `R/lambda = q` if given.
+fn thick_rod(nodes: usize, q: Option<f64>) -> Study {
+    let mut overrides: Vec<String> = ["fluid.model=rpy", "rod.r0=6.32e-3", "branch.omega_max=300"]
+        .map(String::from)
+        .to_vec();
+    overrides.push(format!("discretization.nodes={nodes}"));
+    overrides.extend(q.map(|q| format!("shape.R_over_lambda={q:e}")));
+    Study::load(None, &overrides).unwrap()
+}
+
+/// `omega_b` (rad/s) of `locate` at the study's `N`, from rest.
+fn located_at(study: &Study) -> f64 {
+    let model = Model::new(&study.physical()).unwrap();
+    run_locate(study, &model).unwrap().omega_b.unwrap()
+}
+
+/// `m_loc = -d ln omega_b / d ln q` at the middle of three points `(q, omega_b)`, by the
+/// three-point formula on an uneven grid.
+fn middle_exponent(points: [(f64, f64); 3]) -> f64 {
+    let [a, b, c] = points.map(|(q, w)| (q.ln(), w.ln()));
+    let (h0, h1) = (b.0 - a.0, c.0 - b.0);
+    let slope = (h0 * (c.1 - b.1) / h1 + h1 * (b.1 - a.1) / h0) / (h0 + h1);
+    -slope
+}
+
 /// Every Hopf point of the boundary states the discretization error of its `omega_b`, from the
-/// first loss of stability at `N/2 + 1` nodes (docs/model.md section 11). On a thick rod on the RPY line
-/// (`r0 = 6.32 mm`: few quadrature points) at `N = 61`, at both ends of a short curve, the stated
-/// error covers the difference to an independent `locate` at `2N - 1 = 121` nodes, which it did
-/// not use, and is at most five times it.
+/// first loss of stability at `N/2 + 1` nodes (docs/model.md section 11). On the thick rod at
+/// `N = 61`, at both ends of a short curve, the stated error covers the difference to an
+/// independent `locate` at `2N - 1 = 121` nodes, which it did not use, and is at most five times
+/// it. The error of `m_loc` estimated from the points' errors (the slope of the relative errors
+/// in `ln q`) is of the size of its error at the middle of the curve: within a factor of two of
+/// the difference to `m_loc` from `locate` at `N = 121` at the same three points, times 4/3 (the
+/// second-order part of the error that `N = 121` leaves; measured 0.77).
 #[test]
 fn every_point_of_the_boundary_states_an_error_that_covers_a_finer_computation() {
-    let overrides: Vec<String> = [
-        "fluid.model=rpy",
-        "rod.r0=6.32e-3",
-        "branch.omega_max=300",
-        "discretization.nodes=61",
-    ]
-    .map(String::from)
-    .to_vec();
-    let study = Study::load(None, &overrides).unwrap();
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-error-{}", std::process::id()));
-    run_boundary(
-        &study,
+    let range = (0.3, 0.302);
+    let rows = run_boundary(
+        &thick_rod(61, None),
         "shape.R_over_lambda",
-        (0.3, 0.302),
+        range,
+        None,
         &dir,
         &Provenance::default(),
     )
     .unwrap()
-    .1
-    .unwrap();
-    let mut rows = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
-    let header = rows.headers().unwrap().clone();
-    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
-    let (q_col, w_col, e_col) = (col("q"), col("omega_b"), col("omega_b_error"));
-    let rows: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
-    let number = |r: &csv::StringRecord, c: usize| r[c].parse::<f64>().unwrap();
-    assert!(rows.iter().all(|r| number(r, e_col) > 0.0));
+    .0;
+    assert!(rows.iter().all(|r| r.omega_b_error.unwrap() > 0.0));
     for row in [&rows[0], rows.last().unwrap()] {
-        let q = number(row, q_col);
-        let mut finer = overrides.clone();
-        finer[3] = "discretization.nodes=121".into();
-        finer.push(format!("shape.R_over_lambda={q:e}"));
-        let at = Study::load(None, &finer).unwrap();
-        let located = run_locate(&at, &Model::new(&at.physical()).unwrap()).unwrap();
-        let difference = (number(row, w_col) - located.omega_b.unwrap()).abs();
-        let stated = number(row, e_col);
+        let difference = (row.omega_b - located_at(&thick_rod(121, Some(row.q)))).abs();
+        let stated = row.omega_b_error.unwrap();
         assert!(
             difference <= stated && stated <= 5.0 * difference,
-            "R/lambda = {q}: stated {stated}, difference to N = 121 {difference}"
+            "R/lambda = {}: stated {stated}, difference to N = 121 {difference}",
+            row.q
         );
     }
+    let i = rows.len() / 2;
+    let three = [&rows[i - 1], &rows[i], &rows[i + 1]];
+    let finer = three.map(|r| (r.q, located_at(&thick_rod(121, Some(r.q)))));
+    let error = 4.0 / 3.0 * (rows[i].m_loc.unwrap() - middle_exponent(finer)).abs();
+    let stated = rows[i].m_loc_error.unwrap();
+    assert!(
+        (0.5..=2.0).contains(&(stated / error)),
+        "m_loc = {}: stated error {stated}, from N = 121 {error}",
+        rows[i].m_loc.unwrap()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A boundary asked for an accuracy carries every Hopf point to it (docs/model.md section 11):
+/// on the thick rod, the curve followed at `N = 31` and each point refined in `N` as `locate`
+/// refines it, every point reaches `1e-2` at `N = 121`, and at the end of the range the stated
+/// error covers the difference to an independent `locate` at `N = 481`, four times finer than
+/// any rung the refinement used (its own discretization error, about a third of its increment
+/// from `N = 241`, is a tenth of the stated error), where the curve's own value at `N = 31`
+/// misses it by at least ten times that error (measured 21). The table holds the answers.
+#[test]
+fn a_boundary_carried_to_an_accuracy_states_errors_that_cover_a_finer_computation() {
+    let dir =
+        std::env::temp_dir().join(format!("helixbif-boundary-refined-{}", std::process::id()));
+    let accuracy = PointAccuracy {
+        accuracy: 1e-2,
+        max_nodes: 500,
+    };
+    let (rows, report) = run_boundary(
+        &thick_rod(31, None),
+        "shape.R_over_lambda",
+        (0.3, 0.3005),
+        Some(accuracy),
+        &dir,
+        &Provenance::default(),
+    )
+    .unwrap();
+    let report = report.unwrap();
+    assert_eq!((report.not_reached, report.points), (Some(0), rows.len()));
+    assert!(report.shortfall().is_none());
+    // The end is checked against the curve at its own N.
+    assert!(report.check_difference.unwrap() <= 1e-7);
+    for row in &rows {
+        assert_eq!(row.reached, Some(true));
+        assert_eq!((row.curve_nodes, row.nodes), (31, 121));
+    }
+    let last = rows.last().unwrap();
+    let direct = located_at(&thick_rod(481, Some(last.q)));
+    let stated = last.omega_b_error.unwrap();
+    let difference = (last.omega_b - direct).abs();
+    let coarse = (last.curve_omega_b - direct).abs();
+    assert!(
+        difference <= stated && coarse >= 10.0 * stated,
+        "R/lambda = {}: stated {stated}, difference to N = 481 {difference}, the curve's {coarse}",
+        last.q
+    );
+    let mut table = csv::Reader::from_path(dir.join("boundary.csv")).unwrap();
+    let header = table.headers().unwrap().clone();
+    let column = header.iter().position(|h| h == "omega_b").unwrap();
+    let written: Vec<f64> = table
+        .records()
+        .map(|r| r.unwrap()[column].parse().unwrap())
+        .collect();
+    assert_eq!(written, rows.iter().map(|r| r.omega_b).collect::<Vec<_>>());
     std::fs::remove_dir_all(&dir).ok();
 }

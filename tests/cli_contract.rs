@@ -1008,3 +1008,86 @@ fn a_stalled_branch_reports_its_events_before_it_fails() {
     );
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// `run` on the representative helix on Lighthill's operator at `N = 20` (its [discretization]
+/// table last) with a boundary table of `R/lambda` from `from` to `to` and the lines `extra`,
+/// written into `dir`: the exit code, stderr and the output folder.
+fn run_boundary_study(dir: &Path, (from, to): (&str, &str), extra: &str) -> (i32, String, PathBuf) {
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join("boundary.toml");
+    let base = std::fs::read_to_string("studies/representative.toml")
+        .unwrap()
+        .replace("model = \"rpy\"", "model = \"lighthill\"")
+        .replace("nodes = 60", "nodes = 20");
+    let table = format!(
+        "\n[study]\nkind = \"boundary\"\nvary = \"shape.R_over_lambda\"\nfrom = {from}\n\
+         to = {to}\n{extra}"
+    );
+    std::fs::write(&path, format!("{base}{table}")).unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = helixbif(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    (code, stderr, out)
+}
+
+/// A boundary study's refinement of its points (`accuracy`, `max_nodes`): an accuracy out of
+/// range, or `max_nodes` without an accuracy to bound, is refused before anything runs, in one
+/// line naming the field, with exit code 2.
+#[test]
+fn a_boundary_study_refuses_a_refinement_it_cannot_do() {
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-plan-{}", std::process::id()));
+    for (extra, message) in [
+        ("accuracy = 0.2\n", "study.accuracy: must lie in (0, 0.1)"),
+        (
+            "max_nodes = 100\n",
+            "study.max_nodes: bounds the refinement of the points, which needs study.accuracy",
+        ),
+        (
+            "accuracy = 1e-3\nmax_nodes = 3\n",
+            "study.max_nodes: must be >= 5",
+        ),
+    ] {
+        let (code, stderr, _) = run_boundary_study(&dir, ("0.3", "0.31"), extra);
+        assert_eq!(code, 2, "{extra}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(message), "{extra}: {stderr}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A boundary study whose points cannot reach their accuracy (Lighthill's operator at `N = 20`,
+/// at most 30 nodes, `1e-3` asked for) writes everything and then fails with exit code 1, one
+/// line naming the case and the accuracy; `meta.json` holds every point's refinement (all
+/// carried, none reached) and the curve's exponents with their errors.
+#[test]
+fn a_boundary_study_that_falls_short_of_its_accuracy_fails_after_writing_everything() {
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-short-{}", std::process::id()));
+    let extra = "accuracy = 1e-3\nmax_nodes = 30\n";
+    let (code, stderr, out) = run_boundary_study(&dir, ("0.318", "0.317"), extra);
+    assert_eq!(code, 1, "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("base: accuracy 1e-3 not reached at"),
+        "{stderr}"
+    );
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("meta.json")).unwrap()).unwrap();
+    let curve = &meta["run"]["curves"][0];
+    let report = &curve["report"];
+    assert_eq!(report["carried"], report["points"]);
+    assert_eq!(report["not_reached"], report["points"]);
+    assert_eq!(report["nodes_max"], 30);
+    for key in ["m_loc_smallest_error", "m_loc_limit_error"] {
+        assert!(curve[key].as_f64().unwrap() > 0.0, "{key}: {curve}");
+    }
+    let table = std::fs::read_to_string(out.join("boundary.csv")).unwrap();
+    assert_eq!(
+        table.lines().count() as u64,
+        report["points"].as_u64().unwrap() + 1
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -77,10 +77,19 @@ class Study:
     def solve(self, omega: float) -> Solution:
         """One steady state at `omega` rad/s (`helixbif solve`)."""
     def boundary(
-        self, vary: str, start: float, stop: float, *, out: _Path | None = None
+        self,
+        vary: str,
+        start: float,
+        stop: float,
+        *,
+        accuracy: float | None = None,
+        max_nodes: int | None = None,
+        out: _Path | None = None,
     ) -> Boundary:
         """The stability boundary omega_b(q) with the field `vary` from `start` to `stop`
-        (`helixbif boundary`). Raises NumericalError with `partial` when the curve stops."""
+        (`helixbif boundary`); with `accuracy`, every Hopf point carried to it (up to
+        `max_nodes`, default 500). Raises NumericalError with `partial` when the curve stops or
+        a point falls short of `accuracy`."""
     def simulate(
         self,
         omega: float | None = None,
@@ -271,9 +280,12 @@ class Boundary(_Result):
     segment: _I
     q: _F
     omega_b: _F
+    """rad/s: the curve's at its N, or with `accuracy` the point's refined answer."""
     omega_b_error: _F
-    """Estimated discretization error of omega_b at the point's N, rad/s (NaN where not
-    estimated)."""
+    """Estimated error of omega_b, rad/s (NaN where not estimated): with `accuracy` the
+    refinement's, else the discretization error at the curve's N."""
+    reached: _B | _F
+    """Whether the point reached `accuracy` (bool); without one the column is empty (NaN)."""
     omegabar_b: _F
     kind: _S
     w: _F
@@ -281,12 +293,18 @@ class Boundary(_Result):
     Fpbar: _F
     hbar: _F
     m_loc: _F
+    m_loc_error: _F
+    """Estimated error of m_loc, from the points' relative errors (NaN where not estimated)."""
     precision: _F
     l1: _F
     l1_precision: _F
     criticality: _S
     """The column; the report's counts are `result["criticality"]`."""
     nodes: _I
+    """The N of omega_b (the curve's is `curve_nodes`)."""
+    curve_omega_b: _F
+    """The curve's own omega_b at `curve_nodes`, rad/s."""
+    curve_nodes: _I
     key: str
     to: float
     """The end of the range of `key`; its start is `result["from"]` (`from` is a Python
@@ -299,6 +317,16 @@ class Boundary(_Result):
     """Independent `locate` runs below the curve, watching for another mode's window."""
     check_omega_b: float | None
     check_difference: float | None
+    accuracy: float | None
+    carried: int | None
+    """Points carried to `accuracy` (the Hopf points; None without one)."""
+    not_reached: int | None
+    """Points that fell short of `accuracy` (None without one)."""
+    relative_error_max: list[float] | None
+    """The largest estimated relative error of omega_b over the points, and its q."""
+    first_shortfall: str | None
+    """Where the first point fell short of `accuracy`, and why its refinement stopped."""
+    nodes_max: int
     seconds: float
     """Wall time of the run, s."""
     out: str

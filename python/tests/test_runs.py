@@ -281,3 +281,31 @@ def test_result_attributes(small):
     d = located.to_dict()
     d["omega_b"] = 0.0
     assert located.to_dict()["omega_b"] != 0.0
+
+
+def test_boundary_carried_to_an_accuracy_falls_short_as_the_cli_does(cli, small, tmp_path):
+    """Every point carried to 1e-3 with at most 30 nodes (Lighthill at N = 20 cannot reach it):
+    the CLI prints the report and exits 1 with one line; Python raises that line with the whole
+    boundary as `partial`, every point refined past the curve's N and marked not reached."""
+    args = ["--vary", "shape.R_over_lambda", "--from", "0.318", "--to", "0.317"]
+    refine = ["--accuracy", "1e-3", "--max-nodes", "30"]
+    code, line = cli.error("boundary", *args, *refine, "--out", tmp_path / "cli", *SMALL)
+    assert code == 1 and "accuracy 1e-3 not reached at" in line
+    with pytest.raises(helixbif.NumericalError) as raised:
+        small.boundary(
+            "shape.R_over_lambda", 0.318, 0.317, accuracy=1e-3, max_nodes=30, out=tmp_path / "py"
+        )
+    assert str(raised.value) == line
+    partial = raised.value.partial
+    assert_columns_equal(partial.columns, tmp_path / "cli" / "boundary.csv")
+    assert partial["not_reached"] == partial["carried"] == partial["points"] == partial.q.size
+    assert partial["first_shortfall"] == (
+        "at shape.R_over_lambda = 0.318, the next refinement would pass --max-nodes 30 (at N = 30)"
+    )
+    assert partial.reached.dtype == np.bool_
+    assert (partial.curve_nodes == 20).all() and (partial.nodes == 30).all()
+    assert (partial.omega_b != partial.curve_omega_b).all()
+    with pytest.raises(ValueError, match="^invalid input: accuracy: "):
+        small.boundary("rod.E", 1e6, 2e6, accuracy=0.5)
+    with pytest.raises(ValueError, match="^invalid input: max_nodes: "):
+        small.boundary("rod.E", 1e6, 2e6, max_nodes=100)

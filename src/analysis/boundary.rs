@@ -17,6 +17,12 @@
 //! stability does not depend on the direction of travel: followed the other way, the same window
 //! closes at a turning point of its curve, where the boundary jumps back. The end of the range is
 //! checked against an independent `locate` too ([`check_end`]).
+//!
+//! The curve is followed at the family's `N`. Asked for an accuracy ([`PointAccuracy`]), every
+//! Hopf point is then carried to the node count the accuracy needs by `locate`'s refinement at
+//! its `q` ([`refine`]): the curve at the coarse `N` finds the first loss of stability, its
+//! switches and its special points; the refinement gives each point its value and error, and
+//! its first rung (from rest at the curve's `N`) is the point's independent check.
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
@@ -42,17 +48,28 @@ use crate::problem::family::RodFamily;
 use crate::problem::rod::RodProblem;
 use crate::{Error, Result};
 
+mod carry;
+pub use carry::PointAccuracy;
+use carry::{Carried, carry, refined_row};
+
 /// One point of the boundary (a row of `boundary.csv`).
 #[derive(Clone, Debug, Serialize)]
 pub struct BoundaryPoint {
     /// The index of the curve the point lies on (a switch or a jump starts a new one).
     pub segment: usize,
     pub q: f64,
+    /// `omega_b` at the point (rad/s): the curve's own at its `N`, or, where the boundary was
+    /// asked for an accuracy ([`PointAccuracy`]), the answer of the point's refinement in `N`.
     pub omega_b: f64,
-    /// Estimated discretization error of `omega_b` at the point's `N` (rad/s), from the first
-    /// loss of stability at `N/2 + 1` nodes (docs/model.md section 11); empty at a fold or
-    /// branch point, below 9 nodes, or where the coarser mesh has no Hopf point to compare.
+    /// Estimated error of `omega_b` (rad/s). With an accuracy, the refinement's (in `N` and of
+    /// the quadrature, as `locate` states it); else the discretization error at the curve's `N`,
+    /// from the first loss of stability at `N/2 + 1` nodes (docs/model.md section 11). Empty at
+    /// a fold or branch point, below 9 nodes, or where the coarser mesh has no Hopf point to
+    /// compare.
     pub omega_b_error: Option<f64>,
+    /// Whether the refinement's estimated relative error is below the accuracy asked for;
+    /// empty without one.
+    pub reached: Option<bool>,
     pub omegabar_b: f64,
     #[serde(serialize_with = "event_name")]
     pub kind: EventKind,
@@ -65,6 +82,13 @@ pub struct BoundaryPoint {
     /// `-d ln omegabar_b / d ln q` along the segment (three-point differences; empty where `q`
     /// or `omegabar_b` is not positive or the segment has one point).
     pub m_loc: Option<f64>,
+    /// An estimate of the error of `m_loc`: the three-point slope in `ln q` of the points'
+    /// estimated relative errors of `omega_b` (the change of `m_loc` were each point's error
+    /// removed). Right where that error is smooth in `q` and of one sign, as when neighbouring
+    /// points come from the same rungs; where neighbours reach an accuracy at different `N`, or
+    /// one's answer is a limit in `N` and the other's a rung, the jump of their errors shows in
+    /// it. Empty where a point of the three states no error.
+    pub m_loc_error: Option<f64>,
     /// Relative precision of the point in `omega`.
     pub precision: f64,
     /// At a Hopf point: the first Lyapunov coefficient (solver units, critical mode scaled to a
@@ -74,8 +98,12 @@ pub struct BoundaryPoint {
     pub l1: Option<f64>,
     pub l1_precision: Option<f64>,
     pub criticality: Option<Verdict>,
-    /// The node count of the model the point was found at.
+    /// The node count of `omega_b`: the curve's, or the finest rung of the point's refinement.
     pub nodes: usize,
+    /// The curve's own `omega_b` (rad/s) at its node count `curve_nodes` (the values above
+    /// where the point was not refined).
+    pub curve_omega_b: f64,
+    pub curve_nodes: usize,
 }
 
 /// A special point of the boundary (a row of `points.csv`).
@@ -141,15 +169,20 @@ pub struct Boundary {
     pub segments: usize,
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole boundary.
     pub evaluations: usize,
-    /// Independent `locate` runs from rest below the curve (one per point but the first of each
-    /// curve and a special point the boundary leaves the curve at, and those of the bisection
-    /// where a window opens).
+    /// Independent checks from rest below the curve (one per point but the first of each curve
+    /// and a special point the boundary leaves the curve at, and those of the bisection where a
+    /// window opens): a `locate` up to just below the point, or where the point is carried to an
+    /// accuracy, its refinement's first rung.
     pub window_checks: usize,
+    /// Where the first point carried to an accuracy fell short of it, and why its refinement
+    /// stopped.
+    pub first_shortfall: Option<String>,
 }
 
 impl Boundary {
     /// Sets `m_loc` of every point by three-point differences of `ln omegabar_b` in `ln q` on
-    /// each segment.
+    /// each segment, and its error `m_loc_error` by the same differences of the points'
+    /// relative errors (`omega_b_error / omega_b`, the error of `ln omegabar_b`).
     fn local_exponents(&mut self) {
         let mut start = 0;
         let rows = &mut self.points;
@@ -160,12 +193,18 @@ impl Boundary {
                     .iter()
                     .take_while(|r| r.segment == segment)
                     .count();
-            let (x, y): (Vec<f64>, Vec<f64>) = rows[start..end]
+            let on = &rows[start..end];
+            let x: Vec<f64> = on.iter().map(|r| r.q.ln()).collect();
+            let y: Vec<f64> = on.iter().map(|r| r.omegabar_b.ln()).collect();
+            let relative: Vec<f64> = on
                 .iter()
-                .map(|r| (r.q.ln(), r.omegabar_b.ln()))
-                .unzip();
-            for (row, slope) in rows[start..end].iter_mut().zip(log_slopes(&x, &y)) {
+                .map(|r| r.omega_b_error.map_or(f64::NAN, |e| e / r.omega_b.abs()))
+                .collect();
+            let slopes = log_slopes(&x, &y).into_iter();
+            let error_slopes = log_slopes(&x, &relative).into_iter();
+            for ((row, slope), error) in rows[start..end].iter_mut().zip(slopes).zip(error_slopes) {
                 row.m_loc = slope.map(|d| -d);
+                row.m_loc_error = error.map(f64::abs);
             }
             start = end;
         }
@@ -224,12 +263,67 @@ struct Recorder<'a, O> {
     window: Option<Seen>,
     /// The curve was just left at a special point (its point, told next, needs no check).
     left: bool,
+    /// The accuracy every Hopf point is carried to, if one was asked for.
+    accuracy: Option<PointAccuracy>,
+    /// The curve's own values at the last point recorded (where a window's opening is
+    /// bisected from, and a jump past a turning point looks from).
+    last_on_curve: Option<OnCurve>,
+}
+
+/// A point of the curve at its own `N`: `q`, the rate and the critical frequency (solver units
+/// and rad/s).
+#[derive(Clone, Copy)]
+struct OnCurve {
+    q: f64,
+    omegabar: f64,
+    wbar: f64,
+    omega: f64,
+    w: f64,
+}
+
+/// `omega_max` (rad/s, its sign the direction of the search) widened to twice `omega` where that
+/// is larger: a search from rest that must reach a point of a curve at `omega`.
+pub(super) fn reaching(omega_max: f64, omega: f64) -> f64 {
+    omega_max.signum() * omega_max.abs().max(2.0 * omega.abs())
 }
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
-    fn row(&self, point: &CurvePoint) -> Result<BoundaryPoint> {
+    /// The row of the curve's `point` and, where it was carried to an accuracy and fell short
+    /// of it, why: the answer of its refinement, or where there is none to give (`carried` says
+    /// why), the curve's own row marked not reached.
+    fn row(
+        &self,
+        point: &CurvePoint,
+        carried: Option<&Carried>,
+    ) -> Result<(BoundaryPoint, Option<String>)> {
         let member = self.family.member(point.q)?;
         let model = &member.model;
+        let segment = self.boundary.segments - 1;
+        let kept = match carried {
+            None => None,
+            Some(Carried::Kept(why)) => Some(why.clone()),
+            Some(Carried::Refined(r)) => match refined_row(r, (point.q, segment), model, point.p) {
+                Ok(row) => {
+                    let short = (!r.reached).then(|| {
+                        r.stopped
+                            .clone()
+                            .unwrap_or_else(|| "the refinement stopped short".into())
+                    });
+                    return Ok((row, short));
+                }
+                Err(why) => Some(why),
+            },
+        };
+        let mut row = self.curve_row(point, model)?;
+        if kept.is_some() {
+            row.reached = Some(false);
+        }
+        Ok((row, kept))
+    }
+
+    /// The row of the curve's own `point` on `model` (the member at its `q`), with its
+    /// discretization error from `N/2 + 1` nodes.
+    fn curve_row(&self, point: &CurvePoint, model: &Model) -> Result<BoundaryPoint> {
         let rest = rest_state(model, self.newton)?;
         let o = observables_at(model, &rest, &point.u, point.p)?;
         let wbar = point.eigenvalue.im;
@@ -254,6 +348,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             q: point.q,
             omega_b: o.omega,
             omega_b_error,
+            reached: None,
             omegabar_b: point.p,
             kind: self.kind,
             w: model.scales.omega_from_bar(wbar),
@@ -261,11 +356,14 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             fpbar: o.fpbar,
             hbar: o.hbar,
             m_loc: None,
+            m_loc_error: None,
             precision: point.precision,
             l1: point.lyapunov.as_ref().map(|l| l.l1),
             l1_precision: point.lyapunov.as_ref().map(|l| l.precision),
             criticality: point.lyapunov.as_ref().map(|l| l.verdict),
             nodes: model.nodes(),
+            curve_omega_b: o.omega,
+            curve_nodes: model.nodes(),
         })
     }
 
@@ -294,7 +392,9 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
 impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
     /// Records a point of the curve, after checking that nothing loses stability below it (the
     /// first point of a curve needs no check: it was located from rest, or is a double Hopf
-    /// point of the curve before).
+    /// point of the curve before). Where the point is carried to an accuracy, the refinement's
+    /// first rung, from rest at the curve's `N`, is that check: it must find the curve's point
+    /// again (to [`WINDOW_MARGIN`]); where it does not, the check of [`loss_below`] decides.
     fn point(&mut self, point: &CurvePoint) -> ControlFlow<()> {
         self.boundary.evaluations += point.evaluations;
         let first = self
@@ -322,8 +422,29 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
                 }
             }
         }
-        let result = self.row(point).and_then(|row| {
+        let result = self.family.member(point.q).and_then(|member| {
+            let scales = member.model.scales;
+            let omega = scales.omega_from_bar(point.p);
+            let carried = match self.accuracy.filter(|_| self.kind == EventKind::Hopf) {
+                Some(accuracy) => Some(carry(self.family, &self.locate, accuracy, point, omega)?),
+                None => None,
+            };
+            let (row, short) = self.row(point, carried.as_ref())?;
+            if let (Some(why), None) = (short, &self.boundary.first_shortfall) {
+                self.boundary.first_shortfall = Some(format!(
+                    "at {} = {}, {why}",
+                    self.family.field().key(),
+                    point.q
+                ));
+            }
             self.boundary.points.push(row);
+            self.last_on_curve = Some(OnCurve {
+                q: point.q,
+                omegabar: point.p,
+                wbar: point.eigenvalue.im,
+                w: scales.omega_from_bar(point.eigenvalue.im),
+                omega: scales.omega_from_bar(point.p),
+            });
             self.boundary.local_exponents();
             self.observer.grown(&self.boundary)
         });
@@ -588,12 +709,13 @@ fn follow_events<O: BoundaryObserver>(
     }
 }
 
-/// Follows the boundary of `family` from `q = from` to `to`, telling `observer` of every point:
-/// what was found, and whether the boundary reached the end of the range (what was found is
-/// kept when it did not).
+/// Follows the boundary of `family` from `q = from` to `to` at the family's `N`, with
+/// `accuracy` every Hopf point carried to it ([`PointAccuracy`]), telling `observer` of every
+/// point: what was found, and whether the boundary reached the end of the range (what was found
+/// is kept when it did not).
 pub(crate) fn follow_boundary(
     family: &RodFamily,
-    settings: &LocateSettings,
+    (settings, accuracy): (&LocateSettings, Option<PointAccuracy>),
     from: f64,
     to: f64,
     observer: &mut impl BoundaryObserver,
@@ -611,6 +733,8 @@ pub(crate) fn follow_boundary(
         locate: *settings,
         window: None,
         left: false,
+        accuracy,
+        last_on_curve: None,
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)
@@ -709,9 +833,8 @@ fn follow_segments<O: BoundaryObserver>(
             // Past the turning point the mode is stable: the first loss of stability is
             // elsewhere, located afresh a little beyond.
             let q = special.point.q + direction * 1e-3 * (to - from).abs();
-            let reached = recorder.boundary.points.last().map_or(0.0, |r| r.omega_b);
-            let omega_max =
-                settings.omega_max.abs().max(2.0 * reached.abs()) * settings.omega_max.signum();
+            let reached = recorder.last_on_curve.map_or(0.0, |c| c.omega);
+            let omega_max = reaching(settings.omega_max, reached);
             let (s, m) = start_at(family, settings, q, omega_max)?;
             member = m;
             s
@@ -741,12 +864,10 @@ fn switch_to_window<O: BoundaryObserver>(
     (from, to): (f64, f64),
 ) -> Result<(CurveStart, Rc<RodProblem<Model>>)> {
     let family = recorder.family;
-    let clean = recorder
-        .boundary
-        .points
-        .last()
-        .map(|r| (r.q, r.omegabar_b, r.wbar))
+    let on_curve = recorder
+        .last_on_curve
         .expect("a window is looked for past the first point of a curve");
+    let clean = (on_curve.q, on_curve.omegabar, on_curve.wbar);
     let tol = 1e-6 * (to - from).abs();
     let checks = &mut recorder.boundary.window_checks;
     let (found, width) = window_opening(family, settings, clean, seen, tol, checks)?;
@@ -758,7 +879,7 @@ fn switch_to_window<O: BoundaryObserver>(
         CurveStart::Event(e) => (e.event.p, e.event.eigenvalue.im),
     };
     // The curve's frequency at its last point, rad/s (its member's own time scale).
-    let w_other = recorder.boundary.points.last().map_or(0.0, |r| r.w);
+    let w_other = on_curve.w;
     recorder.boundary.special.push(SpecialPoint {
         kind: BoundaryEvent::Window,
         q,
@@ -774,15 +895,15 @@ fn switch_to_window<O: BoundaryObserver>(
     Ok((start, member))
 }
 
-/// `omega_b` (rad/s) of an independent `locate` at the last point of a boundary, looked for up
-/// to twice that point's rate; `None` where it finds no loss of stability to start from.
+/// `omega_b` (rad/s) of an independent `locate` at the last point of a boundary, at the curve's
+/// `N` (to compare with `curve_omega_b`), looked for up to twice that point's rate; `None`
+/// where it finds no loss of stability to start from.
 pub(crate) fn check_end(
     family: &RodFamily,
     settings: &LocateSettings,
     last: &BoundaryPoint,
 ) -> Option<f64> {
-    let omega_max =
-        settings.omega_max.signum() * settings.omega_max.abs().max(2.0 * last.omega_b.abs());
+    let omega_max = reaching(settings.omega_max, last.curve_omega_b);
     let (start, _) = start_at(family, settings, last.q, omega_max).ok()?;
     Some(
         family

@@ -240,6 +240,15 @@ pub struct BoundaryArgs {
     /// Last value of the field.
     #[arg(long, allow_negative_numbers = true)]
     pub to: f64,
+    /// Carry every Hopf point of the curve (followed at the study's N) to this relative accuracy
+    /// of omega_b, as locate refines it: the column omega_b is then the point's answer,
+    /// omega_b_error its estimated error, nodes its finest N (docs/model.md section 11).
+    /// Without it, each point at the study's N with its discretization error from N/2 + 1.
+    #[arg(long, allow_negative_numbers = true)]
+    pub accuracy: Option<f64>,
+    /// Largest node count a point is carried to (with --accuracy; default 500).
+    #[arg(long, requires = "accuracy", allow_negative_numbers = true)]
+    pub max_nodes: Option<i64>,
     /// Output folder; default `output/<study name>.boundary-<KEY>/`.
     #[arg(long)]
     pub out: Option<PathBuf>,

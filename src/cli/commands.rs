@@ -15,7 +15,7 @@ use helixbif::study::locate::{Resolution, locate_study};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use helixbif::study::output::Table;
 use helixbif::study::output::{Provenance, make_writable_dir};
-use helixbif::study::plan::{check_accuracy, check_max_nodes};
+use helixbif::study::plan::{check_accuracy, check_max_nodes, point_accuracy};
 use helixbif::study::run::run as run_study;
 use helixbif::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
@@ -213,8 +213,19 @@ pub fn boundary(b: &BoundaryArgs) -> Outcome {
             PathBuf::from(dir)
         }
     };
-    let (_, report) = run_boundary(&study, key, (b.from, b.to), &dir, &Provenance::of_process())?;
-    Ok(done(Plain(report?)))
+    let max_nodes = b
+        .max_nodes
+        .map(|m| count("--max-nodes", m, 5))
+        .transpose()?;
+    let accuracy = point_accuracy(b.accuracy, max_nodes, ["--accuracy", "--max-nodes"])?;
+    let provenance = Provenance::of_process();
+    let (_, report) = run_boundary(&study, key, (b.from, b.to), accuracy, &dir, &provenance)?;
+    let report = report?;
+    let shortfall = report.shortfall();
+    Ok(Done {
+        report: Box::new(Plain(report)),
+        shortfall,
+    })
 }
 
 pub fn run(r: &RunArgs) -> Outcome {

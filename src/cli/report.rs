@@ -344,11 +344,21 @@ fn boundary_study(b: &BoundaryStudy, f: &mut Formatter<'_>) -> fmt::Result {
         if let Some(e) = &c.error {
             write!(f, "\n  FAILED: {e}")?;
         }
+        let error =
+            |e: Option<f64>| e.map_or(" (error not estimated)".into(), |e| format!(" +- {e:.2e}"));
         if let Some([q, m]) = c.m_loc_smallest {
-            write!(f, "\n  m_loc = {m:.4} at the smallest q = {q:.4}")?;
+            write!(
+                f,
+                "\n  m_loc = {m:.4}{} at the smallest q = {q:.4}",
+                error(c.m_loc_smallest_error)
+            )?;
         }
         if let Some(m) = c.m_loc_limit {
-            write!(f, "; extrapolated to q = 0: {m:.4}")?;
+            write!(
+                f,
+                "; extrapolated to q = 0: {m:.4}{}",
+                error(c.m_loc_limit_error)
+            )?;
         }
         if let Some(p) = &c.fit {
             write!(
@@ -630,6 +640,29 @@ impl Text for BoundaryReport {
             self.window_checks,
             self.seconds
         )?;
+        let worst =
+            self.relative_error_max
+                .map_or("no point states an error".to_string(), |[e, q]| {
+                    format!(
+                        "the largest estimated relative error {e:.1e} (at {} = {q:.6})",
+                        self.key
+                    )
+                });
+        match (self.accuracy, self.carried, self.not_reached) {
+            (Some(a), Some(carried), Some(missed)) => writeln!(
+                f,
+                "  every Hopf point carried to the accuracy {a:e} (N up to {}): reached at {} of \
+                 {carried}; {worst}",
+                self.nodes_max,
+                carried - missed,
+            )?,
+            _ => writeln!(
+                f,
+                "  every point at N = {}, its discretization error estimated from N/2 + 1 nodes: \
+                 {worst} (--accuracy carries the points to an accuracy)",
+                self.nodes
+            )?,
+        }
         for p in &self.special {
             let frequencies = if p.kind.one_mode() {
                 format!("w = {:.5} rad/s", p.w)
@@ -666,8 +699,9 @@ impl Text for BoundaryReport {
             (Some(w), Some(d)) => {
                 writeln!(
                     f,
-                    "  check: an independent locate at the end finds omega_b = {w:.8} rad/s \
-                     (relative difference {d:.2e})"
+                    "  check: an independent locate at the end, at N = {}, finds omega_b = {w:.8} \
+                     rad/s (relative difference from the curve there {d:.2e})",
+                    self.nodes
                 )?;
                 if d > 1e-6 {
                     writeln!(

@@ -216,15 +216,17 @@ pub(crate) fn log_slopes(x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
         .collect()
 }
 
-/// The intercept `a` of the least-squares line `y = a + b x` through `points`; `None` with
-/// fewer than three points.
-pub(crate) fn line_intercept(points: &[(f64, f64)]) -> Option<f64> {
+/// The intercept `a` of the least-squares line `y = a + b x` through `points` and the
+/// half-width of its 95% interval (`t(0.975, n - 2)` standard errors of `a`, from the scatter
+/// about the line); `None` with fewer than three points.
+pub(crate) fn line_intercept(points: &[(f64, f64)]) -> Option<[f64; 2]> {
     if points.len() < 3 {
         return None;
     }
     let (x, y): (Vec<f64>, Vec<f64>) = points.iter().copied().unzip();
-    let a = Line::fit(&x, &y).a;
-    a.is_finite().then_some(a)
+    let line = Line::fit(&x, &y);
+    let (half_width, _) = line.half_widths().ok()?;
+    line.a.is_finite().then_some([line.a, half_width])
 }
 
 /// One exponent shared by several groups, each with its own prefactor:
@@ -453,12 +455,23 @@ mod tests {
         assert!(log_slopes(&[1.0], &[2.0])[0].is_none());
     }
 
+    /// The limit of a straight line is its intercept, with no width; with scatter, the width is
+    /// the classic `t(0.975, n - 2) s sqrt(1/n + mean(x)^2 / Sxx)`: for `y = 2 + x` plus
+    /// `0.1, -0.1, -0.1, 0.1` at `x = 1, 2, 3, 4` (residuals orthogonal to the line: `s^2 =
+    /// 0.04/2`, `Sxx = 5`, `t(0.975, 2) = 4.302653`), `4.302653 sqrt(0.02 (1/4 + 6.25/5))
+    /// = 0.745242`.
     #[test]
     fn the_limit_of_a_straight_line_is_its_intercept() {
         let points: Vec<(f64, f64)> = (0..5)
             .map(|i| (0.1 * i as f64, 2.1 + 3.0 * 0.1 * i as f64))
             .collect();
-        assert!((line_intercept(&points).unwrap() - 2.1).abs() < 1e-14);
+        let [a, width] = line_intercept(&points).unwrap();
+        assert!((a - 2.1).abs() < 1e-14 && width < 1e-13);
         assert!(line_intercept(&points[..2]).is_none());
+        let scattered = [(1.0, 3.1), (2.0, 3.9), (3.0, 4.9), (4.0, 6.1)];
+        let [a, width] = line_intercept(&scattered).unwrap();
+        let expected = 4.302653 * (0.02_f64 * (0.25 + 6.25 / 5.0)).sqrt();
+        assert!((a - 2.0).abs() < 1e-12, "{a}");
+        assert!((width - expected).abs() < 1e-5, "{width} vs {expected}");
     }
 }

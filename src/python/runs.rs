@@ -20,7 +20,7 @@ use crate::study::boundary::run_boundary;
 use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
-use crate::study::plan::{check_accuracy, check_max_nodes};
+use crate::study::plan::{check_accuracy, check_max_nodes, point_accuracy};
 use crate::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
 };
@@ -256,27 +256,33 @@ pub(crate) fn solve(py: Python<'_>, study: &Study, omega: f64) -> PyResult<Py<Py
     Solution::object(py, record)
 }
 
-/// `helixbif boundary --vary --from --to --out`.
+/// `helixbif boundary --vary --from --to [--accuracy --max-nodes] --out`.
 pub(crate) fn boundary(
     py: Python<'_>,
     study: &Study,
     vary: &str,
     (start, stop): (f64, f64),
+    (accuracy, max_nodes): (Option<f64>, Option<i64>),
     out: Option<PathBuf>,
 ) -> PyResult<Py<PyAny>> {
     let file = &study.study;
+    let max_nodes = max_nodes.map(|m| count("max_nodes", m, 5)).transpose()?;
+    let refinement = point_accuracy(accuracy, max_nodes, ["accuracy", "max_nodes"])
+        .map_err(|e| to_python(py, e, None))?;
     let dir = output_dir(py, out, "boundary")?;
-    let why = provenance(
-        "boundary",
-        &[
-            ("vary", vary.to_string()),
-            ("start", start.to_string()),
-            ("stop", stop.to_string()),
-            ("out", dir.display().to_string()),
-        ],
-    );
+    let mut arguments = vec![
+        ("vary", vary.to_string()),
+        ("start", start.to_string()),
+        ("stop", stop.to_string()),
+    ];
+    if let Some(r) = refinement {
+        arguments.push(("accuracy", r.accuracy.to_string()));
+        arguments.push(("max_nodes", r.max_nodes.to_string()));
+    }
+    arguments.push(("out", dir.display().to_string()));
+    let why = provenance("boundary", &arguments);
     let (outcome, columns) = detached(py, || {
-        let outcome = run_boundary(file, vary, (start, stop), &dir, &why);
+        let outcome = run_boundary(file, vary, (start, stop), refinement, &dir, &why);
         (outcome, Columns::read(&dir.join("boundary.csv")))
     })?;
     let (_, report) = outcome.map_err(|e| to_python(py, e, None))?;
@@ -288,8 +294,19 @@ pub(crate) fn boundary(
         ..Record::of(data, summary)
     };
     match report {
-        // The command line prints the report alone, without the study's name.
-        Ok(report) => Boundary::object(py, record(to_json(py, &report)?)),
+        // The command line prints the report alone, without the study's name; an accuracy
+        // not reached at some points fails after it (exit 1), here with the report as `partial`.
+        Ok(report) => {
+            let object = Boundary::object(py, record(to_json(py, &report)?))?;
+            match report.shortfall() {
+                Some(why) => Err(numerical(
+                    py,
+                    Error::Numerical(why).to_string(),
+                    Some(object),
+                )),
+                None => Ok(object),
+            }
+        }
         Err(e) => {
             let partial = Boundary::object(py, record(failed_run(study, &dir)))?;
             Err(to_python(py, e, Some(partial)))

@@ -239,18 +239,24 @@ impl Study {
     /// The stability boundary omega_b(q) as the study field `vary` (a dotted key of a number,
     /// or `shape.R_over_lambda`, `shape.lambda_over_l`) goes from `start` to `stop`
     /// (`helixbif boundary --vary --from --to`). Writes boundary.csv, points.csv, meta.json and
-    /// figures into `out` (default a fresh temporary folder). Returns a `Boundary`. Raises
-    /// NumericalError (the curve found so far in `partial`) when the curve cannot be finished.
-    #[pyo3(signature = (vary, start, stop, *, out=None))]
+    /// figures into `out` (default a fresh temporary folder). With `accuracy`, every Hopf point
+    /// is carried to that relative accuracy of omega_b (up to `max_nodes`, default 500), as
+    /// `locate` refines it (`--accuracy`, `--max-nodes`). Returns a `Boundary`. Raises
+    /// NumericalError (the curve found so far in `partial`) when the curve cannot be finished
+    /// or a point falls short of `accuracy`.
+    #[pyo3(signature = (vary, start, stop, *, accuracy=None, max_nodes=None, out=None))]
+    #[allow(clippy::too_many_arguments)]
     fn boundary(
         &self,
         py: Python<'_>,
         vary: &str,
         start: f64,
         stop: f64,
+        accuracy: Option<f64>,
+        max_nodes: Option<i64>,
         out: Option<PathBuf>,
     ) -> PyResult<Py<PyAny>> {
-        runs::boundary(py, self, vary, (start, stop), out)
+        runs::boundary(py, self, vary, (start, stop), (accuracy, max_nodes), out)
     }
 
     /// The rod stepped through time for `t_end` s at `omega` rad/s (`helixbif simulate`): from

@@ -10,7 +10,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::analysis::boundary::{
-    Boundary, BoundaryObserver, BoundaryPoint, Criticality, SpecialPoint, check_end,
+    Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint, check_end,
     follow_boundary,
 };
 use crate::model::Model;
@@ -19,7 +19,7 @@ use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_inte
 use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
-use crate::study::figures::{axis_label, error_range, short_name, typeset};
+use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
 use crate::study::plan::Case;
 use crate::study::progress;
@@ -40,7 +40,7 @@ pub struct BoundaryReport {
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole curve.
     pub evaluations: usize,
     /// Independent `locate` runs from rest below the curve, watching for a window of another
-    /// mode opening there.
+    /// mode opening there (a point carried to an accuracy is checked by one, then refined).
     pub window_checks: usize,
     pub seconds: f64,
     /// `omega_b` of an independent `locate` at the end of the range, and its relative
@@ -50,7 +50,42 @@ pub struct BoundaryReport {
     /// How many Hopf points of the curve are supercritical, subcritical, undetermined, and
     /// without a coefficient (it could not be computed).
     pub criticality: Criticality,
+    /// The relative accuracy of `omega_b` every Hopf point was carried to (`--accuracy`), how
+    /// many points were (the Hopf points), and how many did not reach it (their `reached`
+    /// column false); absent without one.
+    pub accuracy: Option<f64>,
+    pub carried: Option<usize>,
+    pub not_reached: Option<usize>,
+    /// The largest estimated relative error of `omega_b` over the points that state one, and
+    /// where (`q`).
+    pub relative_error_max: Option<[f64; 2]>,
+    /// Where the first point fell short of the accuracy, and why its refinement stopped.
+    pub first_shortfall: Option<String>,
+    /// The largest node count of a point's `omega_b` (`nodes` is the curve's).
+    pub nodes_max: usize,
     pub out: String,
+}
+
+impl BoundaryReport {
+    /// What the boundary fell short of: the accuracy, at the points that did not reach it.
+    pub fn shortfall(&self) -> Option<String> {
+        let (accuracy, missed) = (self.accuracy?, self.not_reached.filter(|&k| k > 0)?);
+        let worst = self.relative_error_max.map_or(String::new(), |[e, q]| {
+            format!(
+                " (the largest estimated relative error {e:.1e}, at {} = {q})",
+                self.key
+            )
+        });
+        let first = self
+            .first_shortfall
+            .as_ref()
+            .map_or(String::new(), |f| format!("; the first {f}"));
+        Some(format!(
+            "accuracy {accuracy:e} not reached at {missed} of {} points carried to it (column \
+             `reached`){worst}{first}",
+            self.carried.unwrap_or(self.points)
+        ))
+    }
 }
 
 /// What `meta.json` records of a boundary run: its report, or why it stopped short.
@@ -114,17 +149,20 @@ pub fn family(study: &Study, key: &str) -> Result<RodFamily> {
     RodFamily::new(&study.physical(), field, study.branch.omega_max)
 }
 
-/// Follows the boundary of `study` in `key` from `from` to `to` and writes `boundary.csv`,
-/// `points.csv` and the figures to `dir`: the boundary found, and the report or why it did not
-/// reach the end of the range (what was found is on disk either way).
+/// Follows the boundary of `study` in `key` from `from` to `to` (with `accuracy`, every Hopf
+/// point carried to it) and writes `boundary.csv`, `points.csv` and the figures to `dir`: the
+/// boundary found, and the report or why it did not reach the end of the range (what was found
+/// is on disk either way).
 pub fn run_boundary(
     study: &Study,
     key: &str,
     (from, to): (f64, f64),
+    accuracy: Option<PointAccuracy>,
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
-    run_family(study, &family(study, key)?, (from, to), dir, provenance)
+    let family = family(study, key)?;
+    run_family(study, &family, (from, to), accuracy, dir, provenance)
 }
 
 /// [`run_boundary`] over the members of `family`.
@@ -132,6 +170,7 @@ pub(crate) fn run_family(
     study: &Study,
     family: &RodFamily,
     (from, to): (f64, f64),
+    accuracy: Option<PointAccuracy>,
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
@@ -146,7 +185,7 @@ pub(crate) fn run_family(
         range: (from, to),
     };
     let settings = study.locate_settings();
-    let (boundary, outcome) = follow_boundary(family, &settings, from, to, &mut writer);
+    let (boundary, outcome) = follow_boundary(family, (&settings, accuracy), from, to, &mut writer);
     writer.bar.finish_and_clear();
     // What was found is kept (tables and figures) even when the curve could not be finished.
     let written = writer.write(&boundary).and_then(|()| {
@@ -176,9 +215,32 @@ pub(crate) fn run_family(
             evaluations: boundary.evaluations,
             window_checks: boundary.window_checks,
             seconds: started.elapsed().as_secs_f64(),
-            check_difference: check_omega_b.map(|w| (w - last.omega_b).abs() / last.omega_b.abs()),
+            check_difference: check_omega_b
+                .map(|w| (w - last.curve_omega_b).abs() / last.curve_omega_b.abs()),
             check_omega_b,
             criticality: boundary.criticality(),
+            accuracy: accuracy.map(|a| a.accuracy),
+            carried: accuracy.map(|_| {
+                boundary
+                    .points
+                    .iter()
+                    .filter(|r| r.reached.is_some())
+                    .count()
+            }),
+            not_reached: accuracy.map(|_| {
+                boundary
+                    .points
+                    .iter()
+                    .filter(|r| r.reached == Some(false))
+                    .count()
+            }),
+            relative_error_max: boundary
+                .points
+                .iter()
+                .filter_map(|r| r.omega_b_error.map(|e| [e / r.omega_b.abs(), r.q]))
+                .max_by(|a, b| a[0].total_cmp(&b[0])),
+            first_shortfall: boundary.first_shortfall.clone(),
+            nodes_max: boundary.points.iter().map(|r| r.nodes).max().unwrap_or(0),
             out: dir.display().to_string(),
         }
     });
@@ -218,60 +280,99 @@ pub struct CurveSummary {
     pub report: Option<BoundaryReport>,
     /// Why the curve did not reach the end of the range (its points so far are on disk).
     pub error: Option<String>,
-    /// `m_loc` at the smallest `q` of the curve.
+    /// `m_loc` at the smallest `q` of the curve (`[q, m_loc]`), and its error estimated from
+    /// the points' errors (`m_loc_error` of that row).
     pub m_loc_smallest: Option<[f64; 2]>,
+    pub m_loc_smallest_error: Option<f64>,
     /// `m_loc` extrapolated to `q = 0` by a straight line through the lowest fifth of the
-    /// curve's range of `q`.
+    /// curve's range of `q`, and its error: the half-width of the intercept's 95% interval
+    /// (the scatter about the line) plus the largest `m_loc_error` of the points fitted (errors
+    /// of one sign, smooth in `q`, move the line about as a whole; a trend in them would move
+    /// its end at `q = 0` further); absent where a point fitted has no error (a number with
+    /// half its error would pass for a precise one).
     pub m_loc_limit: Option<f64>,
+    pub m_loc_limit_error: Option<f64>,
     /// `omegabar_b = C q^p` over the stated range, `m = -p`.
     pub fit: Option<PowerLaw>,
 }
 
-/// The exponents of a curve's rows: `m_loc` at the smallest `q`, its limit at `q = 0`, and the
-/// power law over `fit`.
-fn exponents(
-    rows: &[BoundaryPoint],
-    fit: Option<[f64; 2]>,
-) -> (Option<[f64; 2]>, Option<f64>, Option<PowerLaw>) {
-    let with_m: Vec<(f64, f64)> = rows
+/// The exponents of a curve's rows: `m_loc` at the smallest `q` and its limit at `q = 0`, each
+/// with its error ([`CurveSummary`]), and the power law over `fit`.
+fn exponents(rows: &[BoundaryPoint], fit: Option<[f64; 2]>) -> (Exponents, Option<PowerLaw>) {
+    let with_m: Vec<&BoundaryPoint> = rows
         .iter()
-        .filter_map(|r| r.m_loc.filter(|_| r.q > 0.0).map(|m| (r.q, m)))
+        .filter(|r| r.m_loc.is_some() && r.q > 0.0)
         .collect();
-    let smallest = with_m
-        .iter()
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|&(q, m)| [q, m]);
-    let lo = with_m.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
-    let hi = with_m.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-    let low: Vec<(f64, f64)> = with_m
+    let smallest = with_m.iter().min_by(|a, b| a.q.total_cmp(&b.q));
+    let lo = with_m.iter().map(|r| r.q).fold(f64::INFINITY, f64::min);
+    let hi = with_m.iter().map(|r| r.q).fold(f64::NEG_INFINITY, f64::max);
+    let low: Vec<&BoundaryPoint> = with_m
         .iter()
         .copied()
-        .filter(|p| p.0 <= lo + 0.2 * (hi - lo))
+        .filter(|r| r.q <= lo + 0.2 * (hi - lo))
         .collect();
-    let limit = line_intercept(&low);
+    let line: Vec<(f64, f64)> = low
+        .iter()
+        .map(|r| (r.q, r.m_loc.unwrap_or(f64::NAN)))
+        .collect();
+    let limit = line_intercept(&line);
+    // The points' own errors: the largest, where every point fitted has one.
+    let shift = low
+        .iter()
+        .map(|r| r.m_loc_error)
+        .collect::<Option<Vec<f64>>>()
+        .map(|e| e.into_iter().fold(0.0, f64::max));
+    let exponents = Exponents {
+        smallest: smallest.map(|r| [r.q, r.m_loc.unwrap_or(f64::NAN)]),
+        smallest_error: smallest.and_then(|r| r.m_loc_error),
+        limit: limit.map(|[m, _]| m),
+        limit_error: limit.zip(shift).map(|([_, width], shift)| width + shift),
+    };
     let power = fit.and_then(|[a, b]| {
         let inside: Vec<&BoundaryPoint> = rows.iter().filter(|r| r.q >= a && r.q <= b).collect();
         let x: Vec<f64> = inside.iter().map(|r| r.q).collect();
         let y: Vec<f64> = inside.iter().map(|r| r.omegabar_b).collect();
         power_law(&x, &y).ok()
     });
-    (smallest, limit, power)
+    (exponents, power)
 }
 
-/// A boundary study: a curve per case in `key` over `range`, each in its own folder (the
-/// study's own when there is one case), the curves drawn together (`boundary.svg`,
-/// `m_loc.svg`), and with `fit`, one power law shared by the curves over that range
-/// (`fit.json`: `m`, its interval, the range; the exponent the phase study reads). Returns the
-/// summary and the curves that did not finish.
+/// `m_loc` at a curve's smallest `q` and its limit at `q = 0`, with their errors.
+struct Exponents {
+    smallest: Option<[f64; 2]>,
+    smallest_error: Option<f64>,
+    limit: Option<f64>,
+    limit_error: Option<f64>,
+}
+
+/// The curves of a boundary study: the study field `key` from `from` to `to`, every Hopf point
+/// carried to `accuracy` where one is asked for.
+pub struct Curves<'a> {
+    pub key: &'a str,
+    pub from: f64,
+    pub to: f64,
+    pub accuracy: Option<PointAccuracy>,
+}
+
+/// A boundary study: a curve per case ([`Curves`]), each in its own folder (the study's own
+/// when there is one case), the curves drawn together (`boundary.svg`, `m_loc.svg`), and with
+/// `fit`, one power law shared by the curves over that range (`fit.json`: `m`, its interval,
+/// the range; the exponent the phase study reads). Returns the summary and the curves that did
+/// not finish or fell short of the accuracy.
 pub fn run_study(
     study: &Study,
-    key: &str,
-    (from, to): (f64, f64),
+    curves: &Curves,
     cases: &[Case],
     fit: Option<[f64; 2]>,
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<(BoundaryStudy, Vec<String>)> {
+    let Curves {
+        key,
+        from,
+        to,
+        accuracy,
+    } = *curves;
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
     let mut all_rows = Vec::new();
@@ -283,16 +384,19 @@ pub fn run_study(
         } else {
             dir.join(slug(&case.label))
         };
-        let (rows, outcome) = run_boundary(&s, key, (from, to), &sub, provenance)?;
+        let (rows, outcome) = run_boundary(&s, key, (from, to), accuracy, &sub, provenance)?;
         let (report, error) = match outcome {
-            Ok(r) => (Some(r), None),
+            Ok(r) => {
+                failures.extend(r.shortfall().map(|f| format!("{}: {f}", case.label)));
+                (Some(r), None)
+            }
             Err(e) if e.is_input() => return Err(e),
             Err(e) => {
                 failures.push(format!("{}: {e}", case.label));
                 (None, Some(e.to_string()))
             }
         };
-        let (m_loc_smallest, m_loc_limit, power) = exponents(&rows, fit);
+        let (m, power) = exponents(&rows, fit);
         if let Some(r) = &report {
             all_special.extend(r.special.iter().map(|p| (case.label.clone(), p.clone())));
         }
@@ -301,8 +405,10 @@ pub fn run_study(
             label: case.label.clone(),
             report,
             error,
-            m_loc_smallest,
-            m_loc_limit,
+            m_loc_smallest: m.smallest,
+            m_loc_smallest_error: m.smallest_error,
+            m_loc_limit: m.limit,
+            m_loc_limit_error: m.limit_error,
             fit: power,
         });
     }
@@ -383,7 +489,8 @@ fn curve_figures(
         r.omega_b_error
             .map_or(f64::NAN, |e| e / r.omega_b.abs() * r.omegabar_b.abs())
     };
-    let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64, band: bool| -> Vec<Series> {
+    type Band<'b> = Option<&'b dyn Fn(&BoundaryPoint) -> f64>;
+    let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64, band: Band| -> Vec<Series> {
         curves
             .iter()
             .flat_map(|(label, rows)| {
@@ -400,18 +507,28 @@ fn curve_figures(
                         y: (0..on.len()).map(|i| y(&on, i)).collect(),
                         style: Style::Line,
                         stable: None,
-                        err: band.then(|| on.iter().map(|r| error(r)).collect()),
+                        err: band.map(|e| on.iter().map(|r| e(r)).collect()),
                     }
                 })
             })
             .collect()
     };
+    // A special point stays where the curve found it, at the curve's N; where the points were
+    // carried to an accuracy, its marker is moved onto the drawn line by the correction
+    // (`omega_b / curve_omega_b`) of the nearest point of its curve.
     let markers: Vec<Marker> = special
         .iter()
-        .map(|(_, p)| Marker {
-            label: p.kind.name().replace('_', " "),
-            x: p.q,
-            y: p.omegabar,
+        .map(|(label, p)| {
+            let nearest = curves
+                .iter()
+                .filter(|(l, _)| l == label)
+                .flat_map(|(_, rows)| rows.iter())
+                .min_by(|a, b| (a.q - p.q).abs().total_cmp(&(b.q - p.q).abs()));
+            Marker {
+                label: p.kind.name().replace('_', " "),
+                x: p.q,
+                y: p.omegabar * nearest.map_or(1.0, |r| r.omega_b / r.curve_omega_b),
+            }
         })
         .collect();
     let relative: Vec<f64> = curves
@@ -427,7 +544,7 @@ fn curve_figures(
         y_label: "ω̄_b = ω_b μℓ⁴/EI (–)".into(),
         x_scale: Scale::Log,
         y_scale: Scale::Log,
-        series: series(&|on, i| on[i].omegabar_b, true),
+        series: series(&|on, i| on[i].omegabar_b, Some(&error)),
         markers,
         ..Figure::default()
     };
@@ -454,11 +571,25 @@ fn curve_figures(
                 on[i].m_loc.unwrap_or(f64::NAN)
             }
         },
-        false,
+        Some(&|r: &BoundaryPoint| r.m_loc_error.unwrap_or(f64::NAN)),
     );
     let values: Vec<f64> = m_loc.iter().flat_map(|s| s.y.iter().copied()).collect();
+    // The errors of the samples drawn (not of those left out at a turning point).
+    let m_loc_errors: Vec<f64> = m_loc
+        .iter()
+        .flat_map(|s| {
+            let err = s.err.as_deref().unwrap_or_default();
+            s.y.iter()
+                .zip(err)
+                .filter(|(y, _)| y.is_finite())
+                .map(|(_, e)| *e)
+        })
+        .collect();
     let exponent = Figure {
-        title: "Local exponent of the stability boundaries".into(),
+        title: format!(
+            "Local exponent{}",
+            absolute_error_range("band", "its estimated error", &m_loc_errors)
+        ),
         x_label: axis_label(key),
         y_label: format!("m_loc = −d ln ω̄_b / d ln {} (–)", short_name(key)),
         series: m_loc,

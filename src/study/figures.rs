@@ -514,19 +514,39 @@ pub fn sweep_figures(study: &Study, dir: &Path) -> Result<Option<Vec<SweepFit>>>
 /// title: ` (bars: estimated discretization error, 0.05 to 0.2 %)` over the finite `relative`
 /// errors; empty where there are none.
 pub(crate) fn error_range(drawn: &str, what: &str, relative: &[f64]) -> String {
-    let mut finite = relative.iter().copied().filter(|r| r.is_finite());
-    let Some(first) = finite.next() else {
-        return String::new();
-    };
-    let (lo, hi) = finite.fold((first, first), |(lo, hi), r| (lo.min(r), hi.max(r)));
-    format!(" ({drawn}: {what}, {} to {} %)", percent(lo), percent(hi))
+    finite_range(relative).map_or(String::new(), |(lo, hi)| {
+        format!(" ({drawn}: {what}, {} to {} %)", percent(lo), percent(hi))
+    })
+}
+
+/// As [`error_range`], for errors in the units of the quantity drawn (two significant digits):
+/// ` (band: its error, 0.0012 to 0.35)`.
+pub(crate) fn absolute_error_range(drawn: &str, what: &str, errors: &[f64]) -> String {
+    finite_range(errors).map_or(String::new(), |(lo, hi)| {
+        format!(
+            " ({drawn}: {what}, {} to {})",
+            significant(lo),
+            significant(hi)
+        )
+    })
+}
+
+/// The smallest and largest finite `values`; `None` where there are none.
+fn finite_range(values: &[f64]) -> Option<(f64, f64)> {
+    let mut finite = values.iter().copied().filter(|r| r.is_finite());
+    let first = finite.next()?;
+    Some(finite.fold((first, first), |(lo, hi), r| (lo.min(r), hi.max(r))))
+}
+
+/// A number with two significant digits, without an exponent (`0.0012`, `3.5`, `120`).
+fn significant(x: f64) -> String {
+    let decimals = (1.0 - x.abs().log10().floor()).clamp(0.0, 6.0) as usize;
+    format!("{x:.decimals$}")
 }
 
 /// A fraction as a percentage with two significant digits (`0.0012` -> `0.12`).
 fn percent(fraction: f64) -> String {
-    let p = 100.0 * fraction;
-    let decimals = (1.0 - p.abs().log10().floor()).clamp(0.0, 6.0) as usize;
-    format!("{p:.decimals$}")
+    significant(100.0 * fraction)
 }
 
 fn dashed(label: &str, x: Vec<f64>, y: Vec<f64>) -> Series {

@@ -530,7 +530,7 @@ fn boundary_curve(
         family = family.holding(Field::ROverLambda, r);
     }
     let (from, to) = (values[0], values[values.len() - 1]);
-    let (rows, outcome) = run_family(study, &family, (from, to), dir, provenance)?;
+    let (rows, outcome) = run_family(study, &family, (from, to), None, dir, provenance)?;
     outcome?;
     let segments = rows.last().map_or(0, |r| r.segment + 1);
     Ok((0..segments)

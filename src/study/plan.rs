@@ -9,6 +9,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::analysis::boundary::PointAccuracy;
+use crate::analysis::refine::DEFAULT_MAX_NODES;
 use crate::{Error, Result};
 
 /// A variant of the study's model: a label and overrides (dotted keys, TOML values).
@@ -167,6 +169,14 @@ pub enum Plan {
         cases: Vec<Case>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         fit: Option<[f64; 2]>,
+        /// Every Hopf point carried from the curve's `N` to this relative accuracy of `omega_b`
+        /// (as `locate`), up to `max_nodes` (default
+        /// [`crate::analysis::refine::DEFAULT_MAX_NODES`]); absent: the curve's `N`, each point
+        /// with its discretization error estimated from `N/2 + 1` nodes.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        accuracy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_nodes: Option<usize>,
     },
     /// Steady shapes at a few rates seen from two orthogonal sides, and the critical mode.
     Shapes { omegas: Vec<f64> },
@@ -442,7 +452,15 @@ impl Plan {
                 }
                 Ok(())
             }
-            Plan::Boundary { from, to, fit, .. } => {
+            Plan::Boundary {
+                from,
+                to,
+                fit,
+                accuracy,
+                max_nodes,
+                ..
+            } => {
+                point_accuracy(*accuracy, *max_nodes, BOUNDARY_REFINEMENT)?;
                 if !(from.is_finite() && to.is_finite() && from != to) {
                     return Err(Error::input(
                         "study.from",
@@ -462,6 +480,35 @@ impl Plan {
             Plan::Branch { .. } => Ok(()),
         }
     }
+}
+
+/// The fields of a boundary study's refinement of its points ([`point_accuracy`]).
+pub const BOUNDARY_REFINEMENT: [&str; 2] = ["study.accuracy", "study.max_nodes"];
+
+/// The refinement of a boundary's points ([`PointAccuracy`]): `accuracy` checked, with
+/// `max_nodes` (default [`DEFAULT_MAX_NODES`]); none without an accuracy, and `max_nodes` alone
+/// (it bounds the refinement) refused. `fields` name the two as the user gave them.
+pub fn point_accuracy(
+    accuracy: Option<f64>,
+    max_nodes: Option<usize>,
+    [accuracy_field, max_nodes_field]: [&str; 2],
+) -> Result<Option<PointAccuracy>> {
+    let Some(accuracy) = accuracy else {
+        return match max_nodes {
+            Some(_) => Err(Error::input(
+                max_nodes_field,
+                format!("bounds the refinement of the points, which needs {accuracy_field}"),
+            )),
+            None => Ok(None),
+        };
+    };
+    check_accuracy(accuracy_field, accuracy)?;
+    let max_nodes = max_nodes.unwrap_or(DEFAULT_MAX_NODES);
+    check_max_nodes(max_nodes_field, max_nodes)?;
+    Ok(Some(PointAccuracy {
+        accuracy,
+        max_nodes,
+    }))
 }
 
 /// Checks a relative accuracy of `omega_b` (`locate --accuracy`): in `(0, 0.1)`.

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::boundary::{BoundaryStudy, run_study as run_boundaries};
+use super::boundary::{BoundaryStudy, Curves, run_study as run_boundaries};
 use super::branch::{BranchEvent, BranchReport, run_branch};
 use super::dynamics::AverageRow;
 use super::figures::{self, DrawnBranch, SweepFit};
@@ -13,7 +13,7 @@ use super::locate::{LocateResult, Resolution, locate_study};
 use super::orbits::{OrbitsOptions, OrbitsReport};
 use super::output::{Meta, Provenance, create_dir, write_json};
 use super::phase::PhaseResult;
-use super::plan::Plan;
+use super::plan::{BOUNDARY_REFINEMENT, Plan, point_accuracy};
 use super::shapes::ShapesResult;
 use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
@@ -182,16 +182,17 @@ pub fn run(
             to,
             cases: plan_cases,
             fit,
+            accuracy,
+            max_nodes,
         } => {
-            let (value, failed) = run_boundaries(
-                study,
-                vary,
-                (*from, *to),
-                &cases(plan_cases),
-                *fit,
-                dir,
-                provenance,
-            )?;
+            let curves = Curves {
+                key: vary,
+                from: *from,
+                to: *to,
+                accuracy: point_accuracy(*accuracy, *max_nodes, BOUNDARY_REFINEMENT)?,
+            };
+            let (value, failed) =
+                run_boundaries(study, &curves, &cases(plan_cases), *fit, dir, provenance)?;
             failures.extend(failed);
             StudyResult::Boundary(value)
         }
