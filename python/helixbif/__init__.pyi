@@ -284,8 +284,9 @@ class Boundary(_Result):
     omega_b_error: _F
     """Estimated error of omega_b, rad/s (NaN where not estimated): with `accuracy` the
     refinement's, else the discretization error at the curve's N."""
-    reached: _B | _F
-    """Whether the point reached `accuracy` (bool); without one the column is empty (NaN)."""
+    reached: _B | _F | _S
+    """Whether the point reached `accuracy` (bool); without one (or on fold and branch-point
+    curves alone) empty: NaN floats; text where fold rows leave cells empty among the others."""
     omegabar_b: _F
     kind: _S
     w: _F

@@ -284,7 +284,8 @@ def test_result_attributes(small):
 
 
 def test_boundary_carried_to_an_accuracy_falls_short_as_the_cli_does(cli, small, tmp_path):
-    """Every point carried to 1e-3 with at most 30 nodes (Lighthill at N = 20 cannot reach it):
+    """Every point carried to 1e-3 with at most 30 nodes (Lighthill at N = 20 and 30 is far
+    from it):
     the CLI prints the report and exits 1 with one line; Python raises that line with the whole
     boundary as `partial`, every point refined past the curve's N and marked not reached."""
     args = ["--vary", "shape.R_over_lambda", "--from", "0.318", "--to", "0.317"]

@@ -19,10 +19,11 @@
 //! checked against an independent `locate` too ([`check_end`]).
 //!
 //! The curve is followed at the family's `N`. Asked for an accuracy ([`PointAccuracy`]), every
-//! Hopf point is then carried to the node count the accuracy needs by `locate`'s refinement at
-//! its `q` ([`refine`]): the curve at the coarse `N` finds the first loss of stability, its
-//! switches and its special points; the refinement gives each point its value and error, and
-//! its first rung (from rest at the curve's `N`) is the point's independent check.
+//! Hopf point, once checked for a window below it, is then carried to the node count the
+//! accuracy needs by `locate`'s refinement at its `q` ([`carry`]): the curve at the coarse `N`
+//! finds the first loss of stability, its switches and its special points; the refinement gives
+//! each point its value and error, where its first rung (from rest at the curve's `N`) finds
+//! the point again; else the point is kept at the curve's `N` and says why.
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
@@ -58,17 +59,19 @@ pub struct BoundaryPoint {
     /// The index of the curve the point lies on (a switch or a jump starts a new one).
     pub segment: usize,
     pub q: f64,
-    /// `omega_b` at the point (rad/s): the curve's own at its `N`, or, where the boundary was
-    /// asked for an accuracy ([`PointAccuracy`]), the answer of the point's refinement in `N`.
+    /// `omega_b` at the point (rad/s): the curve's own at its `N`, or, where the point was
+    /// carried to an accuracy ([`PointAccuracy`]), the answer of its refinement in `N` (the
+    /// finest rung's value or the limit in `N`, on the RPY line less the quadrature's error).
     pub omega_b: f64,
-    /// Estimated error of `omega_b` (rad/s). With an accuracy, the refinement's (in `N` and of
-    /// the quadrature, as `locate` states it); else the discretization error at the curve's `N`,
+    /// Estimated error of `omega_b` (rad/s). Where carried, the refinement's (in `N` and of the
+    /// quadrature, as `locate` states it); else the discretization error at the curve's `N`,
     /// from the first loss of stability at `N/2 + 1` nodes (docs/model.md section 11). Empty at
     /// a fold or branch point, below 9 nodes, or where the coarser mesh has no Hopf point to
     /// compare.
     pub omega_b_error: Option<f64>,
-    /// Whether the refinement's estimated relative error is below the accuracy asked for;
-    /// empty without one.
+    /// With an accuracy, at a Hopf point: whether the refinement's estimated relative error is
+    /// below it (false too where the point was kept at the curve's `N`); empty without one and
+    /// at fold and branch points.
     pub reached: Option<bool>,
     pub omegabar_b: f64,
     #[serde(serialize_with = "event_name")]
@@ -98,7 +101,8 @@ pub struct BoundaryPoint {
     pub l1: Option<f64>,
     pub l1_precision: Option<f64>,
     pub criticality: Option<Verdict>,
-    /// The node count of `omega_b`: the curve's, or the finest rung of the point's refinement.
+    /// The node count of the row's values: the curve's, or where carried the finest rung's (of
+    /// `w`, `Fpbar`, `hbar`, `precision`, `l1`, and of `omega_b` unless that is a limit in `N`).
     pub nodes: usize,
     /// The curve's own `omega_b` (rad/s) at its node count `curve_nodes` (the values above
     /// where the point was not refined).
@@ -288,16 +292,15 @@ pub(super) fn reaching(omega_max: f64, omega: f64) -> f64 {
 }
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
-    /// The row of the curve's `point` and, where it was carried to an accuracy and fell short
-    /// of it, why: the answer of its refinement, or where there is none to give (`carried` says
+    /// The row of the curve's `point` (on `model`, the member at its `q`) and, where it was
+    /// carried to an accuracy and fell short of it, why: the answer of its refinement, or where there is none to give (`carried` says
     /// why), the curve's own row marked not reached.
     fn row(
         &self,
         point: &CurvePoint,
+        model: &Model,
         carried: Option<&Carried>,
     ) -> Result<(BoundaryPoint, Option<String>)> {
-        let member = self.family.member(point.q)?;
-        let model = &member.model;
         let segment = self.boundary.segments - 1;
         let kept = match carried {
             None => None,
@@ -392,9 +395,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
 impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
     /// Records a point of the curve, after checking that nothing loses stability below it (the
     /// first point of a curve needs no check: it was located from rest, or is a double Hopf
-    /// point of the curve before). Where the point is carried to an accuracy, the refinement's
-    /// first rung, from rest at the curve's `N`, is that check: it must find the curve's point
-    /// again (to [`WINDOW_MARGIN`]); where it does not, the check of [`loss_below`] decides.
+    /// point of the curve before); then, with an accuracy, carries it there ([`carry`]).
     fn point(&mut self, point: &CurvePoint) -> ControlFlow<()> {
         self.boundary.evaluations += point.evaluations;
         let first = self
@@ -429,7 +430,7 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
                 Some(accuracy) => Some(carry(self.family, &self.locate, accuracy, point, omega)?),
                 None => None,
             };
-            let (row, short) = self.row(point, carried.as_ref())?;
+            let (row, short) = self.row(point, &member.model, carried.as_ref())?;
             if let (Some(why), None) = (short, &self.boundary.first_shortfall) {
                 self.boundary.first_shortfall = Some(format!(
                     "at {} = {}, {why}",

@@ -659,7 +659,7 @@ impl Text for BoundaryReport {
             _ => writeln!(
                 f,
                 "  every point at N = {}, its discretization error estimated from N/2 + 1 nodes: \
-                 {worst} (--accuracy carries the points to an accuracy)",
+                 {worst} (--accuracy, or a boundary study's accuracy, carries the points to one)",
                 self.nodes
             )?,
         }

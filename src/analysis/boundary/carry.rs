@@ -37,8 +37,9 @@ pub(super) enum Carried {
 /// rate where that passes `omega_max` (the curve may rise past it). Where the refinement fails,
 /// or its first rung (from rest at the curve's `N`) does not find the point again within
 /// [`WINDOW_MARGIN`] of its rate (next to a turning point, a window just opened or another
-/// special point, where a continuation from rest may step past the mode), the point is kept at
-/// the curve's `N`, with the reason. A bad input is an error.
+/// special point, where a continuation from rest may step past the mode), or it has no error
+/// estimate (one rung), the point is kept at the curve's `N`, with the reason. A bad input is
+/// an error.
 pub(super) fn carry(
     family: &RodFamily,
     settings: &LocateSettings,
@@ -77,6 +78,15 @@ pub(super) fn carry(
                 "a {} at {w:.6e} rad/s",
                 first.kind
             )),
+        )));
+    }
+    // A refinement that ran one rung (`--max-nodes` at the curve's `N`, the end of Lighthill's
+    // range, the quadrature's own error above the accuracy, a failed second rung) has no error
+    // to state: the curve's row keeps its two-rung estimate.
+    if refined.omega_b_error.is_none() {
+        return Ok(Carried::Kept(format!(
+            "its refinement has no error estimate: {}",
+            refined.stopped.as_deref().unwrap_or("one rung")
         )));
     }
     Ok(Carried::Refined(Box::new(refined)))
