@@ -104,8 +104,8 @@ pub struct BoundaryPoint {
     /// The node count of the row's values: the curve's, or where carried the finest rung's (of
     /// `w`, `Fpbar`, `hbar`, `precision`, `l1`, and of `omega_b` unless that is a limit in `N`).
     pub nodes: usize,
-    /// The curve's own `omega_b` (rad/s) at its node count `curve_nodes` (the values above
-    /// where the point was not refined).
+    /// The curve's own `omega_b` (rad/s) at its node count `curve_nodes` (equal to `omega_b`
+    /// and `nodes` where the point was not carried to an accuracy).
     pub curve_omega_b: f64,
     pub curve_nodes: usize,
 }
@@ -173,10 +173,10 @@ pub struct Boundary {
     pub segments: usize,
     /// Steady solves (Newton from a close guess, with a spectrum) over the whole boundary.
     pub evaluations: usize,
-    /// Independent checks from rest below the curve (one per point but the first of each curve
-    /// and a special point the boundary leaves the curve at, and those of the bisection where a
-    /// window opens): a `locate` up to just below the point, or where the point is carried to an
-    /// accuracy, its refinement's first rung.
+    /// Independent `locate` runs from rest below the curve, up to just below each point (one per
+    /// point but the first of each curve and a special point the boundary leaves the curve at,
+    /// and those of the bisection where a window opens); a point carried to an accuracy is
+    /// checked so before it is refined.
     pub window_checks: usize,
     /// Where the first point carried to an accuracy fell short of it, and why its refinement
     /// stopped.
@@ -293,8 +293,8 @@ pub(super) fn reaching(omega_max: f64, omega: f64) -> f64 {
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
     /// The row of the curve's `point` (on `model`, the member at its `q`) and, where it was
-    /// carried to an accuracy and fell short of it, why: the answer of its refinement, or where there is none to give (`carried` says
-    /// why), the curve's own row marked not reached.
+    /// carried to an accuracy and fell short of it, why: the answer of its refinement, or where
+    /// there is none to give (`carried` says why), the curve's own row marked not reached.
     fn row(
         &self,
         point: &CurvePoint,
