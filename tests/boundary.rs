@@ -103,6 +103,14 @@ fn boundary_refuses_bad_input_with_exit_code_2() {
             ),
             "--max-nodes: must be >= 5",
         ),
+        // The default study's N = 60 leaves a refinement capped there no finer rung.
+        (
+            with(
+                range("0.3", "0.31"),
+                &["--accuracy", "1e-3", "--max-nodes", "60"],
+            ),
+            "--max-nodes: must exceed discretization.nodes = 60",
+        ),
     ] {
         let mut all = vec!["boundary"];
         all.extend(args);

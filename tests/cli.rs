@@ -35,6 +35,62 @@ fn solve_json_has_the_documented_keys() {
     assert_eq!(v["nodes"], 30);
     assert!(v["residual_norm"].as_f64().unwrap() < 1e-9);
     assert!((v["omega"].as_f64().unwrap() - 0.05).abs() < 1e-15);
+    assert_eq!(v["errors"]["coarse_nodes"], 16);
+    assert!(v["errors_missing"].is_null());
+}
+
+/// `solve` states an error beside every observable (first order from `N/2 + 1` nodes, plus the
+/// quadrature's on the RPY line): on a case of its own (the thick rod on the RPY line at 20 rad/s,
+/// about 0.6 of its `omega_b`), each stated error at `N = 31` covers the difference to a direct
+/// solve at `N = 241`, eight times finer, and is at most ten times it. A model too coarse for a
+/// coarser rung says why it has no errors.
+#[test]
+fn the_errors_solve_states_cover_a_finer_direct_computation() {
+    let solve = |nodes: &str| {
+        let set = format!("discretization.nodes={nodes}");
+        let (code, stdout, stderr) = helixbif(&[
+            "solve",
+            "--omega",
+            "20",
+            "--json",
+            "--set",
+            "fluid.model=rpy",
+            "--set",
+            "rod.r0=6.32e-3",
+            "--set",
+            &set,
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str::<serde_json::Value>(stdout.trim()).unwrap()
+    };
+    let (coarse, fine) = (solve("31"), solve("241"));
+    assert_eq!(coarse["errors"]["quadrature"], true);
+    for key in ["Fp", "Fpbar", "Tp", "eta", "h", "h0", "hbar", "Fpbar_rigid"] {
+        let error = coarse["errors"][key].as_f64().unwrap();
+        let difference = (coarse[key].as_f64().unwrap() - fine[key].as_f64().unwrap()).abs();
+        assert!(
+            difference <= error && error <= 10.0 * difference,
+            "{key}: stated {error:e}, against N = 241 {difference:e}"
+        );
+    }
+    let (code, stdout, _) = helixbif(&[
+        "solve",
+        "--omega",
+        "0.05",
+        "--json",
+        "--set",
+        "discretization.nodes=7",
+    ]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!(v["errors"].is_null());
+    assert!(
+        v["errors_missing"]
+            .as_str()
+            .unwrap()
+            .contains("no coarser rung of at least 5 nodes"),
+        "{v}"
+    );
 }
 
 #[test]

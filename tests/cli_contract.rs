@@ -684,6 +684,10 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
         ("accuracy = 0.5\n", "study.accuracy"),
         ("accuracy = 1e-3\nextrapolate = true\n", "study.accuracy"),
         ("max_nodes = 3\n", "study.max_nodes"),
+        (
+            "max_nodes = 20\n",
+            "study.max_nodes: must exceed discretization.nodes = 20",
+        ),
         ("fixed_nodes = true\naccuracy = 1e-3\n", "study.fixed_nodes"),
         (
             "fixed_nodes = true\nnodes = [20, 39, 77]\n",
@@ -1049,6 +1053,10 @@ fn a_boundary_study_refuses_a_refinement_it_cannot_do() {
         (
             "accuracy = 1e-3\nmax_nodes = 3\n",
             "study.max_nodes: must be >= 5",
+        ),
+        (
+            "accuracy = 1e-3\nmax_nodes = 20\n",
+            "study.max_nodes: must exceed discretization.nodes = 20",
         ),
     ] {
         let (code, stderr, _) = run_boundary_study(&dir, ("0.3", "0.31"), extra);

@@ -13,6 +13,8 @@ fn negative_numbers_are_read_and_refused_with_their_range() {
         (&["locate", "--accuracy", "-1"][..], "--accuracy"),
         (&["locate", "--tol", "-1"][..], "--tol"),
         (&["locate", "--max-nodes", "-3"][..], "--max-nodes"),
+        // At or below the study's N = 60 the refinement has no finer rung.
+        (&["locate", "--max-nodes", "60"][..], "--max-nodes"),
         (
             &["simulate", "--omega", "0.3", "--t-end", "-1"][..],
             "--t-end",

@@ -353,3 +353,194 @@ fn every_point_of_a_sweep_states_the_discretization_error_of_its_omega_b() {
         );
     }
 }
+
+/// A sweep carried to an accuracy (`accuracy`, `max_nodes` in its [study] table): every point
+/// is `locate`'s refinement from the point's `N`, the same answer, error, finest `N` and verdict
+/// `reached` as `helixbif locate --accuracy` at that point (the thick rod on the RPY line, which
+/// reaches `1e-2` from `N = 31`). A sweep whose points fall short of their accuracy (Lighthill's
+/// operator capped at 30 nodes) writes every row and figure, then fails with exit code 1 in one
+/// line; a re-run keeps the rows and says the same.
+#[test]
+fn a_sweep_carried_to_an_accuracy_answers_as_locate_does_at_every_point() {
+    let dir = temp_dir("sweep-accuracy");
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = std::fs::read_to_string("studies/representative.toml").unwrap();
+    let sweep = |model: &str, nodes: &str, extra: &str| {
+        let text = base
+            .replace("model = \"rpy\"", &format!("model = \"{model}\""))
+            .replace("nodes = 60", &format!("nodes = {nodes}"));
+        format!(
+            "{text}\n[study]\nkind = \"sweep\"\nvary = [{{ key = \"shape.R_over_lambda\", values \
+             = [0.3, 0.31] }}]\nfigures = [{{ x = \"R_over_lambda\", y = \"omega_b\" }}]\n{extra}"
+        )
+    };
+    let thick = ["--set", "rod.r0=6.32e-3", "--set", "branch.omega_max=300"];
+    let path = dir.join("thick.toml");
+    std::fs::write(&path, sweep("rpy", "31", "accuracy = 1e-2\n")).unwrap();
+    let out = dir.join("thick");
+    let mut args = vec!["sweep", path.to_str().unwrap()];
+    args.extend(thick);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let (code, stdout, stderr) = helixbif(&args);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("reached at 2 of the 2 points located"),
+        "{stdout}"
+    );
+    let mut table = csv::Reader::from_path(out.join("sweep.csv")).unwrap();
+    let header = table.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = table.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        let q = &row[col("shape.R_over_lambda")];
+        let mut args = vec!["locate", path.to_str().unwrap(), "--accuracy", "1e-2"];
+        args.extend(thick);
+        let set = format!("shape.R_over_lambda={q}");
+        args.extend(["--set", &set, "--json"]);
+        let (code, stdout, stderr) = helixbif(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let located: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let number = |c: &str| row[col(c)].parse::<f64>().unwrap();
+        for (column, key) in [("omega_b", "omega_b"), ("omega_b_error", "omega_b_error")] {
+            let expected = located[key].as_f64().unwrap();
+            assert!(
+                (number(column) - expected).abs() <= 1e-12 * expected,
+                "{column} at {q}: sweep {}, locate {expected}",
+                number(column)
+            );
+        }
+        assert_eq!(number("nodes"), located["nodes"].as_f64().unwrap());
+        assert!(number("nodes") > 31.0, "refined past the point's N");
+        assert_eq!(&row[col("reached")], "true");
+        assert_eq!(located["reached"], true);
+    }
+    // Out of reach: every row and the figure written, then exit 1.
+    let path = dir.join("short.toml");
+    let short = "accuracy = 1e-3\nmax_nodes = 30\n";
+    std::fs::write(&path, sweep("lighthill", "20", short)).unwrap();
+    let out = dir.join("short");
+    let args = [
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    for _ in 0..2 {
+        let (code, _, stderr) = helixbif(&args);
+        assert_eq!(code, 1, "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("accuracy 1e-3 not reached at 2 of 2 sweep points located"),
+            "{stderr}"
+        );
+        let mut table = csv::Reader::from_path(out.join("sweep.csv")).unwrap();
+        let at = table.headers().unwrap().iter().position(|h| h == "reached");
+        let reached: Vec<String> = table
+            .records()
+            .map(|r| r.unwrap()[at.unwrap()].to_string())
+            .collect();
+        assert_eq!(reached, ["false", "false"]);
+        assert!(out.join("sweep_0.svg").exists());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A phase map carried to an accuracy (`accuracy`, `max_nodes` in its [study] table): each
+/// column's first loss of stability is `locate`'s refinement at its `lambda/l` (the same
+/// `omegabar_b` and error as `helixbif locate --accuracy --max-nodes` there), the boundary curve's
+/// points are carried as a boundary study's (its first point the first column's value), and a
+/// map out of reach (Lighthill's operator from `N = 16`, capped at 30 nodes) writes everything,
+/// then fails with exit code 1 in one line naming the columns and the curve.
+#[test]
+fn a_phase_map_carried_to_an_accuracy_refines_its_columns_and_its_curve() {
+    let dir = temp_dir("phase-accuracy");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string("studies/fig4d_phase.toml")
+        .unwrap()
+        .replace("per_turn = 12.0", "")
+        .replace("nodes = 60", "nodes = 16")
+        .replace("omega_max = 0.15", "omega_max = 0.8")
+        .replace(
+            "lambda_over_l = [0.125, 0.1875, 0.25, 0.3125, 0.375]",
+            "lambda_over_l = [0.125, 0.1875]",
+        )
+        .replace("exponent_study = \"exponent_m.toml\"", "m = 2.5")
+        .replace("bacteria = \"../data/bacteria.csv\"", "");
+    let path = dir.join("phase.toml");
+    std::fs::write(&path, format!("{text}accuracy = 1e-3\nmax_nodes = 30\n")).unwrap();
+    let out = dir.join("out");
+    let (code, _, stderr) = helixbif(&[
+        "run",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    for part in [
+        "accuracy 1e-3 not reached at the first loss of stability of the column(s) lambda/l = \
+         0.125, 0.1875",
+        "boundary curve: accuracy 1e-3 not reached at",
+    ] {
+        assert!(stderr.contains(part), "{stderr}");
+    }
+    let read = |file: &Path| {
+        let mut table = csv::Reader::from_path(file).unwrap();
+        let header: Vec<String> = table.headers().unwrap().iter().map(String::from).collect();
+        let rows: Vec<Vec<String>> = table
+            .records()
+            .map(|r| r.unwrap().iter().map(String::from).collect())
+            .collect();
+        (header, rows)
+    };
+    let (header, columns) = read(&out.join("boundary.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert_eq!(columns.len(), 2);
+    for row in &columns {
+        assert_eq!(
+            (row[col("nodes")].as_str(), row[col("reached")].as_str()),
+            ("30", "false")
+        );
+    }
+    let first = &columns[0];
+    let (code, stdout, stderr) = helixbif(&[
+        "locate",
+        path.to_str().unwrap(),
+        "--set",
+        "shape.lambda_over_l=0.125",
+        "--set",
+        "shape.R_over_lambda=0.318",
+        "--accuracy",
+        "1e-3",
+        "--max-nodes",
+        "30",
+        "--json",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    let located: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let (omegabar_b, omega_b) = (
+        located["omegabar_b"].as_f64().unwrap(),
+        located["omega_b"].as_f64().unwrap(),
+    );
+    let column = |name: &str| first[col(name)].parse::<f64>().unwrap();
+    assert!((column("omegabar_b") - omegabar_b).abs() <= 1e-9 * omegabar_b);
+    let error = located["omega_b_error"].as_f64().unwrap() * omegabar_b / omega_b;
+    assert!((column("omegabar_b_error") - error).abs() <= 1e-9 * error);
+    let (header, curve) = read(&out.join("boundary_curve/boundary.csv"));
+    let at = |name: &str| header.iter().position(|h| h == name).unwrap();
+    assert!(curve.len() > 2);
+    let start: f64 = curve[0][at("omegabar_b")].parse().unwrap();
+    assert!((start - omegabar_b).abs() <= 1e-9 * omegabar_b, "{start}");
+    for row in &curve {
+        assert_eq!(
+            [
+                &row[at("reached")],
+                &row[at("nodes")],
+                &row[at("curve_nodes")]
+            ],
+            ["false", "30", "16"]
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -66,7 +66,7 @@ class Study:
     ) -> Located:
         """omega_b (rad/s), the first loss of stability of the branch from rest
         (`helixbif locate`): refined in N to `accuracy` (default 1e-3, at most `max_nodes`,
-        default 500), or at the study's N (`single=True`), or over a ladder `nodes`
+        default 500, which must exceed the study's N), or at the study's N (`single=True`), or over a ladder `nodes`
         extrapolated (`extrapolate=True`); `tol` the relative precision of omega_b. Raises
         ValueError on bad input, NumericalError when the continuation fails or the refinement
         stops short of `accuracy` (the `Located` then in `partial`)."""
@@ -88,7 +88,7 @@ class Study:
     ) -> Boundary:
         """The stability boundary omega_b(q) with the field `vary` from `start` to `stop`
         (`helixbif boundary`); with `accuracy`, every Hopf point carried to it (up to
-        `max_nodes`, default 500). Raises NumericalError with `partial` when the curve stops or
+        `max_nodes`, default 500, above the study's N). Raises NumericalError with `partial` when the curve stops or
         a point falls short of `accuracy`."""
     def simulate(
         self,
@@ -273,6 +273,11 @@ class Solution(_Result):
     newton_iterations: int
     residual_norm: float
     residual_history: list[float]
+    errors: dict[str, Any] | None
+    """The estimated error of each observable (`Fp`, `Fpbar`, `Tp`, `eta`, `h`, `h0`, `hbar`,
+    `Fpbar_rigid`; `coarse_nodes`, `quadrature`), None where not estimated."""
+    errors_missing: str | None
+    """Why `errors` is None."""
 
 class Boundary(_Result):
     """`helixbif boundary --json` with the columns of boundary.csv."""

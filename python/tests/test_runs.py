@@ -128,6 +128,9 @@ def test_locate_bad_options(small):
     ]:
         with pytest.raises(ValueError, match=f"^invalid input: {field}: "):
             small.locate(**kwargs)
+    # A refinement capped at the study's own N (20) has no finer rung.
+    with pytest.raises(ValueError, match="^invalid input: max_nodes: must exceed discretization"):
+        small.locate(max_nodes=20)
 
 
 def test_branch(cli, small, tmp_path):
@@ -310,3 +313,5 @@ def test_boundary_carried_to_an_accuracy_falls_short_as_the_cli_does(cli, small,
         small.boundary("rod.E", 1e6, 2e6, accuracy=0.5)
     with pytest.raises(ValueError, match="^invalid input: max_nodes: "):
         small.boundary("rod.E", 1e6, 2e6, max_nodes=100)
+    with pytest.raises(ValueError, match="^invalid input: max_nodes: must exceed discretization"):
+        small.boundary("rod.E", 1e6, 2e6, accuracy=1e-3, max_nodes=20)

@@ -316,7 +316,7 @@ pub fn error_orders(physical: &Physical) -> Orders {
 }
 
 /// `physical` at `nodes` nodes.
-fn at_nodes(physical: &Physical, nodes: usize) -> Physical {
+pub(crate) fn at_nodes(physical: &Physical, nodes: usize) -> Physical {
     let mut p = physical.clone();
     p.discretization.nodes = nodes;
     p.discretization.per_turn = None;

@@ -3,12 +3,15 @@
 use serde::Serialize;
 
 use crate::analysis::branch::trace;
+use crate::analysis::refine::{at_nodes, error_orders};
 use crate::engine::ContinuationSettings;
 use crate::engine::events::EventKind;
 use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::engine::stop::Silent;
 use crate::model::Model;
+use crate::model::fluid::{Fluid, rpy};
 use crate::model::observables::Observables;
+use crate::model::params::Physical;
 use crate::model::steady::Steady;
 use crate::problem;
 use crate::problem::rod::Parameter;
@@ -39,6 +42,133 @@ pub struct SolutionSummary {
     pub residual_norm: f64,
     pub residual_history: Vec<f64>,
     pub nodes: usize,
+    /// The estimated errors of the observables ([`observable_errors`]), or why they could not
+    /// be estimated (`errors_missing`).
+    pub errors: Option<ObservableErrors>,
+    pub errors_missing: Option<String>,
+}
+
+/// The estimated errors of a steady state's observables against the continuous model
+/// (docs/model.md section 10), in their units. Each is the discretization error in `N` from
+/// the same rate solved at a coarser rung of `N/2 + 1` nodes, the first-order estimate
+///
+/// ```text
+/// e = |v_f - v_c| h_f / (h_c - h_f)      (h the spacing of the fluid model's orders)
+/// ```
+///
+/// which bounds the error for any order at least 1, plus on the RPY line the quadrature's own
+/// error, measured at the coarser rung by the points per blob radius halved,
+/// `|v(P) - v(P/2)| / 3` (the product rule's error is second order in the point spacing:
+/// docs/model.md section 9). Not the second-order estimate of the RPY line's known order: at
+/// the coarse rungs a study starts from, the observables converge at observed orders below 2
+/// (on the representative helix at 0.4 rad/s, `N = 31, 60` gave a second-order estimate of
+/// `Fp` at `N = 60` 15% below its difference to `N = 237`; the first-order one is 2.6 times
+/// it).
+#[derive(Clone, Debug, Serialize)]
+pub struct ObservableErrors {
+    /// The coarser rung.
+    pub coarse_nodes: usize,
+    #[serde(rename = "Fp")]
+    pub fp: f64,
+    #[serde(rename = "Fpbar")]
+    pub fpbar: f64,
+    #[serde(rename = "Tp")]
+    pub tp: f64,
+    pub eta: Option<f64>,
+    pub h: f64,
+    pub h0: f64,
+    pub hbar: f64,
+    #[serde(rename = "Fpbar_rigid")]
+    pub fpbar_rigid: f64,
+    /// Whether the quadrature's error is in the errors (the RPY line, where the halved rule
+    /// differs from the model's).
+    pub quadrature: bool,
+}
+
+/// The observables of `s` in the order of [`ObservableErrors`]' fields (`eta` NaN at rest).
+fn values(s: &Solution) -> [f64; 8] {
+    let o = &s.observables;
+    [
+        o.fp,
+        o.fpbar,
+        o.tp,
+        o.eta.unwrap_or(f64::NAN),
+        o.h,
+        o.h0,
+        o.hbar,
+        s.fpbar_rigid,
+    ]
+}
+
+/// [`ObservableErrors`] of `fine`, the solution of `physical` at its `N`, or why they could not
+/// be estimated: an `N` without a coarser rung of at least 5 nodes, or a coarser rung that
+/// cannot reach the rate.
+pub fn observable_errors(
+    physical: &Physical,
+    fine: &Solution,
+    settings: &NewtonSettings,
+) -> std::result::Result<ObservableErrors, String> {
+    let nodes = physical.discretization.nodes;
+    let coarse_nodes = nodes / 2 + 1;
+    if coarse_nodes < 5 {
+        return Err(format!(
+            "N = {nodes} has no coarser rung of at least 5 nodes"
+        ));
+    }
+    let omegabar = fine.observables.omegabar;
+    let solved = |p: &Physical| -> std::result::Result<(Model, Solution), String> {
+        let at = |e: Error| format!("the coarser rung at N = {coarse_nodes} failed: {e}");
+        let model = Model::new(p).map_err(at)?;
+        let solution = solve_at(&model, omegabar, settings).map_err(at)?;
+        Ok((model, solution))
+    };
+    let coarse_physical = at_nodes(physical, coarse_nodes);
+    let (coarse_model, coarse) = solved(&coarse_physical)?;
+    let h = |n: usize| error_orders(physical).spacing(n);
+    let ratio = h(nodes) / (h(coarse_nodes) - h(nodes));
+    let (vc, vf) = (values(&coarse), values(fine));
+    let mut errors: Vec<f64> = vc
+        .iter()
+        .zip(&vf)
+        .map(|(c, f)| (f - c).abs() * ratio)
+        .collect();
+    // The quadrature's own error at the coarser rung, with half the points per blob radius.
+    let mut quadrature = false;
+    if let Fluid::Rpy(own) = &coarse_model.fluid {
+        let per_blob = physical
+            .fluid
+            .points_per_blob
+            .unwrap_or(rpy::POINTS_PER_BLOB);
+        let mut halved = coarse_physical.clone();
+        halved.fluid.points_per_blob = Some(per_blob / 2.0);
+        let other = Model::new(&halved).ok().filter(|m| match &m.fluid {
+            Fluid::Rpy(r) => {
+                rpy::POINTS_PER_BLOB_RANGE.contains(&(per_blob / 2.0))
+                    && r.points_per_edge() != own.points_per_edge()
+            }
+            Fluid::Lighthill(_) => false,
+        });
+        if other.is_some() {
+            let (_, half) = solved(&halved)?;
+            for ((e, q), p) in errors.iter_mut().zip(values(&half)).zip(vc) {
+                *e += (p - q).abs() / 3.0;
+            }
+            quadrature = true;
+        }
+    }
+    let eta = fine.observables.eta.map(|_| errors[3]);
+    Ok(ObservableErrors {
+        coarse_nodes,
+        fp: errors[0],
+        fpbar: errors[1],
+        tp: errors[2],
+        eta,
+        h: errors[4],
+        h0: errors[5],
+        hbar: errors[6],
+        fpbar_rigid: errors[7],
+        quadrature,
+    })
 }
 
 /// Newton iterations allowed per ramp step before the step is halved (a step inside Newton's
@@ -261,8 +391,22 @@ fn ramp(
 }
 
 impl Solution {
-    pub fn summary(&self, model: &Model) -> SolutionSummary {
+    /// What `helixbif solve` reports: the observables of `model` (built from `physical`) with
+    /// their estimated errors ([`observable_errors`], `settings` the Newton settings of the
+    /// coarser rungs).
+    pub fn summary(
+        &self,
+        model: &Model,
+        physical: &Physical,
+        settings: &NewtonSettings,
+    ) -> SolutionSummary {
+        let (errors, errors_missing) = match observable_errors(physical, self, settings) {
+            Ok(e) => (Some(e), None),
+            Err(why) => (None, Some(why)),
+        };
         SolutionSummary {
+            errors,
+            errors_missing,
             observables: self.observables.clone(),
             fp_rigid: self.fpbar_rigid * model.scales.force,
             fpbar_rigid: self.fpbar_rigid,

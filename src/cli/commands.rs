@@ -15,7 +15,9 @@ use helixbif::study::locate::{Resolution, locate_study};
 use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use helixbif::study::output::Table;
 use helixbif::study::output::{Provenance, make_writable_dir};
-use helixbif::study::plan::{check_accuracy, check_max_nodes, point_accuracy};
+use helixbif::study::plan::{
+    check_accuracy, check_max_nodes, check_refinement_room, point_accuracy,
+};
 use helixbif::study::run::run as run_study;
 use helixbif::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
@@ -134,7 +136,8 @@ pub fn solve(args: &SolveArgs) -> Outcome {
     if let Some(path) = shape {
         write_shape(path, &model, &solution)?;
     }
-    Ok(done(titled(&study_file, solution.summary(&model))))
+    let summary = solution.summary(&model, &study_file.physical(), &study_file.newton);
+    Ok(done(titled(&study_file, summary)))
 }
 
 pub fn branch(args: &BranchArgs) -> Outcome {
@@ -193,6 +196,7 @@ pub fn locate(args: &LocateArgs) -> Outcome {
     {
         check_accuracy("--accuracy", accuracy)?;
         check_max_nodes("--max-nodes", max_nodes)?;
+        check_refinement_room("--max-nodes", max_nodes, &study_file.physical())?;
     }
     let result = locate_study(&study_file, &how)?;
     let shortfall = result.shortfall();
@@ -218,6 +222,9 @@ pub fn boundary(b: &BoundaryArgs) -> Outcome {
         .map(|m| count("--max-nodes", m, 5))
         .transpose()?;
     let accuracy = point_accuracy(b.accuracy, max_nodes, ["--accuracy", "--max-nodes"])?;
+    if let Some(a) = accuracy {
+        check_refinement_room("--max-nodes", a.max_nodes, &study.physical())?;
+    }
     let provenance = Provenance::of_process();
     let (_, report) = run_boundary(&study, key, (b.from, b.to), accuracy, &dir, &provenance)?;
     let report = report?;
@@ -284,7 +291,11 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     if shard.is_none() {
         sweep_figures(&study, &dir)?;
     }
-    Ok(done(titled(&study, summary)))
+    let shortfall = summary.shortfall();
+    Ok(Done {
+        report: Box::new(titled(&study, summary)),
+        shortfall,
+    })
 }
 
 /// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.

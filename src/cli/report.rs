@@ -75,12 +75,29 @@ impl<T: Section> Display for Titled<T> {
 impl Section for SolutionSummary {
     fn show(&self, study: &str, f: &mut Formatter<'_>) -> fmt::Result {
         let o = &self.observables;
-        writeln!(
-            f,
-            "steady state of `{study}` at N = {} nodes (values at this N: their discretization \
-             error is not estimated here; compare at a finer N)",
-            self.nodes
-        )?;
+        let e = self.errors.as_ref();
+        match (e, &self.errors_missing) {
+            (Some(e), _) => writeln!(
+                f,
+                "steady state of `{study}` at N = {} nodes; each value +- its estimated error \
+                 against the continuous model (in N from N = {}{}; docs/model.md section 10)",
+                self.nodes,
+                e.coarse_nodes,
+                if e.quadrature {
+                    ", plus the quadrature's own error"
+                } else {
+                    ""
+                }
+            )?,
+            (None, why) => writeln!(
+                f,
+                "steady state of `{study}` at N = {} nodes; errors NOT estimated: {}",
+                self.nodes,
+                why.as_deref().unwrap_or("no reason given")
+            )?,
+        }
+        // ` +- error` of a value (nothing where the errors are not estimated).
+        let pm = |error: Option<f64>| error.map_or(String::new(), |e| format!(" +- {e:.1e}"));
         writeln!(
             f,
             "  omega    = {:.6e} rad/s   (omegabar = {:.6e})",
@@ -88,18 +105,28 @@ impl Section for SolutionSummary {
         )?;
         writeln!(
             f,
-            "  Fp       = {:.6e} N       (Fpbar = {:.6e}; rigid helix {:.6e})",
-            o.fp, o.fpbar, self.fpbar_rigid
+            "  Fp       = {:.6e}{} N   (Fpbar = {:.6e}{}; rigid helix {:.6e}{})",
+            o.fp,
+            pm(e.map(|e| e.fp)),
+            o.fpbar,
+            pm(e.map(|e| e.fpbar)),
+            self.fpbar_rigid,
+            pm(e.map(|e| e.fpbar_rigid))
         )?;
-        writeln!(f, "  Tp       = {:.6e} N m", o.tp)?;
+        writeln!(f, "  Tp       = {:.6e}{} N m", o.tp, pm(e.map(|e| e.tp)))?;
         match o.eta {
-            Some(eta) => writeln!(f, "  eta      = {eta:.6e}")?,
+            Some(eta) => writeln!(f, "  eta      = {eta:.6e}{}", pm(e.and_then(|e| e.eta)))?,
             None => writeln!(f, "  eta      = undefined at rest")?,
         }
         writeln!(
             f,
-            "  h        = {:.6e} m       (h0 = {:.6e} m, hbar = {:.6})",
-            o.h, o.h0, o.hbar
+            "  h        = {:.6e}{} m   (h0 = {:.6e}{} m, hbar = {:.6}{})",
+            o.h,
+            pm(e.map(|e| e.h)),
+            o.h0,
+            pm(e.map(|e| e.h0)),
+            o.hbar,
+            pm(e.map(|e| e.hbar))
         )?;
         write!(
             f,
@@ -146,7 +173,18 @@ impl Section for SweepSummary {
             f,
             "sweep `{study}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
             self.points, self.already_done, self.computed, self.failed, self.seconds, self.file
-        )
+        )?;
+        if let (Some(accuracy), Some(carried), Some(missed)) =
+            (self.accuracy, self.carried, self.not_reached)
+        {
+            write!(
+                f,
+                "\n  omega_b carried to a relative accuracy of {accuracy:e}: reached at {} of the \
+                 {carried} points located (column reached)",
+                carried - missed
+            )?;
+        }
+        Ok(())
     }
 }
 
@@ -296,6 +334,13 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
         "phase diagram over lambda/l with vertical coordinate omegabar (R/lambda)^m, m = {:.4}",
         p.m
     )?;
+    if let Some(a) = p.accuracy {
+        write!(
+            f,
+            "\n  first losses of stability and the boundary curve carried to a relative accuracy \
+             of {a:e}"
+        )?;
+    }
     for c in &p.columns {
         let error = match (c.omegabar_b_error, &c.error_missing) {
             (Some(e), _) => format!(" +- {e:.1e}"),
@@ -304,11 +349,19 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
                 why.as_deref().unwrap_or("no reason given")
             ),
         };
+        let at = match (c.nodes, c.reached) {
+            (Some(n), Some(true)) => format!(" (N = {n}, accuracy reached)"),
+            (Some(n), Some(false)) => format!(" (N = {n}, accuracy NOT reached)"),
+            (Some(n), None) => format!(" (N = {n})"),
+            (None, _) => String::new(),
+        };
         let loss = match (c.omegabar_b, &c.kind) {
             (Some(w), Some(kind)) => {
-                format!("first loss of stability ({kind}) at omegabar_b = {w:.6e}{error}")
+                format!("first loss of stability ({kind}) at omegabar_b = {w:.6e}{error}{at}")
             }
-            (Some(w), None) => format!("first loss of stability at omegabar_b = {w:.6e}{error}"),
+            (Some(w), None) => {
+                format!("first loss of stability at omegabar_b = {w:.6e}{error}{at}")
+            }
             _ => "stable over the branch".to_owned(),
         };
         write!(
@@ -318,7 +371,12 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
         )?;
     }
     match &p.boundary_curve {
-        CurveOutcome::Written { out } => write!(f, "\n  boundary curve in {out}")?,
+        CurveOutcome::Written { out, shortfall } => {
+            write!(f, "\n  boundary curve in {out}")?;
+            if let Some(s) = shortfall {
+                write!(f, " ({s})")?;
+            }
+        }
         CurveOutcome::Failed { error } => write!(
             f,
             "\n  boundary curve not followed ({error}); the columns' first losses are joined instead"

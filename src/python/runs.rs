@@ -20,7 +20,7 @@ use crate::study::boundary::run_boundary;
 use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
-use crate::study::plan::{check_accuracy, check_max_nodes, point_accuracy};
+use crate::study::plan::{check_accuracy, check_max_nodes, check_refinement_room, point_accuracy};
 use crate::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
 };
@@ -123,6 +123,10 @@ pub(crate) fn locate(py: Python<'_>, study: &Study, o: LocateOptions) -> PyResul
         None => study,
     };
     let file = &study.study;
+    if let Resolution::Refine { max_nodes, .. } = how {
+        check_refinement_room("max_nodes", max_nodes, &file.physical())
+            .map_err(|e| to_python(py, e, None))?;
+    }
     let result = detached(py, || locate_study(file, &how))?.map_err(|e| to_python(py, e, None))?;
     let shortfall = result.shortfall();
     let data = titled(py, study, &result)?;
@@ -229,7 +233,8 @@ pub(crate) fn solve(py: Python<'_>, study: &Study, omega: f64) -> PyResult<Py<Py
             .iter()
             .flat_map(|p| [p.x * ell, p.y * ell, p.z * ell])
             .collect();
-        Ok::<_, Error>((solution.summary(&model), positions, config.theta.clone()))
+        let summary = solution.summary(&model, &file.physical(), &file.newton);
+        Ok::<_, Error>((summary, positions, config.theta.clone()))
     })?;
     let (summary, positions, theta) = solved.map_err(|e| to_python(py, e, None))?;
     let nodes = positions.len() / 3;
@@ -268,6 +273,12 @@ pub(crate) fn boundary(
     let file = &study.study;
     let max_nodes = max_nodes.map(|m| count("max_nodes", m, 5)).transpose()?;
     let refinement = point_accuracy(accuracy, max_nodes, ["accuracy", "max_nodes"])
+        .and_then(|r| {
+            if let Some(r) = r {
+                check_refinement_room("max_nodes", r.max_nodes, &file.physical())?;
+            }
+            Ok(r)
+        })
         .map_err(|e| to_python(py, e, None))?;
     let dir = output_dir(py, out, "boundary")?;
     let mut arguments = vec![

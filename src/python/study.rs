@@ -183,7 +183,8 @@ impl Study {
     /// The critical rate omega_b (rad/s): the first loss of stability of the branch from rest
     /// (`helixbif locate`). By default N is refined (spacing halved) until the estimated
     /// relative error of omega_b (in N and, on the RPY line, of the quadrature) is below
-    /// `accuracy` (default 1e-3) or `max_nodes` (default 500) or the model's admissible range
+    /// `accuracy` (default 1e-3) or `max_nodes` (default 500, above the study's N) or the
+    /// model's admissible range
     /// stops it; `single=True` locates at the study's N only; `extrapolate=True` runs a ladder
     /// of node counts `nodes` (default: N, 2N - 1, 4N - 3 on the RPY line, five inside the
     /// admissible range on Lighthill's operator) and extrapolates. `tol` is the relative
@@ -240,7 +241,8 @@ impl Study {
     /// or `shape.R_over_lambda`, `shape.lambda_over_l`) goes from `start` to `stop`
     /// (`helixbif boundary --vary --from --to`). Writes boundary.csv, points.csv, meta.json and
     /// figures into `out` (default a fresh temporary folder). With `accuracy`, every Hopf point
-    /// is carried to that relative accuracy of omega_b (up to `max_nodes`, default 500), as
+    /// is carried to that relative accuracy of omega_b (up to `max_nodes`, default 500, above
+    /// the study's N), as
     /// `locate` refines it (`--accuracy`, `--max-nodes`). Returns a `Boundary`. Raises
     /// NumericalError (the curve found so far in `partial`) when the curve cannot be finished
     /// or a point falls short of `accuracy`.

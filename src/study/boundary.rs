@@ -21,7 +21,7 @@ use crate::problem::family::RodFamily;
 use crate::study::Study;
 use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
 use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
-use crate::study::plan::Case;
+use crate::study::plan::{Case, check_refinement_room};
 use crate::study::progress;
 use crate::study::run::slug;
 use crate::study::sweep::variant;
@@ -373,6 +373,13 @@ pub fn run_study(
         to,
         accuracy,
     } = *curves;
+    // Every case's N leaves the refinement room, checked before any curve is followed.
+    if let Some(a) = accuracy {
+        for case in cases {
+            let s = variant(study, case, &[], &[])?;
+            check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
+        }
+    }
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
     let mut all_rows = Vec::new();

@@ -11,13 +11,12 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::plan::{Case, Plan, Vary};
-use super::sweep::variant;
+use super::plan::{Case, POINT_REFINEMENT, Plan, Vary, check_refinement_room, point_accuracy};
+use super::sweep::{located_point, variant};
 use super::{LAMBDA_OVER_L, Study};
-use crate::analysis::boundary::BoundaryPoint;
+use crate::analysis::boundary::{BoundaryPoint, PointAccuracy};
 use crate::analysis::branch::{observables_at, trace};
 use crate::analysis::locate::{LocateSettings, Loss};
-use crate::analysis::refine::estimate_at_nodes;
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::Branch;
 use crate::engine::stop::Silent;
@@ -44,7 +43,8 @@ struct PhaseRow {
     stable: bool,
 }
 
-/// A row of the phase study's `boundary.csv`: the first loss of stability of a column.
+/// A row of the phase study's `boundary.csv`: the first loss of stability of a column, at the
+/// finest `N` of its refinement (`nodes`); `reached` only where the study asks for an accuracy.
 #[derive(serde::Serialize)]
 struct ColumnLossRow {
     lambda_over_l: f64,
@@ -55,6 +55,8 @@ struct ColumnLossRow {
     y_b: f64,
     y_b_error: Option<f64>,
     kind: Loss,
+    nodes: usize,
+    reached: Option<bool>,
 }
 
 /// What the `phase` study reports.
@@ -62,10 +64,43 @@ struct ColumnLossRow {
 pub struct PhaseResult {
     /// The exponent of the vertical coordinate `omegabar (R/lambda)^m`.
     pub m: f64,
+    /// The relative accuracy of `omega_b` the columns' first losses and the curve's Hopf points
+    /// were carried to (`None`: each at its own `N` with its estimated error).
+    pub accuracy: Option<f64>,
     pub columns: Vec<ColumnSummary>,
     /// The flagella of the data file left off the map, and why.
     pub skipped_flagella: Vec<String>,
     pub boundary_curve: CurveOutcome,
+}
+
+impl PhaseResult {
+    /// What the map fell short of: the accuracy, at the columns and on the curve that did not
+    /// reach it.
+    pub fn shortfall(&self) -> Vec<String> {
+        let Some(accuracy) = self.accuracy else {
+            return Vec::new();
+        };
+        let missed: Vec<String> = self
+            .columns
+            .iter()
+            .filter(|c| c.reached == Some(false))
+            .map(|c| format!("{}", c.lambda_over_l))
+            .collect();
+        let columns = (!missed.is_empty()).then(|| {
+            format!(
+                "accuracy {accuracy:e} not reached at the first loss of stability of the \
+                 column(s) lambda/l = {} (column reached of boundary.csv)",
+                missed.join(", ")
+            )
+        });
+        let curve = match &self.boundary_curve {
+            CurveOutcome::Written {
+                shortfall: Some(s), ..
+            } => Some(format!("boundary curve: {s}")),
+            _ => None,
+        };
+        columns.into_iter().chain(curve).collect()
+    }
 }
 
 /// One column of the map: its ratios, its first loss of stability and its branch's size.
@@ -79,6 +114,10 @@ pub struct ColumnSummary {
     pub omegabar_b_error: Option<f64>,
     pub error_missing: Option<String>,
     pub kind: Option<Loss>,
+    /// The node count `omegabar_b` is at (the finest rung of its refinement).
+    pub nodes: Option<usize>,
+    /// Whether `omegabar_b` reached the study's accuracy (absent without one).
+    pub reached: Option<bool>,
     pub points: usize,
 }
 
@@ -86,8 +125,15 @@ pub struct ColumnSummary {
 #[derive(Serialize)]
 #[serde(untagged)]
 pub enum CurveOutcome {
-    Written { out: String },
-    Failed { error: String },
+    /// Written to `out`; `shortfall` where points fell short of the study's accuracy.
+    Written {
+        out: String,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        shortfall: Option<String>,
+    },
+    Failed {
+        error: String,
+    },
 }
 
 /// The exponent `m` in a `fit.json` (of a boundary or a sweep study).
@@ -106,16 +152,21 @@ struct Column {
     boundary: Option<ColumnLoss>,
 }
 
-/// A column's first loss of stability at its `N`, with the estimated discretization error of
-/// `omegabar_b` (from a coarser rung at `N/2 + 1` nodes, the quadrature's error included;
-/// [`estimate_at_nodes`]), or why it has none.
+/// A column's first loss of stability ([`located_point`]): at its `N` with the estimated
+/// discretization error of `omegabar_b` (from a coarser rung at `N/2 + 1` nodes, the
+/// quadrature's error included), or carried to the study's accuracy by `locate`'s refinement
+/// (`reached` says whether it got there), or why it has no error; `nodes` the `N` of
+/// `omegabar_b`.
 struct ColumnLoss {
     omegabar_b: f64,
     error: std::result::Result<f64, String>,
     kind: Loss,
+    nodes: usize,
+    reached: Option<bool>,
 }
 
-fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Result<Column> {
+/// The study of the column `lambda/l` (with `R/lambda` held where the plan holds it).
+fn column_study(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Result<Study> {
     let base = Case {
         label: "base".into(),
         set: toml::Table::new(),
@@ -132,7 +183,16 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
         vary.push(ratio("shape.R_over_lambda", r));
         values.push(r);
     }
-    let s = variant(study, &base, &vary, &values)?;
+    variant(study, &base, &vary, &values)
+}
+
+fn column(
+    study: &Study,
+    lambda_over_l: f64,
+    r_over_lambda: Option<f64>,
+    accuracy: Option<PointAccuracy>,
+) -> Result<Column> {
+    let s = column_study(study, lambda_over_l, r_over_lambda)?;
     let ShapeParams::Helix { lambda, radius, .. } = s.shape else {
         return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
     };
@@ -158,7 +218,7 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
         .iter()
         .any(|e| e.unstable_before == 0 && e.unstable_after > 0);
     let boundary = lost
-        .then(|| column_loss(&s, &branch))
+        .then(|| column_loss(&s, &branch, accuracy))
         .transpose()?
         .flatten();
     Ok(Column {
@@ -170,14 +230,19 @@ fn column(study: &Study, lambda_over_l: f64, r_over_lambda: Option<f64>) -> Resu
 }
 
 /// The first loss of stability of the column study `s` whose branch is `branch`, with its
-/// error: the answer of [`estimate_at_nodes`] at the column's `N` (two rungs, as a sweep
-/// point's), or where that finds no `omega_b`, the branch's own event without an error.
-fn column_loss(s: &Study, branch: &Branch) -> Result<Option<ColumnLoss>> {
+/// error: the answer of [`located_point`] (two rungs at the column's `N`, or with `accuracy`
+/// refined from it, as a sweep point's), or where that finds no `omega_b`, the branch's own
+/// event without an error.
+fn column_loss(
+    s: &Study,
+    branch: &Branch,
+    accuracy: Option<PointAccuracy>,
+) -> Result<Option<ColumnLoss>> {
     let settings = LocateSettings {
         criticality: false,
         ..s.locate_settings()
     };
-    let refined = estimate_at_nodes(&s.physical(), &settings, &mut Silent)?;
+    let refined = located_point(&s.physical(), &settings, accuracy)?;
     let answer = &refined.finest;
     if let (Some(omegabar_b), Some(omega_b)) = (answer.omegabar_b, answer.omega_b) {
         let why = || {
@@ -193,6 +258,8 @@ fn column_loss(s: &Study, branch: &Branch) -> Result<Option<ColumnLoss>> {
                 .map(|e| e * omegabar_b / omega_b)
                 .ok_or_else(why),
             kind: answer.kind,
+            nodes: answer.nodes,
+            reached: accuracy.map(|_| refined.reached),
         }));
     }
     Ok(branch
@@ -206,6 +273,8 @@ fn column_loss(s: &Study, branch: &Branch) -> Result<Option<ColumnLoss>> {
                 answer.kind
             )),
             kind: Loss::Event(e.kind),
+            nodes: s.discretization.nodes,
+            reached: accuracy.map(|_| false),
         }))
 }
 
@@ -319,16 +388,28 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         exponent_study,
         rows,
         bacteria,
+        accuracy,
+        max_nodes,
     }) = &study.study
     else {
         return Err(Error::input("study.kind", "expected a phase study"));
     };
-    let m = exponent(*m, exponent_study, dir, provenance)?;
+    let accuracy = point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
     let mut values = lambda_over_l.clone();
     values.sort_by(f64::total_cmp);
+    // Every column's N, and the curve's, leave the refinement room; checked before anything
+    // runs.
+    if let Some(a) = accuracy {
+        check_refinement_room("study.max_nodes", a.max_nodes, &study.physical())?;
+        for &v in &values {
+            let s = column_study(study, v, *r_over_lambda)?;
+            check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
+        }
+    }
+    let m = exponent(*m, exponent_study, dir, provenance)?;
     let columns = values
         .par_iter()
-        .map(|&v| column(study, v, *r_over_lambda))
+        .map(|&v| column(study, v, *r_over_lambda, accuracy))
         .collect::<Result<Vec<Column>>>()?;
     let mut table = CsvWriter::create(&dir.join("phase.csv"))?;
     let mut bounds = CsvWriter::create(&dir.join("boundary.csv"))?;
@@ -353,6 +434,8 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 y_b: loss.omegabar_b * shape,
                 y_b_error: loss.error.as_ref().ok().map(|e| e * shape),
                 kind: loss.kind,
+                nodes: loss.nodes,
+                reached: loss.reached,
             })?;
         }
     }
@@ -421,14 +504,14 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     // stability marked on it; the columns joined by a line where the curve cannot be followed.
     let curve = boundary_curve(
         study,
-        &values,
-        *r_over_lambda,
+        (&values, *r_over_lambda),
         m,
+        accuracy,
         &dir.join("boundary_curve"),
         provenance,
     );
     let mut overlays = match &curve {
-        Ok(lines) => lines.clone(),
+        Ok((lines, _)) => lines.clone(),
         Err(_) => vec![Series {
             label: "stability boundary (first loss in each column)".into(),
             x: bx.clone(),
@@ -488,6 +571,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     )?;
     Ok(PhaseResult {
         m,
+        accuracy: accuracy.map(|a| a.accuracy),
         columns: columns
             .iter()
             .map(|c| ColumnSummary {
@@ -497,13 +581,16 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 omegabar_b_error: c.boundary.as_ref().and_then(|b| b.error.clone().ok()),
                 error_missing: c.boundary.as_ref().and_then(|b| b.error.clone().err()),
                 kind: c.boundary.as_ref().map(|b| b.kind),
+                nodes: c.boundary.as_ref().map(|b| b.nodes),
+                reached: c.boundary.as_ref().and_then(|b| b.reached),
                 points: c.points.len(),
             })
             .collect(),
         skipped_flagella: skipped,
         boundary_curve: match &curve {
-            Ok(_) => CurveOutcome::Written {
+            Ok((_, shortfall)) => CurveOutcome::Written {
                 out: dir.join("boundary_curve").display().to_string(),
+                shortfall: shortfall.clone(),
             },
             Err(e) => CurveOutcome::Failed {
                 error: e.to_string(),
@@ -512,16 +599,18 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     })
 }
 
-/// The boundary curve from the smallest to the largest `lambda/l` of the columns, as lines of
-/// `log10(omegabar_b (R/lambda)^m)` (one per segment of the curve), written to `dir`.
+/// The boundary curve from the smallest to the largest `lambda/l` of the columns `values`
+/// (`R/lambda` held where given), as lines of `log10(omegabar_b (R/lambda)^m)` (one per segment
+/// of the curve), written to `dir`; with `accuracy`, every Hopf point carried to it, and what
+/// the curve fell short of.
 fn boundary_curve(
     study: &Study,
-    values: &[f64],
-    r_over_lambda: Option<f64>,
+    (values, r_over_lambda): (&[f64], Option<f64>),
     m: f64,
+    accuracy: Option<PointAccuracy>,
     dir: &Path,
     provenance: &Provenance,
-) -> Result<Vec<Series>> {
+) -> Result<(Vec<Series>, Option<String>)> {
     let ShapeParams::Helix { l, radius, .. } = study.shape else {
         return Err(Error::input("shape.kind", "a phase diagram needs a helix"));
     };
@@ -530,10 +619,10 @@ fn boundary_curve(
         family = family.holding(Field::ROverLambda, r);
     }
     let (from, to) = (values[0], values[values.len() - 1]);
-    let (rows, outcome) = run_family(study, &family, (from, to), None, dir, provenance)?;
-    outcome?;
+    let (rows, outcome) = run_family(study, &family, (from, to), accuracy, dir, provenance)?;
+    let shortfall = outcome?.shortfall();
     let segments = rows.last().map_or(0, |r| r.segment + 1);
-    Ok((0..segments)
+    let lines = (0..segments)
         .map(|k| {
             let on: Vec<&BoundaryPoint> = rows.iter().filter(|r| r.segment == k).collect();
             let shape = |q: f64| r_over_lambda.unwrap_or(radius / (q * l)).powf(m);
@@ -553,7 +642,8 @@ fn boundary_curve(
                 err: None,
             }
         })
-        .collect())
+        .collect();
+    Ok((lines, shortfall))
 }
 
 #[cfg(test)]

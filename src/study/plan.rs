@@ -11,6 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::analysis::boundary::PointAccuracy;
 use crate::analysis::refine::DEFAULT_MAX_NODES;
+use crate::model::params::Physical;
+use crate::model::{Model, admissible_max_nodes};
 use crate::{Error, Result};
 
 /// A variant of the study's model: a label and overrides (dotted keys, TOML values).
@@ -126,13 +128,20 @@ pub enum Plan {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         max_nodes: Option<usize>,
     },
-    /// `omega_b` over the product of the cases and the values of one or two parameters.
+    /// `omega_b` over the product of the cases and the values of one or two parameters: each
+    /// point at its own `N` with its discretization error estimated from `N/2 + 1` nodes, or,
+    /// with `accuracy`, refined by `locate` to that relative accuracy, up to `max_nodes`
+    /// (default [`crate::analysis::refine::DEFAULT_MAX_NODES`]).
     Sweep {
         #[serde(default)]
         cases: Vec<Case>,
         vary: Vec<Vary>,
         #[serde(default)]
         figures: Vec<SweepFigure>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        accuracy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_nodes: Option<usize>,
     },
     /// The propulsive force over (`lambda/l`, `omegabar (R/lambda)^m`): a branch per value of
     /// `lambda/l`, the stability boundary, and natural flagella placed on it.
@@ -156,6 +165,14 @@ pub enum Plan {
         /// relative to this study file.
         #[serde(default)]
         bacteria: Option<String>,
+        /// Each column's first loss of stability and every Hopf point of the boundary curve
+        /// carried to this relative accuracy of `omega_b` (as `locate`), up to `max_nodes`
+        /// (default [`crate::analysis::refine::DEFAULT_MAX_NODES`]); absent: each at its `N`
+        /// with its discretization error estimated from `N/2 + 1` nodes.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        accuracy: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_nodes: Option<usize>,
     },
     /// The stability boundary `omega_b(q)` as a curve in the field `vary` from `from` to `to`,
     /// one curve per case (e.g. a `lambda/l` each), by two-parameter continuation of the Hopf
@@ -308,7 +325,13 @@ impl Plan {
     /// Checks the ranges of the plan's own fields.
     pub fn validate(&self) -> Result<()> {
         match self {
-            Plan::Sweep { vary, .. } => {
+            Plan::Sweep {
+                vary,
+                accuracy,
+                max_nodes,
+                ..
+            } => {
+                point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
                 if vary.is_empty() || vary.len() > 2 {
                     return Err(Error::input(
                         "study.vary",
@@ -347,8 +370,11 @@ impl Plan {
                 r_over_lambda,
                 m,
                 rows,
+                accuracy,
+                max_nodes,
                 ..
             } => {
+                point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
                 let mut sorted = lambda_over_l.clone();
                 sorted.sort_by(f64::total_cmp);
                 let distinct = sorted.windows(2).all(|w| w[0] < w[1]);
@@ -460,7 +486,7 @@ impl Plan {
                 max_nodes,
                 ..
             } => {
-                point_accuracy(*accuracy, *max_nodes, BOUNDARY_REFINEMENT)?;
+                point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
                 if !(from.is_finite() && to.is_finite() && from != to) {
                     return Err(Error::input(
                         "study.from",
@@ -482,8 +508,8 @@ impl Plan {
     }
 }
 
-/// The fields of a boundary study's refinement of its points ([`point_accuracy`]).
-pub const BOUNDARY_REFINEMENT: [&str; 2] = ["study.accuracy", "study.max_nodes"];
+/// The fields of a boundary or sweep study's refinement of its points ([`point_accuracy`]).
+pub const POINT_REFINEMENT: [&str; 2] = ["study.accuracy", "study.max_nodes"];
 
 /// The refinement of a boundary's points ([`PointAccuracy`]): `accuracy` checked, with
 /// `max_nodes` (default [`DEFAULT_MAX_NODES`]); none without an accuracy, and `max_nodes` alone
@@ -519,6 +545,28 @@ pub fn check_accuracy(field: &str, accuracy: f64) -> Result<()> {
         Err(Error::input(
             field,
             format!("must lie in (0, 0.1) (a relative error of omega_b), got {accuracy}"),
+        ))
+    }
+}
+
+/// Checks that a refinement starting at the model's `N` has room below `max_nodes` for the
+/// finer rung its error estimate needs: a cap at or below the start would run the start alone
+/// and say only that the accuracy was not reached. An `N` outside the fluid model's admissible
+/// range is refused first, with that range.
+pub fn check_refinement_room(field: &str, max_nodes: usize, physical: &Physical) -> Result<()> {
+    let nodes = physical.discretization.nodes;
+    if max_nodes > nodes {
+        Ok(())
+    } else {
+        if admissible_max_nodes(physical).is_some_and(|a| a < nodes) {
+            Model::new(physical)?.check_resolution()?;
+        }
+        Err(Error::input(
+            field,
+            format!(
+                "must exceed discretization.nodes = {nodes}, where the refinement starts (its \
+                 error estimate needs a finer rung), got {max_nodes}"
+            ),
         ))
     }
 }

@@ -13,7 +13,7 @@ use super::locate::{LocateResult, Resolution, locate_study};
 use super::orbits::{OrbitsOptions, OrbitsReport};
 use super::output::{Meta, Provenance, create_dir, write_json};
 use super::phase::PhaseResult;
-use super::plan::{BOUNDARY_REFINEMENT, Plan, point_accuracy};
+use super::plan::{POINT_REFINEMENT, Plan, check_refinement_room, point_accuracy};
 use super::shapes::ShapesResult;
 use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
@@ -109,7 +109,6 @@ pub fn run(
     resume: bool,
     provenance: &Provenance,
 ) -> Result<StudyResult> {
-    create_dir(dir)?;
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
         fixed_nodes: false,
@@ -117,6 +116,10 @@ pub fn run(
         accuracy: None,
         max_nodes: None,
     });
+    if let Resolution::Refine { max_nodes, .. } = resolution(&plan) {
+        check_refinement_room("study.max_nodes", max_nodes, &study.physical())?;
+    }
+    create_dir(dir)?;
     // What did not complete; reported as a numerical failure once everything is written.
     let mut failures: Vec<String> = Vec::new();
     let result = match &plan {
@@ -172,10 +175,15 @@ pub fn run(
                     summary.failed, summary.file
                 ));
             }
+            failures.extend(summary.shortfall());
             let fits = sweep_figures(study, dir)?;
             StudyResult::Sweep { summary, fits }
         }
-        Plan::Phase { .. } => StudyResult::Phase(super::phase::run_phase(study, dir, provenance)?),
+        Plan::Phase { .. } => {
+            let phase = super::phase::run_phase(study, dir, provenance)?;
+            failures.extend(phase.shortfall());
+            StudyResult::Phase(phase)
+        }
         Plan::Boundary {
             vary,
             from,
@@ -189,7 +197,7 @@ pub fn run(
                 key: vary,
                 from: *from,
                 to: *to,
-                accuracy: point_accuracy(*accuracy, *max_nodes, BOUNDARY_REFINEMENT)?,
+                accuracy: point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?,
             };
             let (value, failed) =
                 run_boundaries(study, &curves, &cases(plan_cases), *fit, dir, provenance)?;

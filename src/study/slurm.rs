@@ -344,7 +344,7 @@ pub fn write_scripts(
     job: &SlurmJob,
     options: &SlurmOptions,
 ) -> Result<SlurmScripts> {
-    let (plan_cases, vary) = sweep_plan(study, "slurm")?;
+    let (plan_cases, vary, _) = sweep_plan(study, "slurm")?;
     let points = grid(cases(plan_cases).len(), vary).len();
     if options.tasks == 0 || options.tasks > points {
         return Err(Error::input(

@@ -21,10 +21,14 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::plan::{Case, Plan, Vary};
+use super::plan::{POINT_REFINEMENT, check_refinement_room, point_accuracy};
 use super::progress;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
-use crate::analysis::refine::estimate_at_nodes;
+use crate::analysis::boundary::PointAccuracy;
+use crate::analysis::locate::LocateSettings;
+use crate::analysis::refine::{Refinement, estimate_at_nodes, refine};
 use crate::engine::stop::Silent;
+use crate::model::params::Physical;
 use crate::model::params::ShapeParams;
 use crate::study::output::{create_dir, io_error, write_atomically};
 use crate::{Error, Result};
@@ -159,13 +163,22 @@ const RESULT_COLUMNS: [&str; 18] = [
     "status",
 ];
 
-/// The header of `sweep.csv` for a plan sweeping `vary`.
-pub fn header(vary: &[Vary]) -> Vec<String> {
+/// The column of a sweep whose points are carried to an accuracy: whether the point's
+/// estimated relative error is below it (after `omega_b_error`).
+const REACHED: &str = "reached";
+
+/// The header of `sweep.csv` for a plan sweeping `vary`, with the column [`REACHED`] where the
+/// points are `refined` to an accuracy.
+pub fn header(vary: &[Vary], refined: bool) -> Vec<String> {
+    let results = RESULT_COLUMNS.iter().flat_map(|&c| {
+        let reached = (refined && c == "omega_b_error").then_some(REACHED);
+        std::iter::once(c).chain(reached)
+    });
     ["point", "case"]
         .iter()
         .map(|s| s.to_string())
         .chain(vary.iter().map(|v| v.key.clone()))
-        .chain(RESULT_COLUMNS.iter().map(|s| s.to_string()))
+        .chain(results.map(String::from))
         .collect()
 }
 
@@ -183,16 +196,41 @@ fn number(v: Option<f64>) -> String {
     v.map(|x| format!("{x:e}")).unwrap_or_default()
 }
 
-/// Runs `locate` at one point, with the discretization error of its `omega_b` estimated from a
-/// coarser rung ([`estimate_at_nodes`]), and formats its row; a failure is recorded in the row,
-/// not raised.
-fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) -> Vec<String> {
+/// `omega_b` of one point of a sweep or of a phase map's column: carried to `accuracy` by
+/// `locate`'s refinement from the point's `N` ([`refine`]) where one is asked for, else at the
+/// point's `N` with its discretization error estimated from a coarser rung
+/// ([`estimate_at_nodes`]).
+pub(crate) fn located_point(
+    physical: &Physical,
+    settings: &LocateSettings,
+    accuracy: Option<PointAccuracy>,
+) -> Result<Refinement> {
+    match accuracy {
+        Some(a) => refine(
+            physical,
+            Some(a.accuracy),
+            a.max_nodes,
+            settings,
+            &mut Silent,
+        ),
+        None => estimate_at_nodes(physical, settings, &mut Silent),
+    }
+}
+
+/// Runs `locate` at one point ([`located_point`]) and formats its row; a failure is recorded
+/// in the row, not raised.
+fn run_point(
+    base: &Study,
+    (cases, vary): (&[Case], &[Vary]),
+    accuracy: Option<PointAccuracy>,
+    point: &SweepPoint,
+) -> Vec<String> {
     let start = Instant::now();
     let case = &cases[point.case];
     let mut row = vec![point.index.to_string(), case.label.clone()];
     row.extend(point.values.iter().map(|x| format!("{x:e}")));
     let outcome = variant(base, case, vary, &point.values).and_then(|study| {
-        let refined = estimate_at_nodes(&study.physical(), &study.locate_settings(), &mut Silent)?;
+        let refined = located_point(&study.physical(), &study.locate_settings(), accuracy)?;
         Ok((study, refined))
     });
     match outcome {
@@ -220,6 +258,11 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
                 located.kind.to_string(),
                 number(located.omega_b),
                 number(refined.omega_b_error),
+            ]);
+            if accuracy.is_some() {
+                row.push(refined.reached.to_string());
+            }
+            row.extend([
                 number(located.omegabar_b),
                 number(located.im),
                 number(located.fpbar),
@@ -232,7 +275,8 @@ fn run_point(base: &Study, cases: &[Case], vary: &[Vary], point: &SweepPoint) ->
         Err(e) => {
             row.extend((0..8).map(|_| String::new()));
             row.push("error".into());
-            row.extend((0..6).map(|_| String::new()));
+            let empty = if accuracy.is_some() { 7 } else { 6 };
+            row.extend((0..empty).map(|_| String::new()));
             row.push(base.discretization.nodes.to_string());
             row.push(format!("{:.3}", start.elapsed().as_secs_f64()));
             row.push(format!(
@@ -361,13 +405,49 @@ pub struct SweepSummary {
     pub already_done: usize,
     pub computed: usize,
     pub failed: usize,
+    /// The relative accuracy of `omega_b` the points were carried to, how many of the points in
+    /// the file (resumed ones included) were located, and at how many of those it was not
+    /// reached; absent without.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub carried: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_reached: Option<usize>,
     pub seconds: f64,
 }
 
-/// The cases and swept parameters of a sweep study; `command` names the command for the error.
-pub(super) fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Case], &'a [Vary])> {
+impl SweepSummary {
+    /// What the sweep fell short of: the accuracy, at the points that did not reach it.
+    pub fn shortfall(&self) -> Option<String> {
+        let (accuracy, missed) = (self.accuracy?, self.not_reached.filter(|&k| k > 0)?);
+        Some(format!(
+            "accuracy {accuracy:e} not reached at {missed} of {} sweep points located (column \
+             {REACHED} of {})",
+            self.carried.unwrap_or(self.points),
+            self.file
+        ))
+    }
+}
+
+/// The cases and swept parameters of a sweep study and the refinement of its points (`None`:
+/// each at its own `N`); `command` names the command for the error.
+pub(super) fn sweep_plan<'a>(
+    study: &'a Study,
+    command: &str,
+) -> Result<(&'a [Case], &'a [Vary], Option<PointAccuracy>)> {
     match &study.study {
-        Some(Plan::Sweep { cases, vary, .. }) => Ok((cases, vary)),
+        Some(Plan::Sweep {
+            cases,
+            vary,
+            accuracy,
+            max_nodes,
+            ..
+        }) => Ok((
+            cases,
+            vary,
+            point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?,
+        )),
         _ => Err(Error::input(
             "study.kind",
             format!("`{command}` needs a study whose [study] kind is \"sweep\""),
@@ -377,7 +457,7 @@ pub(super) fn sweep_plan<'a>(study: &'a Study, command: &str) -> Result<(&'a [Ca
 
 /// Runs the sweep of `study` (its plan must be a sweep) into `dir`, skipping finished points.
 pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Result<SweepSummary> {
-    let (plan_cases, vary) = sweep_plan(study, "sweep")?;
+    let (plan_cases, vary, accuracy) = sweep_plan(study, "sweep")?;
     if let Some((k, n)) = shard
         && (n == 0 || k == 0 || k > n)
     {
@@ -389,7 +469,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     let start = Instant::now();
     create_dir(dir)?;
     let cases = cases(plan_cases);
-    let header = header(vary);
+    let header = header(vary, accuracy.is_some());
     let all = grid(cases.len(), vary);
     let mine: Vec<SweepPoint> = all
         .into_iter()
@@ -397,7 +477,10 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         .collect();
     // Bad input anywhere in the grid is refused before anything is computed.
     for point in &mine {
-        variant(study, &cases[point.case], vary, &point.values)?;
+        let s = variant(study, &cases[point.case], vary, &point.values)?;
+        if let Some(a) = accuracy {
+            check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
+        }
     }
     let path = dir.join(csv_name(shard));
     check_plan(&path, study)?;
@@ -425,7 +508,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     let results: Vec<Result<()>> = todo
         .par_iter()
         .map(|point| {
-            let row = run_point(study, &cases, vary, point);
+            let row = run_point(study, (&cases, vary), accuracy, point);
             if row.last().is_some_and(|s| !finished(s)) {
                 *failures.lock().expect("no panic while counting") += 1;
             }
@@ -444,12 +527,16 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     // Sort the finished file by point.
     let rows = read_points(&path, &header)?;
     write_rows(&path, &header, &rows)?;
+    let reached = header.iter().position(|h| h == REACHED);
     Ok(SweepSummary {
         file: path.display().to_string(),
         points: mine.len(),
         already_done: done.len(),
         computed: todo.len(),
         failed: failures.into_inner().expect("no panic while counting"),
+        accuracy: accuracy.map(|a| a.accuracy),
+        carried: reached.map(|c| rows.values().filter(|r| !r[c].is_empty()).count()),
+        not_reached: reached.map(|c| rows.values().filter(|r| r[c] == "false").count()),
         seconds: start.elapsed().as_secs_f64(),
     })
 }
@@ -473,8 +560,8 @@ pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
 /// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
 /// shard counts, and missing or repeated points. Returns the number of points and of shards.
 pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
-    let (plan_cases, vary) = sweep_plan(study, "merge")?;
-    let header = header(vary);
+    let (plan_cases, vary, accuracy) = sweep_plan(study, "merge")?;
+    let header = header(vary, accuracy.is_some());
     let total = grid(cases(plan_cases).len(), vary).len();
     let mine = fingerprint(study)?;
     let shards = shard_files(dir)?;
