@@ -35,7 +35,7 @@ fn solve_json_has_the_documented_keys() {
     assert_eq!(v["nodes"], 30);
     assert!(v["residual_norm"].as_f64().unwrap() < 1e-9);
     assert!((v["omega"].as_f64().unwrap() - 0.05).abs() < 1e-15);
-    assert_eq!(v["errors"]["coarse_nodes"], 16);
+    assert!(v["errors"]["Fp"].as_f64().unwrap() > 0.0);
     assert!(v["errors_missing"].is_null());
 }
 
@@ -64,7 +64,7 @@ fn the_errors_solve_states_cover_a_finer_direct_computation() {
         serde_json::from_str::<serde_json::Value>(stdout.trim()).unwrap()
     };
     let (coarse, fine) = (solve("31"), solve("241"));
-    assert_eq!(coarse["errors"]["quadrature"], true);
+    assert_eq!(coarse["errors"]["quadrature_compared_with"], 4.0);
     for key in ["Fp", "Fpbar", "Tp", "eta", "h", "h0", "hbar", "Fpbar_rigid"] {
         let error = coarse["errors"][key].as_f64().unwrap();
         let difference = (coarse[key].as_f64().unwrap() - fine[key].as_f64().unwrap()).abs();

@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 
 mod common;
 
-use common::{helixbif, temp_dir};
+use common::{helixbif, run_into, temp_dir};
 
 /// The standing rod of Greenhill's problem, heavier than its critical weight
 /// (`q L^3/EI = 28 > 7.84`): unstable before it turns.
@@ -639,12 +639,7 @@ fn a_locate_study_with_an_accuracy_refines_and_writes_its_rungs() {
     let run = |table: &str| {
         std::fs::write(&study, format!("{base}{table}")).unwrap();
         let _ = std::fs::remove_file(out.join("locate.json"));
-        let (code, _, stderr) = helixbif(&[
-            "run",
-            study.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let (code, _, stderr) = run_into(&study, &out);
         let json = std::fs::read_to_string(out.join("locate.json"))
             .ok()
             .map(|text| serde_json::from_str::<serde_json::Value>(&text).unwrap());
@@ -1029,12 +1024,7 @@ fn run_boundary_study(dir: &Path, (from, to): (&str, &str), extra: &str) -> (i32
     );
     std::fs::write(&path, format!("{base}{table}")).unwrap();
     let out = dir.join("out");
-    let (code, _, stderr) = helixbif(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, _, stderr) = run_into(&path, &out);
     (code, stderr, out)
 }
 

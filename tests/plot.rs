@@ -189,6 +189,62 @@ fn branch_figure_has_labels_legend_and_dashed_unstable_runs() {
     assert_eq!(black_polygons, 4);
 }
 
+/// A title wider than the figure (a sweep figure's, which names its error bars and their range)
+/// is broken at spaces into lines stacked top down, each its own text at the title size, the
+/// words in their order; a short title stays one line.
+#[test]
+fn a_long_title_is_broken_into_lines_inside_the_frame() {
+    let title = "ω_b against λ/ℓ (bars: estimated error, discretization and quadrature, 0.015 to \
+                 0.093% of the value; every point refined to a relative accuracy of 1e-3)";
+    let fig = Figure {
+        title: title.into(),
+        ..branch_figure()
+    };
+    write_figure(&fig, &out("long-title")).unwrap();
+    let svg = read("long-title");
+    let doc = parse(&svg);
+    let lines: Vec<Node> = elements(&doc, "text")
+        .into_iter()
+        .filter(|n| n.attribute("font-size") == Some("20"))
+        .collect();
+    assert!(lines.len() >= 2, "{} title lines", lines.len());
+    let words: Vec<String> = lines
+        .iter()
+        .map(|n| n.text().unwrap_or("").trim().to_owned())
+        .collect();
+    assert_eq!(words.join(" "), title);
+    for pair in lines.windows(2) {
+        assert!(attr(&pair[1], "y") > attr(&pair[0], "y"));
+    }
+    // In the PNG, nothing of the title reaches the outer 10 px on either side of the frame.
+    let (width, height, pixels) = png_pixels(&out("long-title"));
+    let channels = pixels.len() / (width * height);
+    let top = (attr(lines.last().unwrap(), "y") as usize + 10) * PNG_SCALE as usize;
+    let margin = 10 * PNG_SCALE as usize;
+    for row in 0..top {
+        for column in (0..margin).chain(width - margin..width) {
+            let at = (row * width + column) * channels;
+            assert!(
+                pixels[at..at + 3].iter().all(|&b| b > 200),
+                "ink at ({column}, {row}) of the title band"
+            );
+        }
+    }
+}
+
+/// The PNG beside `svg`: its width, height and pixels.
+fn png_pixels(svg: &std::path::Path) -> (usize, usize, Vec<u8>) {
+    let file = std::fs::File::open(png_path(svg)).expect("the PNG was written beside the SVG");
+    let decoder = png::Decoder::new(std::io::BufReader::new(file));
+    let mut reader = decoder.read_info().expect("the PNG decodes");
+    let mut buf = vec![0; reader.output_buffer_size().expect("a sane size")];
+    let info = reader
+        .next_frame(&mut buf)
+        .expect("the PNG's pixels decode");
+    buf.truncate(info.buffer_size());
+    (info.width as usize, info.height as usize, buf)
+}
+
 #[test]
 fn log_log_markers_with_error_bars_and_annotation() {
     let fig = Figure {
@@ -655,20 +711,13 @@ fn check_boxes_clear(layout: &Layout, size: (i32, i32), what: &str) {
 
 /// Decodes the PNG beside `svg` and returns its size.
 fn png_size(svg: &std::path::Path) -> (u32, u32) {
-    let file = std::fs::File::open(png_path(svg)).expect("the PNG was written beside the SVG");
-    let decoder = png::Decoder::new(std::io::BufReader::new(file));
-    let mut reader = decoder.read_info().expect("the PNG decodes");
-    let mut buf = vec![0; reader.output_buffer_size().expect("a sane size")];
-    let info = reader
-        .next_frame(&mut buf)
-        .expect("the PNG's pixels decode");
-    let pixels = &buf[..info.buffer_size()];
+    let (width, height, pixels) = png_pixels(svg);
     assert!(
         pixels.iter().any(|&b| b < 128),
         "{}: the PNG has dark pixels (axes, text)",
         svg.display()
     );
-    (info.width, info.height)
+    (width as u32, height as u32)
 }
 
 /// Markers like the collapse figure's, a dashed power law through them and the fit's

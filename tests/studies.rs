@@ -6,7 +6,7 @@ use std::process::Command;
 
 mod common;
 
-use common::{helixbif, small_sweep, temp_dir};
+use common::{helixbif, run_into, small_sweep, temp_dir};
 use helixbif::study::Study;
 use helixbif::study::output::Provenance;
 use helixbif::study::plan::Plan;
@@ -415,34 +415,74 @@ fn a_sweep_carried_to_an_accuracy_answers_as_locate_does_at_every_point() {
         assert_eq!(&row[col("reached")], "true");
         assert_eq!(located["reached"], true);
     }
-    // Out of reach: every row and the figure written, then exit 1.
+    // Out of reach: every row and the figure written, then exit 1 (also when re-run). The third
+    // point (`R/lambda = 0.1`) is stable up to `branch.omega_max`: a result without an omega_b,
+    // neither reached nor missed.
     let path = dir.join("short.toml");
     let short = "accuracy = 1e-3\nmax_nodes = 30\n";
-    std::fs::write(&path, sweep("lighthill", "20", short)).unwrap();
-    let out = dir.join("short");
-    let args = [
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    for _ in 0..2 {
-        let (code, _, stderr) = helixbif(&args);
-        assert_eq!(code, 1, "{stderr}");
-        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-        assert!(
-            stderr.contains("accuracy 1e-3 not reached at 2 of 2 sweep points located"),
-            "{stderr}"
-        );
+    let text = sweep("lighthill", "20", short).replace("[0.3, 0.31]", "[0.3, 0.31, 0.1]");
+    std::fs::write(&path, text).unwrap();
+    let reached = |out: &Path| {
         let mut table = csv::Reader::from_path(out.join("sweep.csv")).unwrap();
         let at = table.headers().unwrap().iter().position(|h| h == "reached");
-        let reached: Vec<String> = table
+        table
             .records()
             .map(|r| r.unwrap()[at.unwrap()].to_string())
-            .collect();
-        assert_eq!(reached, ["false", "false"]);
+            .collect::<Vec<String>>()
+    };
+    let missed = "accuracy 1e-3 not reached at 2 of 2 sweep points located";
+    let out = dir.join("short");
+    for _ in 0..2 {
+        let (code, _, stderr) = run_into(&path, &out);
+        assert_eq!(code, 1, "{stderr}");
+        // The figure's note of the row it leaves out (no omega_b), then the one error line.
+        let lines: Vec<&str> = stderr.trim().lines().collect();
+        assert_eq!(lines.len(), 2, "{stderr}");
+        assert!(lines[0].contains("leaves out row 3 (point 2)"), "{stderr}");
+        assert!(lines[1].contains(missed), "{stderr}");
+        assert_eq!(reached(&out), ["false", "false", ""]);
         assert!(out.join("sweep_0.svg").exists());
     }
+    // In shards: each shard finishes (exit 0, so that an `afterok` merge runs); the merge
+    // writes everything, then fails.
+    let sharded = dir.join("sharded");
+    for shard in ["1/2", "2/2"] {
+        let (code, _, stderr) = helixbif(&[
+            "sweep",
+            path.to_str().unwrap(),
+            "--shard",
+            shard,
+            "--out",
+            sharded.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{shard}: {stderr}");
+    }
+    let merge = [
+        "merge",
+        path.to_str().unwrap(),
+        "--out",
+        sharded.to_str().unwrap(),
+    ];
+    let (code, _, stderr) = helixbif(&merge);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains(missed), "{stderr}");
+    assert_eq!(reached(&sharded), ["false", "false", ""]);
+    assert!(sharded.join("sweep_0.svg").exists());
+    // A point whose own N leaves its refinement no room is refused before anything runs.
+    let path = dir.join("room.toml");
+    let text = sweep("lighthill", "20", short).replace(
+        "key = \"shape.R_over_lambda\", values = [0.3, 0.31]",
+        "key = \"discretization.nodes\", values = [20, 40]",
+    );
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join("room");
+    let (code, _, stderr) = run_into(&path, &out);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("study.max_nodes: must exceed discretization.nodes = 40"),
+        "{stderr}"
+    );
+    assert!(!out.join("sweep.csv").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -470,12 +510,7 @@ fn a_phase_map_carried_to_an_accuracy_refines_its_columns_and_its_curve() {
     let path = dir.join("phase.toml");
     std::fs::write(&path, format!("{text}accuracy = 1e-3\nmax_nodes = 30\n")).unwrap();
     let out = dir.join("out");
-    let (code, _, stderr) = helixbif(&[
-        "run",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, _, stderr) = run_into(&path, &out);
     assert_eq!(code, 1, "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     for part in [

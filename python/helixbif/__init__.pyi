@@ -75,7 +75,8 @@ class Study:
         (default a fresh temporary folder). Raises NumericalError with `partial` when it
         stalls."""
     def solve(self, omega: float) -> Solution:
-        """One steady state at `omega` rad/s (`helixbif solve`)."""
+        """One steady state at `omega` rad/s (`helixbif solve`), each observable with its
+        estimated error (`errors`)."""
     def boundary(
         self,
         vary: str,
@@ -275,7 +276,8 @@ class Solution(_Result):
     residual_history: list[float]
     errors: dict[str, Any] | None
     """The estimated error of each observable (`Fp`, `Fpbar`, `Tp`, `eta`, `h`, `h0`, `hbar`,
-    `Fpbar_rigid`; `coarse_nodes`, `quadrature`), None where not estimated."""
+    `Fpbar_rigid`; `coarse_nodes`, `quadrature_compared_with`, `quadrature_missing`), None
+    where not estimated."""
     errors_missing: str | None
     """Why `errors` is None."""
 

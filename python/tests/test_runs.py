@@ -167,6 +167,10 @@ def test_unusable_out(small, tmp_path):
 def test_solve(cli, small, tmp_path):
     solution = small.solve(0.5)
     assert solution.to_dict() == cli.json("solve", "--omega", "0.5", *SMALL)
+    # Every observable with its error, from N = 11 (Lighthill: no quadrature of its own).
+    assert solution.errors_missing is None and solution.errors["coarse_nodes"] == 11
+    assert solution.errors["quadrature_compared_with"] is None
+    assert all(solution.errors[k] > 0 for k in ["Fp", "Tp", "h", "hbar", "Fpbar_rigid"])
     shape = tmp_path / "shape.csv"
     cli.json("solve", "--omega", "0.5", "--shape", shape, *SMALL)
     rows = read_csv(shape)

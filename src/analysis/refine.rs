@@ -32,7 +32,9 @@ use crate::{Error, Result};
 
 mod lyapunov;
 mod quadrature;
+
 pub use lyapunov::{LyapunovError, RungLyapunov};
+pub(crate) use quadrature::{OtherRule, rule_error};
 pub use quadrature::{QuadratureCorrection, QuadratureError};
 
 /// Watches a refinement or a ladder: every rung's continuation as an engine [`Observer`], and

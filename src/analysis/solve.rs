@@ -3,16 +3,17 @@
 use serde::Serialize;
 
 use crate::analysis::branch::trace;
-use crate::analysis::refine::{at_nodes, error_orders};
+use crate::analysis::refine::{OtherRule, at_nodes, error_orders, rule_error};
 use crate::engine::ContinuationSettings;
 use crate::engine::events::EventKind;
 use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::engine::stop::Silent;
 use crate::model::Model;
-use crate::model::fluid::{Fluid, rpy};
+use crate::model::fluid::Fluid;
 use crate::model::observables::Observables;
 use crate::model::params::Physical;
 use crate::model::steady::Steady;
+use crate::numerics::extrapolation::first_order_error;
 use crate::problem;
 use crate::problem::rod::Parameter;
 use crate::problem::steady::SteadyState;
@@ -56,14 +57,14 @@ pub struct SolutionSummary {
 /// e = |v_f - v_c| h_f / (h_c - h_f)      (h the spacing of the fluid model's orders)
 /// ```
 ///
-/// which bounds the error for any order at least 1, plus on the RPY line the quadrature's own
-/// error, measured at the coarser rung by the points per blob radius halved,
-/// `|v(P) - v(P/2)| / 3` (the product rule's error is second order in the point spacing:
-/// docs/model.md section 9). Not the second-order estimate of the RPY line's known order: at
-/// the coarse rungs a study starts from, the observables converge at observed orders below 2
-/// (on the representative helix at 0.4 rad/s, `N = 31, 60` gave a second-order estimate of
-/// `Fp` at `N = 60` 15% below its difference to `N = 237`; the first-order one is 2.6 times
-/// it).
+/// which bounds the error where the observables converge monotonically at any order at least 1,
+/// plus on the RPY line the quadrature's own error, measured at the coarser rung with the
+/// other rule of `locate`'s refinement (half the points per blob radius, or twice;
+/// `(v(P) - v(r P)) / (1 - r^-2)`, docs/model.md section 9). Not the second-order estimate of
+/// the RPY line's known order: at the coarse rungs a study starts from, the observables converge
+/// at observed orders below 2 (on the representative helix at 0.4 rad/s, `N = 31, 60` gave a
+/// second-order estimate of `Fp` at `N = 60` 15% below its difference to `N = 237`; the
+/// first-order one is 2.7 times it).
 #[derive(Clone, Debug, Serialize)]
 pub struct ObservableErrors {
     /// The coarser rung.
@@ -80,9 +81,12 @@ pub struct ObservableErrors {
     pub hbar: f64,
     #[serde(rename = "Fpbar_rigid")]
     pub fpbar_rigid: f64,
-    /// Whether the quadrature's error is in the errors (the RPY line, where the halved rule
-    /// differs from the model's).
-    pub quadrature: bool,
+    /// The points per blob radius of the rule the quadrature's error was measured against
+    /// (RPY line; then it is in the errors).
+    pub quadrature_compared_with: Option<f64>,
+    /// Why the quadrature's error is not in the errors on the RPY line (no other rule, or its
+    /// solve failed); absent on Lighthill's operator, which has no quadrature of its own.
+    pub quadrature_missing: Option<String>,
 }
 
 /// The observables of `s` in the order of [`ObservableErrors`]' fields (`eta` NaN at rest).
@@ -116,44 +120,37 @@ pub fn observable_errors(
         ));
     }
     let omegabar = fine.observables.omegabar;
-    let solved = |p: &Physical| -> std::result::Result<(Model, Solution), String> {
-        let at = |e: Error| format!("the coarser rung at N = {coarse_nodes} failed: {e}");
-        let model = Model::new(p).map_err(at)?;
-        let solution = solve_at(&model, omegabar, settings).map_err(at)?;
-        Ok((model, solution))
-    };
-    let coarse_physical = at_nodes(physical, coarse_nodes);
-    let (coarse_model, coarse) = solved(&coarse_physical)?;
-    let h = |n: usize| error_orders(physical).spacing(n);
-    let ratio = h(nodes) / (h(coarse_nodes) - h(nodes));
-    let (vc, vf) = (values(&coarse), values(fine));
+    let at_coarse = |e: Error| format!("the coarser rung at N = {coarse_nodes} failed: {e}");
+    let coarse_model = Model::new(&at_nodes(physical, coarse_nodes)).map_err(at_coarse)?;
+    let coarse = solve_at(&coarse_model, omegabar, settings).map_err(at_coarse)?;
+    let orders = error_orders(physical);
+    let vc = values(&coarse);
     let mut errors: Vec<f64> = vc
         .iter()
-        .zip(&vf)
-        .map(|(c, f)| (f - c).abs() * ratio)
+        .zip(values(fine))
+        .map(|(&c, f)| first_order_error(orders, (coarse_nodes, c), (nodes, f)))
         .collect();
-    // The quadrature's own error at the coarser rung, with half the points per blob radius.
-    let mut quadrature = false;
-    if let Fluid::Rpy(own) = &coarse_model.fluid {
-        let per_blob = physical
-            .fluid
-            .points_per_blob
-            .unwrap_or(rpy::POINTS_PER_BLOB);
-        let mut halved = coarse_physical.clone();
-        halved.fluid.points_per_blob = Some(per_blob / 2.0);
-        let other = Model::new(&halved).ok().filter(|m| match &m.fluid {
-            Fluid::Rpy(r) => {
-                rpy::POINTS_PER_BLOB_RANGE.contains(&(per_blob / 2.0))
-                    && r.points_per_edge() != own.points_per_edge()
-            }
-            Fluid::Lighthill(_) => false,
+    // The quadrature's own error at the coarser rung, against the other rule.
+    let (mut quadrature_compared_with, mut quadrature_missing) = (None, None);
+    if matches!(coarse_model.fluid, Fluid::Rpy(_)) {
+        let other = OtherRule::of(physical, &coarse_model).map_err(at_coarse)?;
+        let measured = other.and_then(|other| {
+            let solved = solve_at(&other.model, omegabar, settings).map_err(|e| {
+                format!(
+                    "the solve at N = {coarse_nodes} with {} points per blob radius failed: {e}",
+                    other.points_per_blob
+                )
+            })?;
+            Ok((other, solved))
         });
-        if other.is_some() {
-            let (_, half) = solved(&halved)?;
-            for ((e, q), p) in errors.iter_mut().zip(values(&half)).zip(vc) {
-                *e += (p - q).abs() / 3.0;
+        match measured {
+            Ok((other, solved)) => {
+                for ((e, q), c) in errors.iter_mut().zip(values(&solved)).zip(vc) {
+                    *e += rule_error(c, q, other.ratio).abs();
+                }
+                quadrature_compared_with = Some(other.points_per_blob);
             }
-            quadrature = true;
+            Err(why) => quadrature_missing = Some(why),
         }
     }
     let eta = fine.observables.eta.map(|_| errors[3]);
@@ -167,7 +164,8 @@ pub fn observable_errors(
         h0: errors[5],
         hbar: errors[6],
         fpbar_rigid: errors[7],
-        quadrature,
+        quadrature_compared_with,
+        quadrature_missing,
     })
 }
 

@@ -66,10 +66,12 @@ pub struct StudyArgs {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// One rigidly rotating steady state at a rate: observables and Newton convergence.
+    /// One rigidly rotating steady state at a rate: observables with their estimated errors, and
+    /// Newton convergence.
     ///
-    /// Reached from rest by a ramp in omega with the study's [newton] table. Writes no folder
-    /// (--shape writes the node positions and twist angles).
+    /// Reached from rest by a ramp in omega with the study's [newton] table; the same rate at
+    /// N/2 + 1 nodes (and, on the RPY line, with another quadrature rule) gives each observable's
+    /// estimated error. Writes no folder (--shape writes the node positions and twist angles).
     #[command(after_help = REPORT_HELP)]
     Solve(SolveArgs),
     /// Follow the steady branch from rest in omega, with its stability and events.
@@ -114,7 +116,8 @@ pub enum Command {
     /// omega_b over the grid of a sweep study, in parallel, resumable and shardable.
     ///
     /// For a study of kind "sweep" (any other study is refused): each point a locate at its own
-    /// N, appended to sweep.csv as it finishes; a re-run skips the points already there.
+    /// N with its error from N/2 + 1 nodes (or, with the study's accuracy, refined to it),
+    /// appended to sweep.csv as it finishes; a re-run skips the points already there.
     /// `--shard K/N` runs every N-th point (from the K-th) for array jobs.
     #[command(after_help = FOLDER_HELP, mut_arg("study", |a| a.help(SWEEP_STUDY)))]
     Sweep(SweepArgs),
@@ -205,7 +208,7 @@ pub struct LocateArgs {
     /// Lighthill, its admissible range) stops it (docs/model.md section 10).
     #[arg(long, default_value_t = DEFAULT_ACCURACY, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub accuracy: f64,
-    /// Largest node count of the refinement.
+    /// Largest node count of the refinement: above the study's N, where it starts.
     #[arg(long, default_value_t = DEFAULT_MAX_NODES as i64, conflicts_with_all = ["single", "extrapolate"], allow_negative_numbers = true)]
     pub max_nodes: i64,
     /// Locate at the study's N only, without an error estimate.

@@ -281,17 +281,20 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out, None)?;
     let summary = run_sweep(&study, &dir, shard)?;
+    if shard.is_none() {
+        sweep_figures(&study, &dir)?;
+    }
+    // A shard that falls short of the accuracy has still done its points (a requeue would not
+    // help, and the merge must run): the merge reports it.
+    let shortfall = summary.shortfall().filter(|_| shard.is_none());
     if summary.failed > 0 {
+        let also = shortfall.map(|s| format!("; {s}")).unwrap_or_default();
         return Err(Error::Numerical(format!(
-            "{} sweep points failed; see the status column of {}",
+            "{} sweep points failed; see the status column of {}{also}",
             summary.failed, summary.file
         ))
         .into());
     }
-    if shard.is_none() {
-        sweep_figures(&study, &dir)?;
-    }
-    let shortfall = summary.shortfall();
     Ok(Done {
         report: Box::new(titled(&study, summary)),
         shortfall,
@@ -335,14 +338,20 @@ pub fn merge(m: &MergeArgs) -> Outcome {
     let (args, out) = (&m.study, m.out.as_deref());
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out, None)?;
-    let (points, shards) = merge_shards(&study, &dir)?;
+    let (points, shards, reach) = merge_shards(&study, &dir)?;
     sweep_figures(&study, &dir)?;
-    Ok(done(MergeReport {
-        study: study.name.clone(),
-        points,
-        shards,
-        file: dir.join("sweep.csv").display().to_string(),
-    }))
+    let file = dir.join("sweep.csv").display().to_string();
+    let shortfall = reach.as_ref().and_then(|r| r.shortfall(&file));
+    Ok(Done {
+        report: Box::new(MergeReport {
+            study: study.name.clone(),
+            points,
+            shards,
+            file,
+            reach,
+        }),
+        shortfall,
+    })
 }
 
 pub fn fit(f: &FitArgs) -> Outcome {

@@ -24,7 +24,7 @@ use helixbif::study::run::StudyResult;
 use helixbif::study::shapes::{CriticalMode, ShapesResult};
 use helixbif::study::simulate::SimulateReport;
 use helixbif::study::slurm::{SlurmScripts, SlurmSubmission};
-use helixbif::study::sweep::SweepSummary;
+use helixbif::study::sweep::{Reach, SweepSummary};
 
 /// A command's result, shown as text or as one JSON value.
 pub trait Report: Display {
@@ -83,10 +83,13 @@ impl Section for SolutionSummary {
                  against the continuous model (in N from N = {}{}; docs/model.md section 10)",
                 self.nodes,
                 e.coarse_nodes,
-                if e.quadrature {
-                    ", plus the quadrature's own error"
-                } else {
-                    ""
+                match (e.quadrature_compared_with, &e.quadrature_missing) {
+                    (Some(p), _) => format!(
+                        ", plus the quadrature's own error (against {p} points per blob radius)"
+                    ),
+                    (None, Some(why)) =>
+                        format!("; the quadrature's own error NOT included: {why}"),
+                    (None, None) => String::new(),
                 }
             )?,
             (None, why) => writeln!(
@@ -174,18 +177,23 @@ impl Section for SweepSummary {
             "sweep `{study}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
             self.points, self.already_done, self.computed, self.failed, self.seconds, self.file
         )?;
-        if let (Some(accuracy), Some(carried), Some(missed)) =
-            (self.accuracy, self.carried, self.not_reached)
-        {
-            write!(
-                f,
-                "\n  omega_b carried to a relative accuracy of {accuracy:e}: reached at {} of the \
-                 {carried} points located (column reached)",
-                carried - missed
-            )?;
+        if let Some(reach) = &self.reach {
+            reached(reach, f)?;
         }
         Ok(())
     }
+}
+
+/// How many points of a sweep file reached its accuracy.
+fn reached(r: &Reach, f: &mut Formatter<'_>) -> fmt::Result {
+    write!(
+        f,
+        "\n  omega_b carried to a relative accuracy of {:e}: reached at {} of the {} points \
+         located (column reached)",
+        r.accuracy,
+        r.carried - r.not_reached,
+        r.carried
+    )
 }
 
 impl Section for SimulateReport {
@@ -501,6 +509,8 @@ pub struct MergeReport {
     pub points: usize,
     pub shards: usize,
     pub file: String,
+    #[serde(flatten)]
+    pub reach: Option<Reach>,
 }
 
 impl Display for MergeReport {
@@ -509,7 +519,11 @@ impl Display for MergeReport {
             f,
             "merged {} shards of `{}`: {} points into {}",
             self.shards, self.study, self.points, self.file
-        )
+        )?;
+        if let Some(reach) = &self.reach {
+            reached(reach, f)?;
+        }
+        Ok(())
     }
 }
 

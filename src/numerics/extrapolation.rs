@@ -221,6 +221,19 @@ pub struct DiscretizationError {
 /// the increments have one sign and shrink, the larger of `e2` and the observed-order estimate
 /// (larger only when the observed order is below 2: a first-order remnant is not ignored); else
 /// the conservative `e1`, and says so.
+/// The first-order Richardson estimate of the error of `v_f`, at `N_f` nodes, from `v_p` at a
+/// coarser `N_p`: `|v_f - v_p| h_f / (h_p - h_f)` with `h` the spacing of `orders`. It bounds the
+/// error where the values converge monotonically at any order at least 1 (at a halving of `h`,
+/// three times the second-order estimate).
+pub(crate) fn first_order_error(
+    orders: Orders,
+    (n_p, v_p): (usize, f64),
+    (n_f, v_f): (usize, f64),
+) -> f64 {
+    let (h_p, h_f) = (orders.spacing(n_p), orders.spacing(n_f));
+    (v_f - v_p).abs() * h_f / (h_p - h_f)
+}
+
 pub(crate) fn discretization_error(
     orders: Orders,
     nodes: &[usize],
@@ -239,7 +252,7 @@ pub(crate) fn discretization_error(
     let k = h.len();
     let (hp, hf, vp, vf) = (h[k - 2], h[k - 1], values[k - 2], values[k - 1]);
     let richardson = vf - (vp - vf) * hf / (hp - hf);
-    let e1 = (vf - richardson).abs();
+    let e1 = first_order_error(orders, (nodes[k - 2], vp), (nodes[k - 1], vf));
     let finest_two = format!("N = {} and {}", nodes[k - 2], nodes[k - 1]);
     let first_order = |why: String| DiscretizationError {
         error: e1,

@@ -13,6 +13,7 @@ use super::legend::{LegendEntry, Sample};
 use super::style::{
     AXIS_LABEL_PX, BAND_OPACITY, CAP_PX, CHAR_WIDTH, DASH_PX, GAP_PX, GRID_OPACITY, Glyph,
     LINE_WIDTH, MARKER_PX, SPECIAL_GLYPHS, SPECIAL_PX, TICK_PX, TITLE_PX, font, series_color,
+    text_width,
 };
 use super::{Area, Figure, Marker, Scale, Series, Style, drawing_error};
 use crate::Result;
@@ -129,13 +130,27 @@ fn equal_scales(area: &Area, mut x: Axis, mut y: Axis, labels: (&str, &str)) -> 
     (x, y)
 }
 
-/// `area` below `title`, or all of it when there is no title.
+/// `area` below `title`, or all of it when there is no title. A title wider than the area less
+/// a margin of one title size each side is broken at spaces into lines that fit (a word wider
+/// than that stays whole on its line), each a centred text of its own, so that no title runs
+/// past the frame.
 pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
-    if title.is_empty() {
-        Ok(area.clone())
-    } else {
-        area.titled(title, font(TITLE_PX)).map_err(drawing_error)
+    let room = f64::from(area.dim_in_pixel().0) - 2.0 * TITLE_PX;
+    let mut lines: Vec<String> = Vec::new();
+    for word in title.split(' ').filter(|w| !w.is_empty()) {
+        match lines.last_mut() {
+            Some(line) if text_width(&format!("{line} {word}"), TITLE_PX) <= room => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
     }
+    let mut below = area.clone();
+    for line in &lines {
+        below = below.titled(line, font(TITLE_PX)).map_err(drawing_error)?;
+    }
+    Ok(below)
 }
 
 /// How many labelled ticks fit along each axis of `area` at the figure's font sizes.

@@ -230,8 +230,9 @@ impl Study {
         runs::branch(py, self, omega_max, out)
     }
 
-    /// One steady state at the rate `omega` rad/s (`helixbif solve`): the observables, Newton's
-    /// report and the node positions. Returns a `Solution`. Raises NumericalError when Newton's
+    /// One steady state at the rate `omega` rad/s (`helixbif solve`): the observables with their
+    /// estimated errors (`errors`), Newton's report and the node positions. Returns a
+    /// `Solution`. Raises NumericalError when Newton's
     /// method fails.
     fn solve(&self, py: Python<'_>, omega: f64) -> PyResult<Py<PyAny>> {
         runs::solve(py, self, omega)

@@ -552,7 +552,8 @@ pub fn check_accuracy(field: &str, accuracy: f64) -> Result<()> {
 /// Checks that a refinement starting at the model's `N` has room below `max_nodes` for the
 /// finer rung its error estimate needs: a cap at or below the start would run the start alone
 /// and say only that the accuracy was not reached. An `N` outside the fluid model's admissible
-/// range is refused first, with that range.
+/// range is refused first, with that range; an `N` at the end of that range (Lighthill's
+/// operator) is not refused here: the refinement runs it and says that the range stops it.
 pub fn check_refinement_room(field: &str, max_nodes: usize, physical: &Physical) -> Result<()> {
     let nodes = physical.discretization.nodes;
     if max_nodes > nodes {
@@ -565,7 +566,12 @@ pub fn check_refinement_room(field: &str, max_nodes: usize, physical: &Physical)
             field,
             format!(
                 "must exceed discretization.nodes = {nodes}, where the refinement starts (its \
-                 error estimate needs a finer rung), got {max_nodes}"
+                 error estimate needs a finer rung), got {max_nodes}{}",
+                if max_nodes == DEFAULT_MAX_NODES {
+                    " (the default)"
+                } else {
+                    ""
+                }
             ),
         ))
     }

@@ -259,8 +259,11 @@ fn run_point(
                 number(located.omega_b),
                 number(refined.omega_b_error),
             ]);
+            // Whether the accuracy was reached, where there is an omega_b to refine (a point
+            // unstable at rest or stable throughout is a result without one).
             if accuracy.is_some() {
-                row.push(refined.reached.to_string());
+                let reached = located.omega_b.map(|_| refined.reached.to_string());
+                row.push(reached.unwrap_or_default());
             }
             row.extend([
                 number(located.omegabar_b),
@@ -405,28 +408,55 @@ pub struct SweepSummary {
     pub already_done: usize,
     pub computed: usize,
     pub failed: usize,
-    /// The relative accuracy of `omega_b` the points were carried to, how many of the points in
-    /// the file (resumed ones included) were located, and at how many of those it was not
-    /// reached; absent without.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub accuracy: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub carried: Option<usize>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub not_reached: Option<usize>,
+    /// The accuracy the points were carried to and how many reached it (absent without one).
+    #[serde(flatten)]
+    pub reach: Option<Reach>,
     pub seconds: f64,
 }
 
 impl SweepSummary {
     /// What the sweep fell short of: the accuracy, at the points that did not reach it.
     pub fn shortfall(&self) -> Option<String> {
-        let (accuracy, missed) = (self.accuracy?, self.not_reached.filter(|&k| k > 0)?);
-        Some(format!(
-            "accuracy {accuracy:e} not reached at {missed} of {} sweep points located (column \
-             {REACHED} of {})",
-            self.carried.unwrap_or(self.points),
-            self.file
-        ))
+        self.reach.as_ref()?.shortfall(&self.file)
+    }
+}
+
+/// The relative accuracy of `omega_b` the points of a sweep file were carried to, how many of
+/// its rows (resumed or merged ones included) have an `omega_b` refined to it, and at how many
+/// of those it was not reached.
+#[derive(Clone, Debug, Serialize)]
+pub struct Reach {
+    pub accuracy: f64,
+    pub carried: usize,
+    pub not_reached: usize,
+}
+
+impl Reach {
+    /// The counts of the column [`REACHED`] of `rows` (of a sweep with `accuracy`; `None`
+    /// without one).
+    fn of(
+        accuracy: Option<PointAccuracy>,
+        header: &[String],
+        rows: &BTreeMap<usize, Vec<String>>,
+    ) -> Option<Reach> {
+        let (accuracy, c) = (accuracy?, header.iter().position(|h| h == REACHED)?);
+        Some(Reach {
+            accuracy: accuracy.accuracy,
+            carried: rows.values().filter(|r| !r[c].is_empty()).count(),
+            not_reached: rows.values().filter(|r| r[c] == "false").count(),
+        })
+    }
+
+    /// What the sweep file `file` fell short of: the accuracy, at the points that did not
+    /// reach it.
+    pub fn shortfall(&self, file: &str) -> Option<String> {
+        (self.not_reached > 0).then(|| {
+            format!(
+                "accuracy {:e} not reached at {} of {} sweep points located (column {REACHED} \
+                 of {file})",
+                self.accuracy, self.not_reached, self.carried
+            )
+        })
     }
 }
 
@@ -527,16 +557,13 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     // Sort the finished file by point.
     let rows = read_points(&path, &header)?;
     write_rows(&path, &header, &rows)?;
-    let reached = header.iter().position(|h| h == REACHED);
     Ok(SweepSummary {
         file: path.display().to_string(),
         points: mine.len(),
         already_done: done.len(),
         computed: todo.len(),
         failed: failures.into_inner().expect("no panic while counting"),
-        accuracy: accuracy.map(|a| a.accuracy),
-        carried: reached.map(|c| rows.values().filter(|r| !r[c].is_empty()).count()),
-        not_reached: reached.map(|c| rows.values().filter(|r| r[c] == "false").count()),
+        reach: Reach::of(accuracy, &header, &rows),
         seconds: start.elapsed().as_secs_f64(),
     })
 }
@@ -558,8 +585,10 @@ pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
 }
 
 /// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
-/// shard counts, and missing or repeated points. Returns the number of points and of shards.
-pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
+/// shard counts, and missing or repeated points. Returns the number of points and of shards,
+/// and with an accuracy, how many points reached it (the shards do not fail for it: the merge
+/// does).
+pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize, Option<Reach>)> {
     let (plan_cases, vary, accuracy) = sweep_plan(study, "merge")?;
     let header = header(vary, accuracy.is_some());
     let total = grid(cases(plan_cases).len(), vary).len();
@@ -619,5 +648,5 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize)> {
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
     write_atomically(&plan_path(&path), mine.as_bytes())?;
-    Ok((rows.len(), n))
+    Ok((rows.len(), n, Reach::of(accuracy, &header, &rows)))
 }

@@ -17,6 +17,16 @@ pub fn helixbif(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// `helixbif run STUDY --out OUT`: the exit code, stdout and stderr.
+pub fn run_into(study: &std::path::Path, out: &std::path::Path) -> (i32, String, String) {
+    helixbif(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
 /// A straight, thin rubber rod (`E = 1 MPa`, `rho = 1000 kg/m^3`) of length `length` and radius
 /// `r0`, clamped at `alpha_deg` from the downward vertical, in a weightless unit-viscosity fluid
 /// (the weight comes from the rod alone, `q = rho g pi r0^2`).

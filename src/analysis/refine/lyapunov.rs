@@ -26,7 +26,7 @@ use serde::Serialize;
 use super::Solved;
 use crate::analysis::locate::{Located, hopf_criticality};
 use crate::engine::criticality::Verdict;
-use crate::numerics::extrapolation::Orders;
+use crate::numerics::extrapolation::{Orders, first_order_error};
 
 /// `l1` at one rung before the finest.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -89,7 +89,11 @@ impl LyapunovError {
         let first_order = d_p * d_f >= 0.0 && d_f.abs() <= d_p.abs() * (hp - hf) / (hpp - hp);
         Some(if first_order {
             LyapunovError {
-                error: Some(d_f.abs() * hf / (hp - hf)),
+                error: Some(first_order_error(
+                    orders,
+                    (p.nodes, p.l1),
+                    (finest.nodes, l1_f),
+                )),
                 rungs: vec![pp, p],
                 failed: None,
             }

@@ -75,42 +75,22 @@ pub(super) fn measure(
         ));
         return Ok(measured);
     };
-    // The rules' points per edge (powers of two, at least one cell per edge): where both rules
-    // have one cell per edge they are the same rule and measure nothing; else `r` is their
-    // actual ratio.
-    let points = |model: &Model| model.fluid.points_per_edge().unwrap_or(0) as f64;
-    let own = points(&coarse.model);
-    let mut chosen = None;
-    for r in [0.5, 2.0] {
-        if !rpy::POINTS_PER_BLOB_RANGE.contains(&(r * points_per_blob)) {
-            continue;
+    let other = match OtherRule::of(physical, &coarse.model)? {
+        Ok(other) => other,
+        Err(why) => {
+            measured.failed = Some(why);
+            return Ok(measured);
         }
-        let mut physical = at_nodes(physical, nodes);
-        physical.fluid.points_per_blob = Some(r * points_per_blob);
-        let model = Model::new(&physical)?;
-        if points(&model) != own {
-            chosen = Some((r * points_per_blob, model));
-            break;
-        }
-    }
-    let Some((compared_with, other)) = chosen else {
-        measured.failed = Some(format!(
-            "neither half nor twice {points_per_blob} points per blob radius (within [{}, {}]) \
-             gives another rule at N = {nodes} ({own} points per edge)",
-            rpy::POINTS_PER_BLOB_RANGE.start(),
-            rpy::POINTS_PER_BLOB_RANGE.end()
-        ));
-        return Ok(measured);
     };
-    let compared_points = points(&other);
+    let compared_with = other.points_per_blob;
     measured.compared_with = Some(compared_with);
-    let r = compared_points / own;
-    let compared = sequenced_rung(other, coarse, critical.event.p, settings, &mut Silent);
+    let ratio = other.ratio;
+    let compared = sequenced_rung(other.model, coarse, critical.event.p, settings, &mut Silent);
     match compared {
         Ok(Ok((solved, _))) => match solved.located.omega_b {
             Some(w) => {
                 measured.omega_b_compared = Some(w);
-                measured.error = Some((omega_b - w) / (1.0 - r.powi(-2)));
+                measured.error = Some(rule_error(omega_b, w, ratio));
             }
             None => {
                 measured.failed = Some(format!(
@@ -123,6 +103,64 @@ pub(super) fn measure(
         Err(e) => measured.failed = Some(e.to_string()),
     }
     Ok(measured)
+}
+
+/// The other rule a quadrature error is measured with, (1): the model of `own`'s `N` with its
+/// points per blob radius `P` halved, or doubled where half falls outside
+/// [`rpy::POINTS_PER_BLOB_RANGE`] or gives the same points per edge (powers of two, at least one
+/// cell per edge: where both rules have one cell per edge they are the same rule and measure
+/// nothing).
+pub(crate) struct OtherRule {
+    /// The other rule's points per blob radius, `r P`.
+    pub points_per_blob: f64,
+    pub model: Model,
+    /// The actual ratio `r` of the two rules' points per edge (other over own).
+    pub ratio: f64,
+}
+
+impl OtherRule {
+    /// The other rule of `own`, the model of `physical` at some `N` (RPY line), or why neither
+    /// half nor twice its points per blob radius gives one.
+    pub(crate) fn of(
+        physical: &Physical,
+        own: &Model,
+    ) -> Result<std::result::Result<OtherRule, String>> {
+        let points_per_blob = physical
+            .fluid
+            .points_per_blob
+            .unwrap_or(rpy::POINTS_PER_BLOB);
+        let nodes = own.nodes();
+        let points = |model: &Model| model.fluid.points_per_edge().unwrap_or(0) as f64;
+        let own_points = points(own);
+        for r in [0.5, 2.0] {
+            if !rpy::POINTS_PER_BLOB_RANGE.contains(&(r * points_per_blob)) {
+                continue;
+            }
+            let mut physical = at_nodes(physical, nodes);
+            physical.fluid.points_per_blob = Some(r * points_per_blob);
+            let model = Model::new(&physical)?;
+            let other_points = points(&model);
+            if other_points != own_points {
+                return Ok(Ok(OtherRule {
+                    points_per_blob: r * points_per_blob,
+                    model,
+                    ratio: other_points / own_points,
+                }));
+            }
+        }
+        Ok(Err(format!(
+            "neither half nor twice {points_per_blob} points per blob radius (within [{}, {}]) \
+             gives another rule at N = {nodes} ({own_points} points per edge)",
+            rpy::POINTS_PER_BLOB_RANGE.start(),
+            rpy::POINTS_PER_BLOB_RANGE.end()
+        )))
+    }
+}
+
+/// `v(P) - v(inf)` of (1), from a value with the model's rule and one with the other rule, whose
+/// points per edge are `ratio` times as many.
+pub(crate) fn rule_error(own: f64, other: f64, ratio: f64) -> f64 {
+    (own - other) / (1.0 - ratio.powi(-2))
 }
 
 /// The quadrature's error removed from a limit in `N` (docs/model.md section 10). The rungs at
