@@ -133,7 +133,11 @@ pub fn observable_errors(
     // The quadrature's own error at the coarser rung, against the other rule.
     let (mut quadrature_compared_with, mut quadrature_missing) = (None, None);
     if matches!(coarse_model.fluid, Fluid::Rpy(_)) {
-        let other = OtherRule::of(physical, &coarse_model).map_err(at_coarse)?;
+        let other = OtherRule::of(physical, &coarse_model).unwrap_or_else(|e| {
+            Err(format!(
+                "the other quadrature rule at N = {coarse_nodes} could not be built: {e}"
+            ))
+        });
         let measured = other.and_then(|other| {
             let solved = solve_at(&other.model, omegabar, settings).map_err(|e| {
                 format!(

@@ -131,7 +131,8 @@ pub enum Command {
     /// Join the shard files of a sweep into sweep.csv.
     ///
     /// For a study of kind "sweep" (any other study is refused). Refuses shards of another study
-    /// and missing or repeated points; draws the study's figures.
+    /// and missing or repeated points; draws the study's figures. With the study's accuracy,
+    /// points that fell short of it make it exit 1 after everything is written.
     #[command(after_help = FOLDER_HELP, mut_arg("study", |a| a.help(SWEEP_STUDY)))]
     Merge(MergeArgs),
     /// The branch of periodic orbits born at the Hopf point, with their stability.

@@ -281,20 +281,27 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out, None)?;
     let summary = run_sweep(&study, &dir, shard)?;
-    if shard.is_none() {
-        sweep_figures(&study, &dir)?;
-    }
+    let figures = match shard {
+        None => sweep_figures(&study, &dir).map(|_| ()),
+        Some(_) => Ok(()),
+    };
     // A shard that falls short of the accuracy has still done its points (a requeue would not
     // help, and the merge must run): the merge reports it.
     let shortfall = summary.shortfall().filter(|_| shard.is_none());
     if summary.failed > 0 {
-        let also = shortfall.map(|s| format!("; {s}")).unwrap_or_default();
+        // Failed points come first: a figure they leave without enough rows is said beside.
+        let also = shortfall
+            .into_iter()
+            .chain(figures.err().map(|e| format!("the figures: {e}")))
+            .map(|s| format!("; {s}"))
+            .collect::<String>();
         return Err(Error::Numerical(format!(
             "{} sweep points failed; see the status column of {}{also}",
             summary.failed, summary.file
         ))
         .into());
     }
+    figures?;
     Ok(Done {
         report: Box::new(titled(&study, summary)),
         shortfall,

@@ -201,6 +201,19 @@ pub struct DiscretizationError {
     pub method: String,
 }
 
+/// The first-order Richardson estimate of the error of `v_f`, at `N_f` nodes, from `v_p` at a
+/// coarser `N_p`: `|v_f - v_p| h_f / (h_p - h_f)` with `h` the spacing of `orders`. It bounds the
+/// error where the values converge monotonically at any order at least 1 (at a halving of `h`,
+/// three times the second-order estimate).
+pub(crate) fn first_order_error(
+    orders: Orders,
+    (n_p, v_p): (usize, f64),
+    (n_f, v_f): (usize, f64),
+) -> f64 {
+    let (h_p, h_f) = (orders.spacing(n_p), orders.spacing(n_f));
+    (v_f - v_p).abs() * h_f / (h_p - h_f)
+}
+
 /// The error of the finest value of a refinement (at least two rungs, `h = 1/(N - 1)`),
 /// from the known orders `v(h) = c0 + c1 h + c2 h^2` (docs/model.md section 10). With
 /// `Delta = v_f - v_p` the last increment:
@@ -221,19 +234,6 @@ pub struct DiscretizationError {
 /// the increments have one sign and shrink, the larger of `e2` and the observed-order estimate
 /// (larger only when the observed order is below 2: a first-order remnant is not ignored); else
 /// the conservative `e1`, and says so.
-/// The first-order Richardson estimate of the error of `v_f`, at `N_f` nodes, from `v_p` at a
-/// coarser `N_p`: `|v_f - v_p| h_f / (h_p - h_f)` with `h` the spacing of `orders`. It bounds the
-/// error where the values converge monotonically at any order at least 1 (at a halving of `h`,
-/// three times the second-order estimate).
-pub(crate) fn first_order_error(
-    orders: Orders,
-    (n_p, v_p): (usize, f64),
-    (n_f, v_f): (usize, f64),
-) -> f64 {
-    let (h_p, h_f) = (orders.spacing(n_p), orders.spacing(n_f));
-    (v_f - v_p).abs() * h_f / (h_p - h_f)
-}
-
 pub(crate) fn discretization_error(
     orders: Orders,
     nodes: &[usize],
@@ -349,7 +349,7 @@ fn second_order_error(nodes: &[usize], values: &[f64]) -> Result<DiscretizationE
         let seen = order.map_or(format!("increments {d1:.3e}, {d2:.3e}"), |p| {
             format!("observed order {p:.2}")
         });
-        let e1 = (d2 * hf / (hp - hf)).abs();
+        let e1 = first_order_error(Orders::Second, (nodes[k - 2], vp), (nodes[k - 1], vf));
         return Ok(DiscretizationError {
             error: e1,
             limit: vf + d2.signum() * e1,

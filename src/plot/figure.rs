@@ -133,9 +133,15 @@ fn equal_scales(area: &Area, mut x: Axis, mut y: Axis, labels: (&str, &str)) -> 
 /// `area` below `title`, or all of it when there is no title. A title wider than the area less
 /// a margin of one title size each side is broken at spaces into lines that fit (a word wider
 /// than that stays whole on its line), each a centred text of its own, so that no title runs
-/// past the frame.
+/// past the frame; a title that fits is one text, verbatim.
 pub fn titled<'b>(area: &Area<'b>, title: &str) -> Result<Area<'b>> {
     let room = f64::from(area.dim_in_pixel().0) - 2.0 * TITLE_PX;
+    if title.is_empty() {
+        return Ok(area.clone());
+    }
+    if text_width(title, TITLE_PX) <= room {
+        return area.titled(title, font(TITLE_PX)).map_err(drawing_error);
+    }
     let mut lines: Vec<String> = Vec::new();
     for word in title.split(' ').filter(|w| !w.is_empty()) {
         match lines.last_mut() {

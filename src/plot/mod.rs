@@ -37,7 +37,9 @@
 //! Callers and tests may rely on how `plotters` 0.3.7 writes the figure:
 //! - every text (title, axis labels, tick labels, legend, annotation lines) is one `<text>`
 //!   element holding the string verbatim, XML-escaped and surrounded by a newline on each side
-//!   (trim it), with `font-family="sans-serif"` and `font-size` in pixels (20 title, 18 axis
+//!   (trim it), except a title wider than its frame less 20 px each side, which is one `<text>`
+//!   per line, top down, broken at spaces (runs of spaces become one);
+//!   with `font-family="sans-serif"` and `font-size` in pixels (20 title, 18 axis
 //!   labels, 16 ticks, legend and annotation); the y label carries `transform="rotate(270, …)"`;
 //!   negative tick labels use the minus sign U+2212 and exponents superscript digits ("10⁻³");
 //! - a solid curve is one `<polyline fill="none" stroke="#RRGGBB" stroke-width="2" points="x,y

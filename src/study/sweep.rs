@@ -259,11 +259,16 @@ fn run_point(
                 number(located.omega_b),
                 number(refined.omega_b_error),
             ]);
-            // Whether the accuracy was reached, where there is an omega_b to refine (a point
-            // unstable at rest or stable throughout is a result without one).
+            // Whether the accuracy was reached, where some rung found an omega_b to refine (a
+            // point unstable at rest or stable throughout at every rung is a result without
+            // one; one that a finer rung lost did not reach it).
             if accuracy.is_some() {
-                let reached = located.omega_b.map(|_| refined.reached.to_string());
-                row.push(reached.unwrap_or_default());
+                let refinable = refined.rungs.iter().any(|r| r.omega_b.is_some());
+                row.push(if refinable {
+                    refined.reached.to_string()
+                } else {
+                    String::new()
+                });
             }
             row.extend([
                 number(located.omegabar_b),
