@@ -393,16 +393,14 @@ fn ramp(
 }
 
 impl Solution {
-    /// What `helixbif solve` reports: the observables of `model` (built from `physical`) with
-    /// their estimated errors ([`observable_errors`], `settings` the Newton settings of the
-    /// coarser rungs).
+    /// What `helixbif solve` reports: the observables of `model` with their estimated
+    /// `errors` ([`observable_errors`], or why there are none).
     pub fn summary(
         &self,
         model: &Model,
-        physical: &Physical,
-        settings: &NewtonSettings,
+        errors: std::result::Result<ObservableErrors, String>,
     ) -> SolutionSummary {
-        let (errors, errors_missing) = match observable_errors(physical, self, settings) {
+        let (errors, errors_missing) = match errors {
             Ok(e) => (Some(e), None),
             Err(why) => (None, Some(why)),
         };

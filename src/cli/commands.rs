@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use helixbif::Error;
 use helixbif::analysis::dynamics::{BisectSettings, bisect as bisect_omega};
-use helixbif::analysis::solve::{Solution, solve_at};
+use helixbif::analysis::solve::{Solution, observable_errors, solve_at};
 use helixbif::engine::periodic::branch::OrbitStop;
 use helixbif::model::Model;
 use helixbif::numerics::fit::power_law;
@@ -136,7 +136,8 @@ pub fn solve(args: &SolveArgs) -> Outcome {
     if let Some(path) = shape {
         write_shape(path, &model, &solution)?;
     }
-    let summary = solution.summary(&model, &study_file.physical(), &study_file.newton);
+    let errors = observable_errors(&study_file.physical(), &solution, &study_file.newton);
+    let summary = solution.summary(&model, errors);
     Ok(done(titled(&study_file, summary)))
 }
 

@@ -13,7 +13,7 @@ use super::run::{bad_input, detached, numerical, output_dir, provenance, to_json
 use super::study::Study;
 use crate::Error;
 use crate::analysis::refine::{DEFAULT_ACCURACY, DEFAULT_MAX_NODES};
-use crate::analysis::solve::solve_at;
+use crate::analysis::solve::{observable_errors, solve_at};
 use crate::engine::periodic::branch::OrbitStop;
 use crate::model::Model;
 use crate::study::boundary::run_boundary;
@@ -233,7 +233,8 @@ pub(crate) fn solve(py: Python<'_>, study: &Study, omega: f64) -> PyResult<Py<Py
             .iter()
             .flat_map(|p| [p.x * ell, p.y * ell, p.z * ell])
             .collect();
-        let summary = solution.summary(&model, &file.physical(), &file.newton);
+        let errors = observable_errors(&file.physical(), &solution, &file.newton);
+        let summary = solution.summary(&model, errors);
         Ok::<_, Error>((summary, positions, config.theta.clone()))
     })?;
     let (summary, positions, theta) = solved.map_err(|e| to_python(py, e, None))?;

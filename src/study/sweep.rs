@@ -20,8 +20,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::plan::{Case, Plan, Vary};
-use super::plan::{POINT_REFINEMENT, check_refinement_room, point_accuracy};
+use super::plan::{Case, POINT_REFINEMENT, Plan, Vary, check_refinement_room, point_accuracy};
 use super::progress;
 use super::{LAMBDA_OVER_L, R_OVER_LAMBDA, Study, get_number, get_value, set_path, set_ratio};
 use crate::analysis::boundary::PointAccuracy;
