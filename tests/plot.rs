@@ -794,6 +794,26 @@ fn rod_view(title: &str, horizontal: &str) -> Figure {
 }
 
 #[test]
+fn side_by_side_panels_whose_titles_wrap_differently_keep_one_plot_height() {
+    let long = "the representative helix seen along x at omega = 0.4 rad/s, N = 237 nodes, \
+                RPY line, every shape drawn to one scale";
+    let panels = [rod_view(long, "x"), rod_view("seen along y", "y")];
+    let drawing = render_panels(&panels, (1000, 800)).unwrap();
+    let doc = parse(&drawing.svg);
+    let lines = elements(&doc, "text")
+        .into_iter()
+        .filter(|n| n.attribute("font-size") == Some("20"))
+        .count();
+    // The first title takes at least two lines, the second one.
+    assert!(lines >= 3, "{lines} title lines");
+    let [a, b] = [&drawing.layouts[0].plot_area, &drawing.layouts[1].plot_area];
+    assert_eq!((a.y0, a.y1), (b.y0, b.y1), "{a:?} against {b:?}");
+    // Below a one-line title alone, the plot starts higher.
+    let alone = render_figure(&rod_view("seen along y", "y")).unwrap();
+    assert!(alone.layouts[0].plot_area.y0 < b.y0);
+}
+
+#[test]
 fn legends_and_annotations_cover_no_data_in_any_figure_kind() {
     let drawings = [
         (

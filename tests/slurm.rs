@@ -273,6 +273,58 @@ fn a_shard_cut_short_by_a_kill_resumes_without_repeating_or_losing_a_point() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+#[test]
+fn a_merge_of_shards_with_a_failed_point_keeps_every_row_and_exits_1() {
+    let dir = temp_dir("slurm-failed");
+    let study = small_sweep(&dir);
+    let s = study.to_str().unwrap();
+    let o = dir.join("out");
+    let o = o.to_str().unwrap();
+    for shard in ["1/2", "2/2"] {
+        let (code, _, err) = helixbif(&["sweep", s, "--shard", shard, "--out", o]);
+        assert_eq!(code, 0, "{err}");
+    }
+    let (code, _, err) = helixbif(&["merge", s, "--out", o]);
+    assert_eq!(code, 0, "{err}");
+    let reference = rows(&Path::new(o).join("sweep.csv"));
+    // What a shard run by hand leaves when a point fails and no one runs it again: its row with
+    // an error status (point 2, the second row of shard 1).
+    let shard = Path::new(o).join("sweep.shard-1-of-2.csv");
+    let text = std::fs::read_to_string(&shard).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let status = lines[2].rfind(',').unwrap() + 1;
+    assert_eq!(&lines[2][status..], "ok", "{text}");
+    lines[2].replace_range(status.., "error: Newton diverged at omega = 0.3 rad/s");
+    std::fs::write(&shard, lines.join("\n") + "\n").unwrap();
+    std::fs::remove_file(Path::new(o).join("sweep.csv")).unwrap();
+    let (code, _, err) = helixbif(&["merge", s, "--out", o]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("1 sweep points failed; see the status column of")
+            && err.contains("sweep.csv"),
+        "{err}"
+    );
+    // Every row is merged, the failed one as it is.
+    let merged = rows(&Path::new(o).join("sweep.csv"));
+    assert_eq!(points(&merged), (0..8).collect::<Vec<_>>());
+    assert!(merged[2].ends_with(",error: Newton diverged at omega = 0.3 rad/s"));
+    // The shard run again computes the failed point alone, and the merge is whole.
+    let (code, out, err) = helixbif(&["sweep", s, "--shard", "1/2", "--out", o, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let summary: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(
+        (
+            summary["already_done"].as_u64(),
+            summary["computed"].as_u64()
+        ),
+        (Some(3), Some(1))
+    );
+    let (code, _, err) = helixbif(&["merge", s, "--out", o]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(rows(&Path::new(o).join("sweep.csv")), reference);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The line of `script` that starts with `prefix`.
 fn line<'a>(script: &'a str, prefix: &str) -> &'a str {
     script

@@ -290,23 +290,32 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     // help, and the merge must run): the merge reports it.
     let shortfall = summary.shortfall().filter(|_| shard.is_none());
     if summary.failed > 0 {
-        // Failed points come first: a figure they leave without enough rows is said beside.
-        let also = shortfall
-            .into_iter()
-            .chain(figures.err().map(|e| format!("the figures: {e}")))
-            .map(|s| format!("; {s}"))
-            .collect::<String>();
-        return Err(Error::Numerical(format!(
-            "{} sweep points failed; see the status column of {}{also}",
-            summary.failed, summary.file
-        ))
-        .into());
+        return Err(failed_points(summary.failed, &summary.file, shortfall, figures).into());
     }
     figures?;
     Ok(Done {
         report: Box::new(titled(&study, summary)),
         shortfall,
     })
+}
+
+/// The error of a sweep file `file` with `failed` failed points, once every row and figure is
+/// written. Failed points come first; the shortfall of the accuracy and a figure the failed
+/// points left without enough rows are said beside.
+fn failed_points(
+    failed: usize,
+    file: &str,
+    shortfall: Option<String>,
+    figures: Result<(), Error>,
+) -> Error {
+    let also = shortfall
+        .into_iter()
+        .chain(figures.err().map(|e| format!("the figures: {e}")))
+        .map(|s| format!("; {s}"))
+        .collect::<String>();
+    Error::Numerical(format!(
+        "{failed} sweep points failed; see the status column of {file}{also}"
+    ))
 }
 
 /// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
@@ -346,17 +355,23 @@ pub fn merge(m: &MergeArgs) -> Outcome {
     let (args, out) = (&m.study, m.out.as_deref());
     let study = Study::from_path(args.study.as_deref(), &args.set)?;
     let dir = output_dir(args, &study, out, None)?;
-    let (points, shards, reach) = merge_shards(&study, &dir)?;
-    sweep_figures(&study, &dir)?;
+    let merged = merge_shards(&study, &dir)?;
+    let figures = sweep_figures(&study, &dir).map(|_| ());
     let file = dir.join("sweep.csv").display().to_string();
-    let shortfall = reach.as_ref().and_then(|r| r.shortfall(&file));
+    let shortfall = merged.reach.as_ref().and_then(|r| r.shortfall(&file));
+    // A shard run by hand (or requeued no more) can leave failed points: the merge keeps their
+    // rows and fails for them, as the unsharded sweep does.
+    if merged.failed > 0 {
+        return Err(failed_points(merged.failed, &file, shortfall, figures).into());
+    }
+    figures?;
     Ok(Done {
         report: Box::new(MergeReport {
             study: study.name.clone(),
-            points,
-            shards,
+            points: merged.points,
+            shards: merged.shards,
             file,
-            reach,
+            reach: merged.reach,
         }),
         shortfall,
     })

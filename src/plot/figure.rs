@@ -27,6 +27,11 @@ pub(crate) const TICK_MARK_PX: i32 = 5;
 /// Draws `fig` filling `area`, with room below the plot for what `below` holds; returns where
 /// everything went.
 pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
+    draw_under_title(&titled(area, &fig.title)?, fig, below)
+}
+
+/// [`draw`] into `area`, the part of the figure's area below its title (already drawn).
+pub(crate) fn draw_under_title(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
     let (xs, ys) = fig
         .series
         .iter()
@@ -45,8 +50,7 @@ pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
             .collect(),
     };
     let y_padding = if fig.y_range.is_some() { 0.0 } else { PADDING };
-    let area = titled(area, &fig.title)?;
-    let (chart_area, strip) = split_below(&area, &below);
+    let (chart_area, strip) = split_below(area, &below);
     let (x_ticks, y_ticks) = tick_budget(&chart_area);
     let mut x_axis = fit_x(
         |n| Axis::fit(fig.x_scale, xs.clone(), PADDING, n),
@@ -65,7 +69,7 @@ pub(crate) fn draw(area: &Area, fig: &Figure, below: Below) -> Result<Layout> {
         (&fig.x_label, &fig.y_label),
         true,
     )?;
-    plot.below(&area, strip, below);
+    plot.below(area, strip, below);
     for (i, s) in fig.series.iter().enumerate() {
         plot.draw_series(s, series_color(i))?;
     }

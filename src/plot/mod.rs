@@ -213,7 +213,9 @@ pub fn png_path(svg: &Path) -> PathBuf {
 }
 
 /// Several figures side by side (e.g. two orthogonal camera views of a rod shape), each panel
-/// with its own axes. `size` is the size of the whole figure, shared evenly.
+/// with its own axes. `size` is the size of the whole figure, shared evenly. The plot areas
+/// keep one height: each panel's starts below the tallest title band (titles can wrap to
+/// different numbers of lines) and ends above the tallest strip below.
 pub fn render_panels(panels: &[Figure], size: (u32, u32)) -> Result<Drawing> {
     if panels.is_empty() {
         return Err(Error::input("panels", "no figure to draw"));
@@ -236,11 +238,26 @@ pub fn render_panels(panels: &[Figure], size: (u32, u32)) -> Result<Drawing> {
         fig.validate(&format!("panels[{i}]"))?;
     }
     render(size, panels.len(), |root, below| {
-        root.split_evenly((1, panels.len()))
+        let areas = root.split_evenly((1, panels.len()));
+        let under = areas
             .iter()
             .zip(panels)
+            .map(|(area, fig)| figure::titled(area, &fig.title))
+            .collect::<Result<Vec<Area>>>()?;
+        // Titles that wrap to different numbers of lines leave plot areas of one height: each
+        // panel's plot starts below the tallest title band of any of them.
+        let band = |area: &Area, under: &Area| area.dim_in_pixel().1 - under.dim_in_pixel().1;
+        let tallest = areas.iter().zip(&under).map(|(a, u)| band(a, u)).max();
+        areas
+            .iter()
+            .zip(&under)
+            .zip(panels)
             .zip(below)
-            .map(|((area, fig), below)| figure::draw(area, fig, *below))
+            .map(|(((area, under), fig), below)| {
+                let pad = tallest.unwrap_or(0) - band(area, under);
+                let (_, plot) = under.split_vertically(pad);
+                figure::draw_under_title(&plot, fig, *below)
+            })
             .collect()
     })
 }

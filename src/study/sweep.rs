@@ -588,11 +588,22 @@ pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
     Ok(shards)
 }
 
+/// What [`merge`] joined.
+#[derive(Clone, Debug)]
+pub struct Merged {
+    pub points: usize,
+    pub shards: usize,
+    /// Rows whose status is an error (a shard that failed them and was not run again): kept in
+    /// `sweep.csv` as they are, for the merge to fail on after writing.
+    pub failed: usize,
+    /// With an accuracy, how many points reached it (the shards do not fail for it: the merge
+    /// does).
+    pub reach: Option<Reach>,
+}
+
 /// Joins the shard files of `dir` into `sweep.csv`; refuses shards of another study, different
-/// shard counts, and missing or repeated points. Returns the number of points and of shards,
-/// and with an accuracy, how many points reached it (the shards do not fail for it: the merge
-/// does).
-pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize, Option<Reach>)> {
+/// shard counts, and missing or repeated points.
+pub fn merge(study: &Study, dir: &Path) -> Result<Merged> {
     let (plan_cases, vary, accuracy) = sweep_plan(study, "merge")?;
     let header = header(vary, accuracy.is_some());
     let total = grid(cases(plan_cases).len(), vary).len();
@@ -652,5 +663,13 @@ pub fn merge(study: &Study, dir: &Path) -> Result<(usize, usize, Option<Reach>)>
     let path = dir.join("sweep.csv");
     write_rows(&path, &header, &rows)?;
     write_atomically(&plan_path(&path), mine.as_bytes())?;
-    Ok((rows.len(), n, Reach::of(accuracy, &header, &rows)))
+    Ok(Merged {
+        points: rows.len(),
+        shards: n,
+        failed: rows
+            .values()
+            .filter(|r| r.last().is_some_and(|s| !finished(s)))
+            .count(),
+        reach: Reach::of(accuracy, &header, &rows),
+    })
 }
