@@ -595,23 +595,34 @@ fn study_file_selects_the_fluid_model() {
     assert!(Study::load(None, &set(&["fluid.model=\"stokes\""])).is_err());
 }
 
-/// The assembly runs edges in parallel but merges them in a fixed order: `A` and `B` are
-/// bitwise the same on one thread and on three.
+/// The assembly and the product run edges in parallel but merge them in a fixed order: `A`,
+/// `B` and `A Y` (a dense column and a local one) are bitwise the same on one thread and on
+/// three.
 #[test]
 fn assembly_does_not_depend_on_the_thread_count() {
     let (x, r0) = helix(40);
     let model = Rpy::for_polygon(1.0, rpy_blob_radius(r0), POINTS_PER_BLOB, &x);
     let y: Vec<Vector3<f64>> = x.iter().map(|p| Vector3::new(-p.y, p.x, 0.3)).collect();
+    let columns = Mat::from_fn(3 * x.len(), 2, |r, c| match c {
+        0 => y[r / 3][r % 3],
+        _ => f64::from(u8::from(r == 2)),
+    });
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| (model.mobility(&x), model.mobility_derivative(&x, &y)))
+            .install(|| {
+                (
+                    model.mobility(&x),
+                    model.mobility_derivative(&x, &y),
+                    model.mobility_product(&x, columns.as_ref()),
+                )
+            })
     };
-    let (a1, b1) = run(1);
-    let (a3, b3) = run(3);
-    assert!(a1 == a3 && b1 == b3);
+    let (a1, b1, p1) = run(1);
+    let (a3, b3, p3) = run(3);
+    assert!(a1 == a3 && b1 == b3 && p1 == p3);
 }
 
 /// The limits of the definiteness argument (module documentation of `helixbif::model::fluid::rpy`):
