@@ -65,6 +65,42 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
     );
 }
 
+/// A long helix at 15 nodes per turn (fig. 4d's rod on the RPY line: 8 turns, `N = 121`): the
+/// carried state's positions and twist, each off by the coarse mesh's discretization error,
+/// took Newton's method out of its basin together when the positions were interpolated with
+/// Catmull-Rom slopes and the twist carried as it was (the rung fell back to a continuation
+/// from rest, 14 to 17 s); with the spline and the twist re-solved for the positions the rung
+/// at `N = 241` is sequenced and finds the point of the continuation from rest.
+#[test]
+fn a_long_helix_at_fifteen_nodes_per_turn_is_sequenced() {
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let sets = [
+        "fluid.model=rpy".to_string(),
+        "discretization.per_turn=15".into(),
+    ];
+    let study = Study::from_path(Some("studies/fig4d_phase.toml".as_ref()), &sets).unwrap();
+    let mut physical = study.physical();
+    let located = LocateSettings {
+        omega_max: 0.15,
+        ..settings(&newton, &continuation)
+    };
+    let refined = refine(&physical, None, 241, &located, &mut Silent).unwrap();
+    assert_eq!(refined.rungs[0].nodes, 121);
+    let fine = &refined.rungs[1];
+    assert_eq!(fine.method, "sequenced", "{:?}", fine.fallback);
+    physical.discretization.nodes = 241;
+    physical.discretization.per_turn = None;
+    let model = Model::new(&physical).unwrap();
+    let (direct, _) = locate(&model, &located, &mut Silent).unwrap();
+    let (a, b) = (fine.omega_b.unwrap(), direct.omega_b.unwrap());
+    assert!(
+        (a - b).abs() <= 2.0 * continuation.event_tol * b,
+        "sequenced {a} against continuation {b}"
+    );
+}
+
 #[test]
 fn a_rung_that_cannot_be_sequenced_is_followed_from_rest_and_says_why() {
     helixbif::numerics::process::configure();

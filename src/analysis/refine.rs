@@ -410,7 +410,13 @@ fn sequenced_rung(
     observer.rung(&fine);
     let omegabar_max = fine.scales.omega_to_bar(settings.omega_max);
     let problem = RodProblem::new(&fine, Parameter::Omega, omega_scale(omegabar_max));
-    let u0 = carry(&coarse.model, &critical.event.u, &critical.chart, &fine);
+    // The twist re-solved for the carried positions: carried along with them, its error and
+    // theirs together put Newton's method outside its basin where each alone did not (8 turns
+    // at 15 nodes per turn, docs/model.md section 10).
+    let u0 = slave_twist(
+        &fine,
+        &carry(&coarse.model, &critical.event.u, &critical.chart, &fine),
+    )?;
     let coarse_slope = coarse
         .slope
         .or_else(|| event_slope(&coarse.model, critical, settings));
