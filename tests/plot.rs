@@ -808,9 +808,10 @@ fn side_by_side_panels_whose_titles_wrap_differently_keep_one_plot_height() {
     assert!(lines >= 3, "{lines} title lines");
     let [a, b] = [&drawing.layouts[0].plot_area, &drawing.layouts[1].plot_area];
     assert_eq!((a.y0, a.y1), (b.y0, b.y1), "{a:?} against {b:?}");
-    // Below a one-line title alone, the plot starts higher.
-    let alone = render_figure(&rod_view("seen along y", "y")).unwrap();
-    assert!(alone.layouts[0].plot_area.y0 < b.y0);
+    // Beside a one-line title, the plot starts higher.
+    let short = [rod_view("seen along x", "x"), rod_view("seen along y", "y")];
+    let level = render_panels(&short, (1000, 800)).unwrap();
+    assert!(level.layouts[1].plot_area.y0 < b.y0);
 }
 
 #[test]

@@ -296,14 +296,20 @@ fn a_merge_of_shards_with_a_failed_point_keeps_every_row_and_exits_1() {
     assert_eq!(&lines[2][status..], "ok", "{text}");
     lines[2].replace_range(status.., "error: Newton diverged at omega = 0.3 rad/s");
     std::fs::write(&shard, lines.join("\n") + "\n").unwrap();
-    std::fs::remove_file(Path::new(o).join("sweep.csv")).unwrap();
+    for written in ["sweep.csv", "sweep_0.svg"] {
+        std::fs::remove_file(Path::new(o).join(written)).unwrap();
+    }
     let (code, _, err) = helixbif(&["merge", s, "--out", o]);
     assert_eq!(code, 1, "{err}");
     assert!(
-        err.contains("1 sweep points failed; see the status column of")
-            && err.contains("sweep.csv"),
+        err.contains(
+            "1 sweep point failed (point 2; run `helixbif sweep` again with --shard 1/2 to \
+             compute them); see the status column of"
+        ) && err.contains("sweep.csv"),
         "{err}"
     );
+    // The figure is drawn before the merge fails.
+    assert!(Path::new(o).join("sweep_0.svg").exists());
     // Every row is merged, the failed one as it is.
     let merged = rows(&Path::new(o).join("sweep.csv"));
     assert_eq!(points(&merged), (0..8).collect::<Vec<_>>());

@@ -412,11 +412,15 @@ fn sequenced_rung(
     let problem = RodProblem::new(&fine, Parameter::Omega, omega_scale(omegabar_max));
     // The twist re-solved for the carried positions: carried along with them, its error and
     // theirs together put Newton's method outside its basin where each alone did not (8 turns
-    // at 15 nodes per turn, docs/model.md section 10).
-    let u0 = slave_twist(
-        &fine,
-        &carry(&coarse.model, &critical.event.u, &critical.chart, &fine),
-    )?;
+    // at 15 nodes per turn, src/problem/carry.rs).
+    let carried = carry(&coarse.model, &critical.event.u, &critical.chart, &fine);
+    let u0 = slave_twist(&fine, &carried).map_err(|e| {
+        Error::Numerical(format!(
+            "the twist of the Hopf point carried from N = {} could not be re-solved on this \
+             mesh: {e}",
+            coarse.model.nodes()
+        ))
+    })?;
     let coarse_slope = coarse
         .slope
         .or_else(|| event_slope(&coarse.model, critical, settings));

@@ -290,7 +290,8 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     // help, and the merge must run): the merge reports it.
     let shortfall = summary.shortfall().filter(|_| shard.is_none());
     if summary.failed > 0 {
-        return Err(failed_points(summary.failed, &summary.file, shortfall, figures).into());
+        let what = points_failed(summary.failed);
+        return Err(failed_points(&what, &summary.file, shortfall, figures).into());
     }
     figures?;
     Ok(Done {
@@ -299,11 +300,19 @@ pub fn sweep(s: &SweepArgs) -> Outcome {
     })
 }
 
-/// The error of a sweep file `file` with `failed` failed points, once every row and figure is
-/// written. Failed points come first; the shortfall of the accuracy and a figure the failed
-/// points left without enough rows are said beside.
+/// "K sweep point(s) failed".
+fn points_failed(count: usize) -> String {
+    match count {
+        1 => "1 sweep point failed".into(),
+        _ => format!("{count} sweep points failed"),
+    }
+}
+
+/// The error of a sweep file `file` with failed points (`what` says which), once every row and
+/// figure is written. Failed points come first; the shortfall of the accuracy and a figure the
+/// failed points left without enough rows are said beside.
 fn failed_points(
-    failed: usize,
+    what: &str,
     file: &str,
     shortfall: Option<String>,
     figures: Result<(), Error>,
@@ -313,9 +322,7 @@ fn failed_points(
         .chain(figures.err().map(|e| format!("the figures: {e}")))
         .map(|s| format!("; {s}"))
         .collect::<String>();
-    Error::Numerical(format!(
-        "{failed} sweep points failed; see the status column of {file}{also}"
-    ))
+    Error::Numerical(format!("{what}; see the status column of {file}{also}"))
 }
 
 /// `helixbif slurm`: the scripts of a sweep as an array job and its merge, printed or submitted.
@@ -361,8 +368,21 @@ pub fn merge(m: &MergeArgs) -> Outcome {
     let shortfall = merged.reach.as_ref().and_then(|r| r.shortfall(&file));
     // A shard run by hand (or requeued no more) can leave failed points: the merge keeps their
     // rows and fails for them, as the unsharded sweep does.
-    if merged.failed > 0 {
-        return Err(failed_points(merged.failed, &file, shortfall, figures).into());
+    if !merged.failed.is_empty() {
+        let points: Vec<String> = merged.failed.iter().map(|(i, _)| i.to_string()).collect();
+        let shards: std::collections::BTreeSet<usize> =
+            merged.failed.iter().map(|&(_, k)| k).collect();
+        let shards: Vec<String> = shards
+            .iter()
+            .map(|k| format!("--shard {k}/{}", merged.shards))
+            .collect();
+        let what = format!(
+            "{} (point {}; run `helixbif sweep` again with {} to compute them)",
+            points_failed(merged.failed.len()),
+            points.join(", "),
+            shards.join(", then ")
+        );
+        return Err(failed_points(&what, &file, shortfall, figures).into());
     }
     figures?;
     Ok(Done {

@@ -593,9 +593,10 @@ pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
 pub struct Merged {
     pub points: usize,
     pub shards: usize,
-    /// Rows whose status is an error (a shard that failed them and was not run again): kept in
-    /// `sweep.csv` as they are, for the merge to fail on after writing.
-    pub failed: usize,
+    /// The points whose rows are not finished (an error status: a shard that failed them and
+    /// was not run again), each with its shard `K` (of `shards`): kept in `sweep.csv` as they
+    /// are, for the merge to fail on after writing.
+    pub failed: Vec<(usize, usize)>,
     /// With an accuracy, how many points reached it (the shards do not fail for it: the merge
     /// does).
     pub reach: Option<Reach>,
@@ -667,9 +668,10 @@ pub fn merge(study: &Study, dir: &Path) -> Result<Merged> {
         points: rows.len(),
         shards: n,
         failed: rows
-            .values()
-            .filter(|r| r.last().is_some_and(|s| !finished(s)))
-            .count(),
+            .iter()
+            .filter(|(_, r)| r.last().is_some_and(|s| !finished(s)))
+            .map(|(&i, _)| (i, i % n + 1))
+            .collect(),
         reach: Reach::of(accuracy, &header, &rows),
     })
 }
