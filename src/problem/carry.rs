@@ -19,8 +19,8 @@
 //! Newton's method still diverged from the positions and the twist carried together, and
 //! converged with either one taken from the finer mesh's solution instead: the sequenced
 //! refinement re-solves the twist for the carried positions (`slave_twist`) before Newton's
-//! method on the whole. From 5 to 10 nodes per turn the old mesh's
-//! own error is too large, and the refinement follows that rung from rest instead.
+//! method on the whole. From 5 to 10 nodes per turn the old mesh's own error is too large, and
+//! the refinement follows that rung from rest instead.
 
 use nalgebra::Vector3;
 
@@ -56,8 +56,8 @@ fn interval(s: &[f64], t: f64) -> usize {
 /// The slopes `x'(s_k)` of the not-a-knot cubic spline through the nodes `x` (arclengths `s`):
 /// second derivative continuous at every node, third derivative at the second and the
 /// last-but-one too (de Boor, *A Practical Guide to Splines*, ch. IV): it needs no derivative at
-/// the ends, and is fourth-order accurate up to them. By the tridiagonal system of the spline in Hermite form (`h_k = s_{k+1} - s_k`,
-/// `d_k = (x_{k+1} - x_k) / h_k`)
+/// the ends, and is fourth-order accurate up to them. By the tridiagonal system of the spline in
+/// Hermite form (`h_k = s_{k+1} - s_k`, `d_k = (x_{k+1} - x_k) / h_k`)
 ///
 /// ```text
 /// h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1} = 3 (h_k d_{k-1} + h_{k-1} d_k),
