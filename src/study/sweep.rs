@@ -507,7 +507,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
     let all = grid(cases.len(), vary);
     let mine: Vec<SweepPoint> = all
         .into_iter()
-        .filter(|p| shard.is_none_or(|(k, n)| p.index % n == k - 1))
+        .filter(|p| shard.is_none_or(|(k, n)| shard_of(p.index, n) == k))
         .collect();
     // Bad input anywhere in the grid is refused before anything is computed.
     for point in &mine {
@@ -586,6 +586,11 @@ pub(super) fn shard_files(dir: &Path) -> Result<Vec<(usize, usize, PathBuf)>> {
         .collect();
     shards.sort();
     Ok(shards)
+}
+
+/// The shard `K` (of `shards`) that runs point `index`: the points are dealt round-robin.
+fn shard_of(index: usize, shards: usize) -> usize {
+    index % shards + 1
 }
 
 /// What [`merge`] joined.
@@ -670,7 +675,7 @@ pub fn merge(study: &Study, dir: &Path) -> Result<Merged> {
         failed: rows
             .iter()
             .filter(|(_, r)| r.last().is_some_and(|s| !finished(s)))
-            .map(|(&i, _)| (i, i % n + 1))
+            .map(|(&i, _)| (i, shard_of(i, n)))
             .collect(),
         reach: Reach::of(accuracy, &header, &rows),
     })
