@@ -4,7 +4,9 @@
 //! corrected (a mesh of a few nodes per turn) the rung is followed from rest and says why.
 
 use helixbif::analysis::locate::{LocateSettings, locate};
-use helixbif::analysis::refine::{Answer, error_orders, ladder, refine, trusted_limit};
+use helixbif::analysis::refine::{
+    Answer, QuadratureError, error_orders, ladder, refine, trusted_limit,
+};
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
@@ -98,6 +100,45 @@ fn a_long_helix_at_fifteen_nodes_per_turn_is_sequenced() {
     assert!(
         (a - b).abs() <= 2.0 * continuation.event_tol * b,
         "sequenced {a} against continuation {b}"
+    );
+}
+
+/// A point of the coarsest branch checked on a mesh that is not the next rung's (a thin rod of
+/// the exponent sweep, `lambda/l = 0.125`, `R/lambda = 0.05`, from 15 nodes per turn: the
+/// quadrature's error measured at the second rung, `N = 241`, whose certificate checks points
+/// of the `N = 121` branch): the points are carried from the coarsest mesh, whose branch the
+/// rungs hand down (they were carried as if from the second rung's mesh, an index out of
+/// bounds that stopped the sweep). The quadrature's error comes out at both rungs, nearly the
+/// same, as the RPY quadrature has about the same points at every `N` (docs/model.md section
+/// 10; measured `1.5690e-3` and `1.5707e-3` rad/s at `N = 121` and 241).
+#[test]
+fn the_coarsest_branch_is_checked_from_its_own_mesh() {
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let sets = [
+        "fluid.model=rpy".to_string(),
+        "discretization.per_turn=15".into(),
+        "shape.lambda_over_l=0.125".into(),
+        "shape.R_over_lambda=0.05".into(),
+    ];
+    let study = Study::from_path(Some("studies/exponent_m_sweep.toml".as_ref()), &sets).unwrap();
+    let physical = study.physical();
+    let located = LocateSettings {
+        omega_max: 30.0,
+        ..settings(&newton, &continuation)
+    };
+    let refined = refine(&physical, Some(1e-3), 500, &located, &mut Silent).unwrap();
+    assert_eq!(refined.rungs[1].nodes, 241);
+    assert_eq!(refined.rungs[1].method, "sequenced");
+    let error = |q: Option<&QuadratureError>| q.and_then(|q| q.error).unwrap();
+    let (coarse, finer) = (
+        error(refined.quadrature.as_deref()),
+        error(refined.quadrature_finer.as_deref()),
+    );
+    assert!(
+        (finer - coarse).abs() <= 0.1 * coarse.abs(),
+        "{coarse} against {finer}"
     );
 }
 
