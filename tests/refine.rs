@@ -103,8 +103,8 @@ fn a_long_helix_at_fifteen_nodes_per_turn_is_sequenced() {
     );
 }
 
-/// A point of the coarsest branch checked on a mesh that is not the next rung's (a thin rod of
-/// the exponent sweep, `lambda/l = 0.125`, `R/lambda = 0.05`, from 15 nodes per turn: the
+/// A point of the coarsest branch checked on a mesh that is not the next rung's (a narrow helix
+/// of the exponent sweep, `lambda/l = 0.125`, `R/lambda = 0.05`, from 15 nodes per turn: the
 /// quadrature's error measured at the second rung, `N = 241`, whose certificate checks points
 /// of the `N = 121` branch): the points are carried from the coarsest mesh, whose branch the
 /// rungs hand down (they were carried as if from the second rung's mesh, an index out of
@@ -131,10 +131,14 @@ fn the_coarsest_branch_is_checked_from_its_own_mesh() {
     let refined = refine(&physical, Some(1e-3), 500, &located, &mut Silent).unwrap();
     assert_eq!(refined.rungs[1].nodes, 241);
     assert_eq!(refined.rungs[1].method, "sequenced");
-    let error = |q: Option<&QuadratureError>| q.and_then(|q| q.error).unwrap();
+    let error = |q: Option<&QuadratureError>, nodes: usize| {
+        let q = q.expect("the quadrature's error measured");
+        assert_eq!(q.nodes, nodes);
+        q.error.unwrap_or_else(|| panic!("{:?}", q.failed))
+    };
     let (coarse, finer) = (
-        error(refined.quadrature.as_deref()),
-        error(refined.quadrature_finer.as_deref()),
+        error(refined.quadrature.as_deref(), 121),
+        error(refined.quadrature_finer.as_deref(), 241),
     );
     assert!(
         (finer - coarse).abs() <= 0.1 * coarse.abs(),

@@ -4,9 +4,8 @@
 
 use serde::Serialize;
 
-use super::{Solved, at_nodes};
+use super::{RungObserver, Solved, at_nodes};
 use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located};
-use crate::analysis::refine::RungObserver;
 use crate::analysis::solve::rest_state;
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
@@ -39,8 +38,9 @@ pub struct Certificate {
 
 /// The slope `d Re s / d omegabar` of the critical eigenvalue at the Hopf point of `critical`
 /// on `model`, over a relative step [`SLOPE_STEP`] below it ([`eigenvalue_slope`]; one Newton
-/// solve and spectrum on the coarsest mesh); where that solve fails, from the last point of its
-/// branch before it (the eigenvalue tracked back to it), a continuation step away.
+/// solve and spectrum on that rung's mesh, the coarsest unless a sequenced rung has no slope of
+/// its own); where that solve fails, from the last point of its branch before it (the
+/// eigenvalue tracked back to it), a continuation step away.
 fn event_slope(model: &Model, critical: &Critical, settings: &LocateSettings) -> Option<f64> {
     let event = &critical.event;
     let omegabar_max = model.scales.omega_to_bar(settings.omega_max);
@@ -74,8 +74,9 @@ const K_MARGIN: f64 = 10.0;
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),
-/// started at `predicted` (`omegabar`), and its [`Certificate`]; `None` where the certificate
-/// fails (a point of the coarsest branch is unstable on this mesh), with the reason.
+/// started at `predicted` (`omegabar`), and its [`Certificate`]; `Ok(Err(why))` where the
+/// certificate fails (a point of the coarsest branch is unstable on this mesh, or cannot be
+/// solved on it).
 pub(super) fn sequenced_rung(
     fine: Model,
     coarse: &Solved,
@@ -150,10 +151,17 @@ pub(super) fn sequenced_rung(
     }
     let rest = rest_state(&fine, settings.newton)?;
     // The coarsest branch comes down the rungs unchanged: its points are carried from their own
-    // mesh (not the coarser rung's, which is finer from the third rung on).
+    // mesh, not from `coarse.model`'s (finer than the branch's from the third rung on, and in
+    // the quadrature's measurement at the second).
     let branch_mesh = match close.first() {
         Some(state) if state.x.len() != coarse.model.nodes() => {
-            Some(Model::new(&at_nodes(&fine.physical, state.x.len()))?)
+            let nodes = state.x.len();
+            let mesh = Model::new(&at_nodes(&fine.physical, nodes)).map_err(|e| {
+                Error::Numerical(format!(
+                    "the coarsest branch's mesh (N = {nodes}) could not be rebuilt: {e}"
+                ))
+            })?;
+            Some(mesh)
         }
         _ => None,
     };
@@ -169,6 +177,7 @@ pub(super) fn sequenced_rung(
             natural_chart_unknowns(&fine, &rest.config, &rest.chart)
         } else {
             let ratio = state.omegabar / critical.event.p;
+            // The branch keeps positions only; the twist carried here is replaced below.
             let untwisted = Config {
                 x: state.x.clone(),
                 theta: vec![0.0; state.x.len() - 1],
