@@ -37,6 +37,16 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+
+    /// A bug: the code panicked (the message of the panic; where it happened is on stderr,
+    /// printed by the panic hook). Caught by [`caught`] so that one point of a sweep, or one
+    /// curve of a study, does not end the others, and the command line still ends with one
+    /// line and exit code 1.
+    #[error(
+        "internal error (a bug in helixbif; please report it with the command line and the \
+         panic message above): {0}"
+    )]
+    Internal(String),
 }
 
 /// A failure of the generic engine.
@@ -131,6 +141,19 @@ impl Error {
     }
 }
 
+/// `work()`, with a panic inside it (a bug) turned into [`Error::Internal`] with the panic's
+/// message. Everything `work` wrote to disk before it panicked stays there.
+pub fn caught<T>(work: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)).unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".into());
+        Err(Error::Internal(message))
+    })
+}
+
 /// `Ok` when `condition` holds, else an input error naming `field` with `message`.
 pub(crate) fn ensure(condition: bool, field: &str, message: String) -> Result<()> {
     if condition {
@@ -151,3 +174,29 @@ pub fn ensure_setting(condition: bool, setting: &str, message: String) -> Result
 
 /// Result alias used throughout the library.
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A panic inside `caught` comes back as an internal error with the panic's message (a
+    /// literal or a formatted one), not an input error (exit code 1, not 2); a result without
+    /// a panic passes through unchanged.
+    #[test]
+    fn a_panic_becomes_an_internal_error() {
+        let literal = caught(|| -> Result<()> { panic!("the len is 121") }).unwrap_err();
+        assert!(matches!(&literal, Error::Internal(m) if m == "the len is 121"));
+        assert!(!literal.is_input());
+        let index = 121;
+        let formatted =
+            caught(|| -> Result<()> { panic!("but the index is {index}") }).unwrap_err();
+        assert_eq!(
+            formatted.to_string(),
+            "internal error (a bug in helixbif; please report it with the command line and the \
+             panic message above): but the index is 121"
+        );
+        assert_eq!(caught(|| Ok(7)).unwrap(), 7);
+        let refused = caught(|| -> Result<()> { Err(Error::input("shape.l", "must be > 0")) });
+        assert!(refused.unwrap_err().is_input());
+    }
+}

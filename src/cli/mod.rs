@@ -33,19 +33,24 @@ fn print(report: &dyn Report, json: bool) -> std::io::Result<()> {
 pub fn main() -> ExitCode {
     helixbif::numerics::process::configure();
     let cli = Cli::parse();
+    // A panic (a bug) ends the command with one line and exit code 1, like a numerical
+    // failure; the panic hook has printed where it happened.
+    let guarded = |run: &dyn Fn() -> commands::Outcome| -> commands::Outcome {
+        helixbif::error::caught(|| Ok(run()))?
+    };
     let (result, json) = match &cli.command {
-        Command::Solve(a) => (commands::solve(a), a.study.json),
-        Command::Branch(a) => (commands::branch(a), a.study.json),
-        Command::Locate(a) => (commands::locate(a), a.study.json),
-        Command::Run(a) => (commands::run(a), a.study.json),
-        Command::Boundary(a) => (commands::boundary(a), a.study.json),
-        Command::Sweep(a) => (commands::sweep(a), a.study.json),
-        Command::Slurm(a) => (commands::slurm(a), a.study.json),
-        Command::Merge(a) => (commands::merge(a), a.study.json),
-        Command::Fit(a) => (commands::fit(a), a.json),
-        Command::Orbits(a) => (commands::orbits(a), a.study.json),
-        Command::Simulate(a) => (commands::simulate(a), a.study.json),
-        Command::Bisect(a) => (commands::bisect(a), a.study.json),
+        Command::Solve(a) => (guarded(&|| commands::solve(a)), a.study.json),
+        Command::Branch(a) => (guarded(&|| commands::branch(a)), a.study.json),
+        Command::Locate(a) => (guarded(&|| commands::locate(a)), a.study.json),
+        Command::Run(a) => (guarded(&|| commands::run(a)), a.study.json),
+        Command::Boundary(a) => (guarded(&|| commands::boundary(a)), a.study.json),
+        Command::Sweep(a) => (guarded(&|| commands::sweep(a)), a.study.json),
+        Command::Slurm(a) => (guarded(&|| commands::slurm(a)), a.study.json),
+        Command::Merge(a) => (guarded(&|| commands::merge(a)), a.study.json),
+        Command::Fit(a) => (guarded(&|| commands::fit(a)), a.json),
+        Command::Orbits(a) => (guarded(&|| commands::orbits(a)), a.study.json),
+        Command::Simulate(a) => (guarded(&|| commands::simulate(a)), a.study.json),
+        Command::Bisect(a) => (guarded(&|| commands::bisect(a)), a.study.json),
     };
     match result {
         Ok(done) => match print(done.report.as_ref(), json) {

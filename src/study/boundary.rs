@@ -13,6 +13,7 @@ use crate::analysis::boundary::{
     Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint, check_end,
     follow_boundary,
 };
+use crate::error::caught;
 use crate::model::Model;
 use crate::model::params::Field;
 use crate::numerics::fit::{CommonPowerLaw, PowerLaw, common_power_law, line_intercept, power_law};
@@ -391,7 +392,12 @@ pub fn run_study(
         } else {
             dir.join(slug(&case.label))
         };
-        let (rows, outcome) = run_boundary(&s, key, (from, to), accuracy, &sub, provenance)?;
+        // A panic (a bug) ends this curve, not the others; its rows so far are on disk.
+        let (rows, outcome) =
+            match caught(|| run_boundary(&s, key, (from, to), accuracy, &sub, provenance)) {
+                Err(e @ Error::Internal(_)) => (Vec::new(), Err(e)),
+                other => other?,
+            };
         let (report, error) = match outcome {
             Ok(r) => {
                 failures.extend(r.shortfall().map(|f| format!("{}: {f}", case.label)));

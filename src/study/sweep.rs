@@ -27,6 +27,7 @@ use crate::analysis::boundary::PointAccuracy;
 use crate::analysis::locate::LocateSettings;
 use crate::analysis::refine::{Refinement, estimate_at_nodes, refine};
 use crate::engine::stop::Silent;
+use crate::error::caught;
 use crate::model::params::Physical;
 use crate::model::params::ShapeParams;
 use crate::study::output::{create_dir, io_error, write_atomically};
@@ -228,7 +229,9 @@ fn run_point(
     let case = &cases[point.case];
     let mut row = vec![point.index.to_string(), case.label.clone()];
     row.extend(point.values.iter().map(|x| format!("{x:e}")));
-    let outcome = variant(base, case, vary, &point.values).and_then(|study| {
+    // A panic (a bug) at this point is its failure, not the sweep's.
+    let outcome = caught(|| {
+        let study = variant(base, case, vary, &point.values)?;
         let refined = located_point(&study.physical(), &study.locate_settings(), accuracy)?;
         Ok((study, refined))
     });
