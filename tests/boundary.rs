@@ -4,7 +4,7 @@
 mod common;
 
 use common::helixbif;
-use helixbif::analysis::boundary::PointAccuracy;
+use helixbif::analysis::boundary::{Answer, PointAccuracy};
 use helixbif::model::Model;
 use helixbif::study::Study;
 use helixbif::study::boundary::run_boundary;
@@ -349,6 +349,7 @@ fn a_boundary_carried_to_an_accuracy_states_errors_that_cover_a_finer_computatio
     let accuracy = PointAccuracy {
         accuracy: 1e-2,
         max_nodes: 500,
+        spacing: 0.0,
     };
     let (rows, report) = run_boundary(
         &thick_rod(31, None),
@@ -389,6 +390,74 @@ fn a_boundary_carried_to_an_accuracy_states_errors_that_cover_a_finer_computatio
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A boundary carried to an accuracy with a carry spacing (docs/model.md section 11) refines
+/// only points at least the spacing apart in `ln q` (the first and last included) and gives
+/// the others the refined correction interpolated in `ln q`. On the thick rod (curve at
+/// `N = 31`, `R/lambda` from 0.3 to 0.4, `1e-2`, spacing 0.1) 4 of 28 points are refined; at
+/// every other point the stated error covers the difference to that point's own refinement
+/// (the boundary with every point refined: measured at most 0.70 of it), and in the middle of
+/// the first interval, where the refined answers are smooth in `q`, the interpolation's own
+/// part of the stated error (the stated relative error less the refined points' interpolated)
+/// covers the difference of `ln omega_b` to the point's own refinement and is at most four
+/// times it (measured 1.7).
+#[test]
+fn a_boundary_carried_with_a_spacing_states_errors_that_cover_each_points_own_refinement() {
+    let dir = std::env::temp_dir().join(format!("helixbif-boundary-sparse-{}", std::process::id()));
+    let carried = |spacing: f64| {
+        let accuracy = PointAccuracy {
+            accuracy: 1e-2,
+            max_nodes: 500,
+            spacing,
+        };
+        let (rows, report) = run_boundary(
+            &thick_rod(31, None),
+            "shape.R_over_lambda",
+            (0.3, 0.4),
+            Some(accuracy),
+            &dir.join(format!("{spacing}")),
+            &Provenance::default(),
+        )
+        .unwrap();
+        assert_eq!(report.unwrap().not_reached, Some(0));
+        rows
+    };
+    let (sparse, every) = (carried(0.1), carried(0.0));
+    assert_eq!(sparse.len(), every.len());
+    let refined: Vec<usize> = (0..sparse.len())
+        .filter(|&i| sparse[i].answer == Answer::Refined)
+        .collect();
+    assert!(
+        refined.len() >= 3 && 4 * refined.len() <= sparse.len(),
+        "{} of {} refined",
+        refined.len(),
+        sparse.len()
+    );
+    assert!(every.iter().all(|r| r.answer == Answer::Refined));
+    for (s, e) in sparse.iter().zip(&every) {
+        assert!(s.answer == Answer::Refined || s.answer == Answer::Interpolated);
+        let stated = s.omega_b_error.unwrap();
+        let difference = (s.omega_b - e.omega_b).abs();
+        assert!(
+            difference <= stated,
+            "R/lambda = {}: stated {stated}, difference to its own refinement {difference}",
+            s.q
+        );
+    }
+    let (a, b) = (&sparse[refined[0]], &sparse[refined[1]]);
+    let m = (refined[0] + refined[1]) / 2;
+    let t = (sparse[m].q.ln() - a.q.ln()) / (b.q.ln() - a.q.ln());
+    let relative =
+        |r: &helixbif::analysis::boundary::BoundaryPoint| r.omega_b_error.unwrap() / r.omega_b;
+    let own = relative(&sparse[m]) - (relative(a) + t * (relative(b) - relative(a)));
+    let missed = (sparse[m].omega_b / every[m].omega_b).ln().abs();
+    assert!(
+        missed <= own && own <= 4.0 * missed,
+        "R/lambda = {}: the interpolation's stated error {own}, missed by {missed}",
+        sparse[m].q
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A point whose refinement cannot state an error (here every point: at most the curve's own
 /// `N = 20` nodes, one rung) is kept at the curve's `N`: its row is the one the boundary without
 /// an accuracy writes (value, two-rung error from `N/2 + 1`, `N`), marked not reached, and the
@@ -419,6 +488,7 @@ fn a_point_whose_refinement_states_no_error_keeps_the_curves_row() {
     let one_rung = PointAccuracy {
         accuracy: 1e-3,
         max_nodes: 20,
+        spacing: 0.0,
     };
     let (kept, report) = run(Some(one_rung), "kept");
     let report = report.unwrap();

@@ -1028,9 +1028,9 @@ fn run_boundary_study(dir: &Path, (from, to): (&str, &str), extra: &str) -> (i32
     (code, stderr, out)
 }
 
-/// A boundary study's refinement of its points (`accuracy`, `max_nodes`): an accuracy out of
-/// range, or `max_nodes` without an accuracy to bound, is refused before anything runs, in one
-/// line naming the field, with exit code 2.
+/// A boundary study's refinement of its points (`accuracy`, `max_nodes`, `carry_spacing`): an
+/// accuracy or a spacing out of range, or `max_nodes` or a spacing without an accuracy, is
+/// refused before anything runs, in one line naming the field, with exit code 2.
 #[test]
 fn a_boundary_study_refuses_a_refinement_it_cannot_do() {
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-plan-{}", std::process::id()));
@@ -1047,6 +1047,15 @@ fn a_boundary_study_refuses_a_refinement_it_cannot_do() {
         (
             "accuracy = 1e-3\nmax_nodes = 20\n",
             "study.max_nodes: must exceed discretization.nodes = 20",
+        ),
+        (
+            "carry_spacing = 0.1\n",
+            "study.carry_spacing: spaces the points refined to an accuracy, which needs \
+             study.accuracy",
+        ),
+        (
+            "accuracy = 1e-3\ncarry_spacing = -0.1\n",
+            "study.carry_spacing: must be in [0, 1]",
         ),
     ] {
         let (code, stderr, _) = run_boundary_study(&dir, ("0.3", "0.31"), extra);

@@ -85,12 +85,14 @@ class Study:
         *,
         accuracy: float | None = None,
         max_nodes: int | None = None,
+        carry_spacing: float | None = None,
         out: _Path | None = None,
     ) -> Boundary:
         """The stability boundary omega_b(q) with the field `vary` from `start` to `stop`
         (`helixbif boundary`); with `accuracy`, every Hopf point carried to it (up to
-        `max_nodes`, default 500, above the study's N). Raises NumericalError with `partial` when the curve stops or
-        a point falls short of `accuracy`."""
+        `max_nodes`, default 500, above the study's N), or with `carry_spacing` only points that
+        far apart in ln q, the others interpolated (column `answer`). Raises NumericalError with
+        `partial` when the curve stops or a point falls short of `accuracy`."""
     def simulate(
         self,
         omega: float | None = None,
@@ -313,6 +315,9 @@ class Boundary(_Result):
     curve_omega_b: _F
     """The curve's own omega_b at `curve_nodes`, rad/s."""
     curve_nodes: _I
+    answer: _S
+    """Where omega_b comes from: `curve`, `refined`, `interpolated` (with `carry_spacing`) or
+    `kept` (at the curve's N)."""
     key: str
     to: float
     """The end of the range of `key`; its start is `result["from"]` (`from` is a Python
@@ -330,6 +335,8 @@ class Boundary(_Result):
     """Points carried to `accuracy` (the Hopf points; None without one)."""
     not_reached: int | None
     """Points that fell short of `accuracy` (None without one)."""
+    interpolated: int | None
+    """Of the points carried, those interpolated between refined ones (`carry_spacing`)."""
     relative_error_max: list[float] | None
     """The largest estimated relative error of omega_b over the points, and its q."""
     first_shortfall: str | None

@@ -313,9 +313,14 @@ def test_boundary_carried_to_an_accuracy_falls_short_as_the_cli_does(cli, small,
     assert partial.reached.dtype == np.bool_
     assert (partial.curve_nodes == 20).all() and (partial.nodes == 30).all()
     assert (partial.omega_b != partial.curve_omega_b).all()
+    assert (partial.answer == "refined").all()
     with pytest.raises(ValueError, match="^invalid input: accuracy: "):
         small.boundary("rod.E", 1e6, 2e6, accuracy=0.5)
     with pytest.raises(ValueError, match="^invalid input: max_nodes: "):
         small.boundary("rod.E", 1e6, 2e6, max_nodes=100)
     with pytest.raises(ValueError, match="^invalid input: max_nodes: must exceed discretization"):
         small.boundary("rod.E", 1e6, 2e6, accuracy=1e-3, max_nodes=20)
+    with pytest.raises(ValueError, match="^invalid input: carry_spacing: .* needs accuracy$"):
+        small.boundary("rod.E", 1e6, 2e6, carry_spacing=0.1)
+    with pytest.raises(ValueError, match=r"^invalid input: carry_spacing: must be in \[0, 1\]"):
+        small.boundary("rod.E", 1e6, 2e6, accuracy=1e-3, carry_spacing=2.0)

@@ -23,7 +23,9 @@
 //! accuracy needs by `locate`'s refinement at its `q` ([`carry`]): the curve at the coarse `N`
 //! finds the first loss of stability, its switches and its special points; the refinement gives
 //! each point its value and error, where its first rung (from rest at the curve's `N`) finds
-//! the point again; else the point is kept at the curve's `N` and says why.
+//! the point again; else the point is kept at the curve's `N` and says why. With a carry
+//! spacing ([`PointAccuracy::spacing`]) only points that far apart in `ln q` are refined, and
+//! the others take the refined correction interpolated ([`carry::interpolate`]).
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
@@ -50,8 +52,8 @@ use crate::problem::rod::RodProblem;
 use crate::{Error, Result};
 
 mod carry;
-pub use carry::PointAccuracy;
-use carry::{Carried, carry, refined_row};
+pub use carry::{Answer, PointAccuracy};
+use carry::{Carried, interpolate, refined_row};
 
 /// One point of the boundary (a row of `boundary.csv`).
 #[derive(Clone, Debug, Serialize)]
@@ -108,6 +110,9 @@ pub struct BoundaryPoint {
     /// and `nodes` where the point was not carried to an accuracy).
     pub curve_omega_b: f64,
     pub curve_nodes: usize,
+    /// Where `omega_b` comes from: the curve, the point's own refinement, the refinements on
+    /// either side interpolated (a carry spacing), or kept at the curve's `N`.
+    pub answer: Answer,
 }
 
 /// A special point of the boundary (a row of `points.csv`).
@@ -272,6 +277,9 @@ struct Recorder<'a, O> {
     /// The curve's own values at the last point recorded (where a window's opening is
     /// bisected from, and a jump past a turning point looks from).
     last_on_curve: Option<OnCurve>,
+    /// With a carry spacing: the Hopf points of the current segment not refined yet, with
+    /// their rows' indices.
+    uncarried: Vec<(usize, CurvePoint)>,
 }
 
 /// A point of the curve at its own `N`: `q`, the rate and the critical frequency (solver units
@@ -317,22 +325,28 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 Err(why) => Some(why),
             },
         };
-        let mut row = self.curve_row(point, model)?;
+        let mut row = self.curve_row(point, model, true)?;
         if kept.is_some() {
             row.reached = Some(false);
+            row.answer = Answer::Kept;
         }
         Ok((row, kept))
     }
 
     /// The row of the curve's own `point` on `model` (the member at its `q`), with its
-    /// discretization error from `N/2 + 1` nodes.
-    fn curve_row(&self, point: &CurvePoint, model: &Model) -> Result<BoundaryPoint> {
+    /// discretization error from `N/2 + 1` nodes where `estimate` asks for it.
+    fn curve_row(
+        &self,
+        point: &CurvePoint,
+        model: &Model,
+        estimate: bool,
+    ) -> Result<BoundaryPoint> {
         let rest = rest_state(model, self.newton)?;
         let o = observables_at(model, &rest, &point.u, point.p)?;
         let wbar = point.eigenvalue.im;
         // An estimate that fails (a coarser model that cannot be built) leaves the column
         // empty; it never ends the boundary.
-        let omega_b_error = if self.kind == EventKind::Hopf {
+        let omega_b_error = if self.kind == EventKind::Hopf && estimate {
             match hopf_point_error(
                 &self.family.physical(point.q)?,
                 model,
@@ -367,6 +381,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             nodes: model.nodes(),
             curve_omega_b: o.omega,
             curve_nodes: model.nodes(),
+            answer: Answer::Curve,
         })
     }
 
@@ -426,19 +441,27 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
         let result = self.family.member(point.q).and_then(|member| {
             let scales = member.model.scales;
             let omega = scales.omega_from_bar(point.p);
-            let carried = match self.accuracy.filter(|_| self.kind == EventKind::Hopf) {
-                Some(accuracy) => Some(carry(self.family, &self.locate, accuracy, point, omega)?),
-                None => None,
+            let row = match self.accuracy.filter(|_| self.kind == EventKind::Hopf) {
+                Some(a) if self.refines(point.q, a) => {
+                    self.carried_row(point, &member.model, a, omega)?
+                }
+                // Interpolated once a refined point follows it ([`Recorder::close_segment`]).
+                Some(_) => {
+                    self.uncarried
+                        .push((self.boundary.points.len(), point.clone()));
+                    BoundaryPoint {
+                        reached: Some(false),
+                        ..self.curve_row(point, &member.model, false)?
+                    }
+                }
+                None => self.curve_row(point, &member.model, true)?,
             };
-            let (row, short) = self.row(point, &member.model, carried.as_ref())?;
-            if let (Some(why), None) = (short, &self.boundary.first_shortfall) {
-                self.boundary.first_shortfall = Some(format!(
-                    "at {} = {}, {why}",
-                    self.family.field().key(),
-                    point.q
-                ));
-            }
+            let refined = row.answer == Answer::Refined;
             self.boundary.points.push(row);
+            if let (true, Some(a)) = (refined, self.accuracy) {
+                let start = self.segment_start();
+                interpolate(&mut self.boundary.points[start..], a.accuracy);
+            }
             self.last_on_curve = Some(OnCurve {
                 q: point.q,
                 omegabar: point.p,
@@ -736,6 +759,7 @@ pub(crate) fn follow_boundary(
         left: false,
         accuracy,
         last_on_curve: None,
+        uncarried: Vec::new(),
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)
@@ -787,6 +811,10 @@ fn follow_segments<O: BoundaryObserver>(
             settings.continuation,
             recorder,
         )?;
+        if recorder.error.is_none() {
+            let closed = recorder.close_segment();
+            recorder.record(closed);
+        }
         if let Some(e) = recorder.error.take() {
             return Err(e);
         }

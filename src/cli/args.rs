@@ -253,6 +253,12 @@ pub struct BoundaryArgs {
     /// Largest node count a point is carried to (with --accuracy; default 500).
     #[arg(long, requires = "accuracy", allow_negative_numbers = true)]
     pub max_nodes: Option<i64>,
+    /// With --accuracy: refine only points at least this far apart in ln of the varied value
+    /// (0 to 1; default 0, every point), the first and last of each curve included, and give
+    /// the points between the refined correction interpolated in ln q, with the interpolation's
+    /// error added to theirs (docs/model.md section 11).
+    #[arg(long, allow_negative_numbers = true)]
+    pub carry_spacing: Option<f64>,
     /// Output folder; default `output/<study name>.boundary-<KEY>/`.
     #[arg(long)]
     pub out: Option<PathBuf>,

@@ -16,7 +16,7 @@ use helixbif::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
 use helixbif::study::output::Table;
 use helixbif::study::output::{Provenance, make_writable_dir};
 use helixbif::study::plan::{
-    check_accuracy, check_max_nodes, check_refinement_room, point_accuracy,
+    check_accuracy, check_max_nodes, check_refinement_room, point_accuracy, with_carry_spacing,
 };
 use helixbif::study::run::run as run_study;
 use helixbif::study::simulate::{
@@ -222,7 +222,11 @@ pub fn boundary(b: &BoundaryArgs) -> Outcome {
         .max_nodes
         .map(|m| count("--max-nodes", m, 5))
         .transpose()?;
-    let accuracy = point_accuracy(b.accuracy, max_nodes, ["--accuracy", "--max-nodes"])?;
+    let accuracy = with_carry_spacing(
+        point_accuracy(b.accuracy, max_nodes, ["--accuracy", "--max-nodes"])?,
+        b.carry_spacing,
+        ["--accuracy", "--carry-spacing"],
+    )?;
     if let Some(a) = accuracy {
         check_refinement_room("--max-nodes", a.max_nodes, &study.physical())?;
     }

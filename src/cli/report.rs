@@ -723,9 +723,13 @@ impl Text for BoundaryReport {
         match (self.accuracy, self.carried, self.not_reached) {
             (Some(a), Some(carried), Some(missed)) => writeln!(
                 f,
-                "  every Hopf point carried to the accuracy {a:e} (N up to {}): reached at {} of \
-                 {carried}; {worst}",
+                "  every Hopf point carried to the accuracy {a:e} (N up to {}{}): reached at {} \
+                 of {carried}; {worst}",
                 self.nodes_max,
+                match self.interpolated {
+                    Some(k) if k > 0 => format!("; {k} of them interpolated between refined ones"),
+                    _ => String::new(),
+                },
                 carried - missed,
             )?,
             _ => writeln!(

@@ -20,7 +20,9 @@ use crate::study::boundary::run_boundary;
 use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
-use crate::study::plan::{check_accuracy, check_max_nodes, check_refinement_room, point_accuracy};
+use crate::study::plan::{
+    check_accuracy, check_max_nodes, check_refinement_room, point_accuracy, with_carry_spacing,
+};
 use crate::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
 };
@@ -262,18 +264,19 @@ pub(crate) fn solve(py: Python<'_>, study: &Study, omega: f64) -> PyResult<Py<Py
     Solution::object(py, record)
 }
 
-/// `helixbif boundary --vary --from --to [--accuracy --max-nodes] --out`.
+/// `helixbif boundary --vary --from --to [--accuracy --max-nodes --carry-spacing] --out`.
 pub(crate) fn boundary(
     py: Python<'_>,
     study: &Study,
     vary: &str,
     (start, stop): (f64, f64),
-    (accuracy, max_nodes): (Option<f64>, Option<i64>),
+    (accuracy, max_nodes, carry_spacing): (Option<f64>, Option<i64>, Option<f64>),
     out: Option<PathBuf>,
 ) -> PyResult<Py<PyAny>> {
     let file = &study.study;
     let max_nodes = max_nodes.map(|m| count("max_nodes", m, 5)).transpose()?;
     let refinement = point_accuracy(accuracy, max_nodes, ["accuracy", "max_nodes"])
+        .and_then(|r| with_carry_spacing(r, carry_spacing, ["accuracy", "carry_spacing"]))
         .and_then(|r| {
             if let Some(r) = r {
                 check_refinement_room("max_nodes", r.max_nodes, &file.physical())?;
@@ -290,6 +293,9 @@ pub(crate) fn boundary(
     if let Some(r) = refinement {
         arguments.push(("accuracy", r.accuracy.to_string()));
         arguments.push(("max_nodes", r.max_nodes.to_string()));
+        if r.spacing > 0.0 {
+            arguments.push(("carry_spacing", r.spacing.to_string()));
+        }
     }
     arguments.push(("out", dir.display().to_string()));
     let why = provenance("boundary", &arguments);

@@ -244,10 +244,12 @@ impl Study {
     /// figures into `out` (default a fresh temporary folder). With `accuracy`, every Hopf point
     /// is carried to that relative accuracy of omega_b (up to `max_nodes`, default 500, above
     /// the study's N), as
-    /// `locate` refines it (`--accuracy`, `--max-nodes`). Returns a `Boundary`. Raises
-    /// NumericalError (the curve found so far in `partial`) when the curve cannot be finished
-    /// or a point falls short of `accuracy`.
-    #[pyo3(signature = (vary, start, stop, *, accuracy=None, max_nodes=None, out=None))]
+    /// `locate` refines it (`--accuracy`, `--max-nodes`); with `carry_spacing` as well, only
+    /// points that far apart in ln q are refined and the others take the correction
+    /// interpolated (`--carry-spacing`). Returns a `Boundary`. Raises NumericalError (the
+    /// curve found so far in `partial`) when the curve cannot be finished or a point falls
+    /// short of `accuracy`.
+    #[pyo3(signature = (vary, start, stop, *, accuracy=None, max_nodes=None, carry_spacing=None, out=None))]
     #[allow(clippy::too_many_arguments)]
     fn boundary(
         &self,
@@ -257,9 +259,11 @@ impl Study {
         stop: f64,
         accuracy: Option<f64>,
         max_nodes: Option<i64>,
+        carry_spacing: Option<f64>,
         out: Option<PathBuf>,
     ) -> PyResult<Py<PyAny>> {
-        runs::boundary(py, self, vary, (start, stop), (accuracy, max_nodes), out)
+        let refinement = (accuracy, max_nodes, carry_spacing);
+        runs::boundary(py, self, vary, (start, stop), refinement, out)
     }
 
     /// The rod stepped through time for `t_end` s at `omega` rad/s (`helixbif simulate`): from

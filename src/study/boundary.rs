@@ -10,8 +10,8 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::analysis::boundary::{
-    Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint, check_end,
-    follow_boundary,
+    Answer, Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint,
+    check_end, follow_boundary,
 };
 use crate::error::caught;
 use crate::model::Model;
@@ -57,6 +57,9 @@ pub struct BoundaryReport {
     pub accuracy: Option<f64>,
     pub carried: Option<usize>,
     pub not_reached: Option<usize>,
+    /// Of the points carried, how many took the interpolated correction of refined ones (a
+    /// carry spacing); absent without an accuracy.
+    pub interpolated: Option<usize>,
     /// The largest estimated relative error of `omega_b` over the points that state one, and
     /// where (`q`).
     pub relative_error_max: Option<[f64; 2]>,
@@ -226,6 +229,13 @@ pub(crate) fn run_family(
                     .points
                     .iter()
                     .filter(|r| r.reached.is_some())
+                    .count()
+            }),
+            interpolated: accuracy.map(|_| {
+                boundary
+                    .points
+                    .iter()
+                    .filter(|r| r.answer == Answer::Interpolated)
                     .count()
             }),
             not_reached: accuracy.map(|_| {

@@ -194,6 +194,11 @@ pub enum Plan {
         accuracy: Option<f64>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         max_nodes: Option<usize>,
+        /// With `accuracy`: refine only points at least this far apart in `ln q` and
+        /// interpolate the correction between them ([`PointAccuracy::spacing`]); absent: every
+        /// Hopf point refined.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        carry_spacing: Option<f64>,
     },
     /// Steady shapes at a few rates seen from two orthogonal sides, and the critical mode.
     Shapes { omegas: Vec<f64> },
@@ -484,9 +489,11 @@ impl Plan {
                 fit,
                 accuracy,
                 max_nodes,
+                carry_spacing,
                 ..
             } => {
-                point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
+                let refinement = point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
+                with_carry_spacing(refinement, *carry_spacing, CARRY_SPACING)?;
                 if !(from.is_finite() && to.is_finite() && from != to) {
                     return Err(Error::input(
                         "study.from",
@@ -534,6 +541,45 @@ pub fn point_accuracy(
     Ok(Some(PointAccuracy {
         accuracy,
         max_nodes,
+        spacing: 0.0,
+    }))
+}
+
+/// The largest carry spacing of a curve, in `ln q` (refined points a factor `e` apart).
+pub const CARRY_SPACING_MAX: f64 = 1.0;
+
+/// The study keys of a boundary's carry spacing and the accuracy it needs.
+pub const CARRY_SPACING: [&str; 2] = ["study.accuracy", "study.carry_spacing"];
+
+/// `refinement` (of [`point_accuracy`]) with a curve's carry `spacing` in `ln q`
+/// ([`PointAccuracy::spacing`]; absent: 0, every point refined), which must be in `[0,`
+/// [`CARRY_SPACING_MAX`]`]` and needs an accuracy. `fields` name the two as the user gave them.
+pub fn with_carry_spacing(
+    refinement: Option<PointAccuracy>,
+    spacing: Option<f64>,
+    [accuracy_field, spacing_field]: [&str; 2],
+) -> Result<Option<PointAccuracy>> {
+    let Some(spacing) = spacing else {
+        return Ok(refinement);
+    };
+    let Some(refinement) = refinement else {
+        return Err(Error::input(
+            spacing_field,
+            format!("spaces the points refined to an accuracy, which needs {accuracy_field}"),
+        ));
+    };
+    if !(0.0..=CARRY_SPACING_MAX).contains(&spacing) {
+        return Err(Error::input(
+            spacing_field,
+            format!(
+                "must be in [0, {CARRY_SPACING_MAX}] (a distance in ln of the varied value; 0 \
+                 refines every point), got {spacing}"
+            ),
+        ));
+    }
+    Ok(Some(PointAccuracy {
+        spacing,
+        ..refinement
     }))
 }
 

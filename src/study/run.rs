@@ -13,7 +13,10 @@ use super::locate::{LocateResult, Resolution, locate_study};
 use super::orbits::{OrbitsOptions, OrbitsReport};
 use super::output::{Meta, Provenance, create_dir, write_json};
 use super::phase::PhaseResult;
-use super::plan::{POINT_REFINEMENT, Plan, check_refinement_room, point_accuracy};
+use super::plan::{
+    CARRY_SPACING, POINT_REFINEMENT, Plan, check_refinement_room, point_accuracy,
+    with_carry_spacing,
+};
 use super::shapes::ShapesResult;
 use super::sweep::{SweepSummary, cases, run_sweep, variant};
 use super::{Study, sweep_figures};
@@ -192,12 +195,17 @@ pub fn run(
             fit,
             accuracy,
             max_nodes,
+            carry_spacing,
         } => {
             let curves = Curves {
                 key: vary,
                 from: *from,
                 to: *to,
-                accuracy: point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?,
+                accuracy: with_carry_spacing(
+                    point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?,
+                    *carry_spacing,
+                    CARRY_SPACING,
+                )?,
             };
             let (value, failed) =
                 run_boundaries(study, &curves, &cases(plan_cases), *fit, dir, provenance)?;

@@ -1,12 +1,17 @@
 //! A boundary's Hopf points carried from the curve's `N` to an accuracy (`boundary --accuracy`,
 //! docs/model.md section 11): `locate`'s refinement at each point's `q`, checked to start on the
-//! curve's point, and the row it gives.
+//! curve's point, and the row it gives; with a spacing, only some points are refined and the
+//! others take the refinement's correction interpolated in `ln q` ([`interpolate`]).
+
+use serde::Serialize;
 
 use crate::Result;
-use crate::analysis::boundary::{BoundaryPoint, WINDOW_MARGIN, reaching};
+use crate::analysis::boundary::{
+    BoundaryObserver, BoundaryPoint, Recorder, WINDOW_MARGIN, reaching,
+};
 use crate::analysis::locate::{LocateSettings, Loss};
 use crate::analysis::refine::{Refinement, refine};
-use crate::engine::curve::CurvePoint;
+use crate::engine::curve::{CurvePoint, Family};
 use crate::engine::events::EventKind;
 use crate::engine::stop::Silent;
 use crate::model::Model;
@@ -22,6 +27,24 @@ pub struct PointAccuracy {
     pub accuracy: f64,
     /// The largest node count a point is carried to.
     pub max_nodes: usize,
+    /// On a curve: the least distance in `ln q` between two points refined (0: every Hopf
+    /// point); the points between take the correction of their neighbours ([`interpolate`]).
+    pub spacing: f64,
+}
+
+/// Where the `omega_b` of a row of a boundary comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Answer {
+    /// The curve's own value at its `N` (no accuracy asked for, a fold or branch point, or a
+    /// point not yet reached by the interpolation between refined points).
+    Curve,
+    /// The point's own refinement in `N` ([`carry`]).
+    Refined,
+    /// The correction of the refined points on either side, interpolated ([`interpolate`]).
+    Interpolated,
+    /// Kept at the curve's `N`: its refinement gave no answer (the report says why).
+    Kept,
 }
 
 /// What became of a Hopf point carried to an accuracy ([`carry`]).
@@ -142,5 +165,278 @@ pub(super) fn refined_row(
         nodes: f.nodes,
         curve_omega_b: model.scales.omega_from_bar(curve_omegabar),
         curve_nodes: model.nodes(),
+        answer: Answer::Refined,
     })
+}
+
+/// Carrying the points of a curve as it is followed (docs/model.md section 11).
+impl<O: BoundaryObserver> Recorder<'_, O> {
+    /// The row of the Hopf point `point` (at `omega` rad/s, on `model`) carried to `accuracy`
+    /// ([`carry`]); the first point that falls short of it says why.
+    pub(super) fn carried_row(
+        &mut self,
+        point: &CurvePoint,
+        model: &Model,
+        accuracy: PointAccuracy,
+        omega: f64,
+    ) -> Result<BoundaryPoint> {
+        let carried = carry(self.family, &self.locate, accuracy, point, omega)?;
+        let (row, short) = self.row(point, model, Some(&carried))?;
+        self.note_shortfall(point.q, short);
+        Ok(row)
+    }
+
+    /// Keeps the first reason a point fell short of the accuracy, at `q`.
+    fn note_shortfall(&mut self, q: f64, short: Option<String>) {
+        if let (Some(why), None) = (short, &self.boundary.first_shortfall) {
+            self.boundary.first_shortfall =
+                Some(format!("at {} = {q}, {why}", self.family.field().key()));
+        }
+    }
+
+    /// Whether the Hopf point at `q` is refined itself: every one without a carry spacing,
+    /// else the first of a segment and one at least the spacing (in `ln q`) past the last
+    /// refined.
+    pub(super) fn refines(&self, q: f64, accuracy: PointAccuracy) -> bool {
+        let segment = self.boundary.segments - 1;
+        let last = self
+            .boundary
+            .points
+            .iter()
+            .rev()
+            .take_while(|r| r.segment == segment)
+            .find(|r| r.answer == Answer::Refined);
+        accuracy.spacing <= 0.0
+            || last.is_none_or(|r| (q.abs().ln() - r.q.abs().ln()).abs() >= accuracy.spacing)
+    }
+
+    /// The index of the first row of the current segment.
+    pub(super) fn segment_start(&self) -> usize {
+        let segment = self.boundary.segments - 1;
+        let points = &self.boundary.points;
+        points.len()
+            - points
+                .iter()
+                .rev()
+                .take_while(|r| r.segment == segment)
+                .count()
+    }
+
+    /// Ends a segment followed with a carry spacing: refines its last Hopf point if it was not,
+    /// then more (each the one farthest in `ln q` from the refined ones) until three are
+    /// refined where the segment has them (the interpolation's error needs a second
+    /// difference), and interpolates the rest ([`interpolate`]).
+    pub(super) fn close_segment(&mut self) -> Result<()> {
+        let Some(accuracy) = self.accuracy.filter(|a| a.spacing > 0.0) else {
+            return Ok(());
+        };
+        let start = self.segment_start();
+        loop {
+            let rows = &self.boundary.points[start..];
+            let refined: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.answer == Answer::Refined)
+                .map(|r| r.q.abs().ln())
+                .collect();
+            let last = self.boundary.points.len().checked_sub(1);
+            let next = match self.uncarried.iter().position(|(i, _)| Some(*i) == last) {
+                Some(k) => k,
+                None if refined.len() < 3 && !self.uncarried.is_empty() => {
+                    let distance = |q: f64| {
+                        refined
+                            .iter()
+                            .map(|x| (q.abs().ln() - x).abs())
+                            .fold(f64::INFINITY, f64::min)
+                    };
+                    (0..self.uncarried.len())
+                        .max_by(|&a, &b| {
+                            distance(self.uncarried[a].1.q)
+                                .total_cmp(&distance(self.uncarried[b].1.q))
+                        })
+                        .expect("not empty")
+                }
+                None => break,
+            };
+            let (index, point) = self.uncarried.remove(next);
+            let member = self.family.member(point.q)?;
+            let omega = member.model.scales.omega_from_bar(point.p);
+            self.boundary.points[index] =
+                self.carried_row(&point, &member.model, accuracy, omega)?;
+        }
+        self.uncarried.clear();
+        interpolate(&mut self.boundary.points[start..], accuracy.accuracy);
+        let missed = self.boundary.points[start..]
+            .iter()
+            .find(|r| r.answer == Answer::Interpolated && r.reached == Some(false))
+            .map(|r| {
+                (
+                    r.q,
+                    r.omega_b_error.map_or(
+                        "no error: a second difference needs three refined points".into(),
+                        |e| format!("an error of {:.2e} relative", e / r.omega_b.abs()),
+                    ),
+                )
+            });
+        if let Some((q, why)) = missed {
+            self.note_shortfall(
+                q,
+                Some(format!(
+                    "the interpolation between the refined points states {why} (a smaller carry \
+                     spacing refines more points)"
+                )),
+            );
+        }
+        self.boundary.local_exponents();
+        self.observer.grown(&self.boundary)
+    }
+}
+
+/// The Hopf rows of one segment of a boundary that were not refined themselves (`answer`
+/// [`Answer::Curve`] or [`Answer::Interpolated`]) and lie between two refined rows `a`, `b`
+/// (`answer` [`Answer::Refined`]; `accuracy` the relative accuracy asked for), given the
+/// refinement's correction interpolated linearly in `x = ln q` (docs/model.md section 11):
+///
+/// ```text
+/// delta = ln(omega_b / curve_omega_b)   at the refined rows,
+/// omega_b(x) = curve_omega_b(x) exp(delta_a + t (delta_b - delta_a)),   t = (x - x_a)/(x_b - x_a),
+/// e(x) = r_a + t (r_b - r_a) + (x - x_a)(x_b - x) |delta''|,
+/// ```
+///
+/// `e` the relative error: the refined rows' relative errors `r` interpolated, plus twice the
+/// error of linear interpolation, `(x - x_a)(x_b - x) |delta''| / 2`, with `|delta''|` the
+/// larger of the second divided differences of `delta` over the refined triples `(a-, a, b)`
+/// and `(a, b, b+)` (`2 [(d3 - d2)/(x3 - x2) - (d2 - d1)/(x2 - x1)] / (x3 - x1)`): an estimate
+/// from points a spacing apart, of their own errors' noise besides, which on the thick rod of
+/// `tests/boundary.rs` came out 0.88 times the error it estimates in the middle of an interval
+/// (hence the factor two). With only two refined rows there is no `delta''`: the
+/// row takes the interpolated value without an error and does not reach the accuracy. `w`,
+/// `Fpbar`, `hbar`, `precision` and `l1` stay the curve's own; `nodes` is the finer of `a`'s
+/// and `b`'s.
+pub(super) fn interpolate(rows: &mut [BoundaryPoint], accuracy: f64) {
+    /// A refined row: its index, `x`, `delta`, relative error and `N`.
+    struct Refined {
+        index: usize,
+        x: f64,
+        delta: f64,
+        relative: Option<f64>,
+        nodes: usize,
+    }
+    let refined: Vec<Refined> = (rows.iter().enumerate())
+        .filter(|(_, r)| r.answer == Answer::Refined)
+        .map(|(index, r)| Refined {
+            index,
+            x: r.q.abs().ln(),
+            delta: (r.omega_b / r.curve_omega_b).ln(),
+            relative: r.omega_b_error.map(|e| e / r.omega_b.abs()),
+            nodes: r.nodes,
+        })
+        .collect();
+    // |delta''| over the triple of refined rows starting at the k-th.
+    let curvature = |k: usize| -> Option<f64> {
+        let [p1, p2, p3] = [0, 1, 2].map(|j| refined.get(k + j));
+        let (p1, p2, p3) = (p1?, p2?, p3?);
+        let slope = |a: &Refined, b: &Refined| (b.delta - a.delta) / (b.x - a.x);
+        Some((2.0 * (slope(p2, p3) - slope(p1, p2)) / (p3.x - p1.x)).abs())
+    };
+    for (k, pair) in refined.windows(2).enumerate() {
+        let (a, b) = (&pair[0], &pair[1]);
+        let bend = [k.checked_sub(1).and_then(curvature), curvature(k)]
+            .into_iter()
+            .flatten()
+            .reduce(f64::max);
+        for row in &mut rows[a.index + 1..b.index] {
+            if row.kind != EventKind::Hopf || row.answer == Answer::Kept {
+                continue;
+            }
+            let x = row.q.abs().ln();
+            let t = (x - a.x) / (b.x - a.x);
+            let correction = (a.delta + t * (b.delta - a.delta)).exp();
+            let error = (a.relative.zip(b.relative).zip(bend))
+                .map(|((ra, rb), bend)| ra + t * (rb - ra) + (x - a.x) * (b.x - x) * bend);
+            // omegabar_b / omega_b is the member's time scale, the same at every N.
+            let scale = row.omegabar_b / row.omega_b;
+            row.omega_b = row.curve_omega_b * correction;
+            row.omegabar_b = row.omega_b * scale;
+            row.omega_b_error = error.map(|e| e * row.omega_b.abs());
+            row.reached = Some(error.is_some_and(|e| e < accuracy));
+            row.nodes = a.nodes.max(b.nodes);
+            row.answer = Answer::Interpolated;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A Hopf row at `q` whose curve gives `curve` rad/s; refined to `omega` +- `error` where
+    /// given.
+    fn row(q: f64, curve: f64, refined: Option<(f64, f64)>) -> BoundaryPoint {
+        let (omega_b, omega_b_error, answer) = match refined {
+            Some((w, e)) => (w, Some(e), Answer::Refined),
+            None => (curve, None, Answer::Curve),
+        };
+        BoundaryPoint {
+            segment: 0,
+            q,
+            omega_b,
+            omega_b_error,
+            reached: Some(refined.is_some()),
+            omegabar_b: 2.0 * omega_b,
+            kind: EventKind::Hopf,
+            w: 1.0,
+            wbar: 2.0,
+            fpbar: 0.0,
+            hbar: 1.0,
+            m_loc: None,
+            m_loc_error: None,
+            precision: 1e-9,
+            l1: None,
+            l1_precision: None,
+            criticality: None,
+            nodes: if refined.is_some() { 241 } else { 61 },
+            curve_omega_b: curve,
+            curve_nodes: 61,
+            answer,
+        }
+    }
+
+    /// With the correction `delta = ln(omega_b / curve_omega_b)` quadratic in `x = ln q`
+    /// (`delta = c x^2`, `delta'' = 2c` exactly, so the second difference of any three refined
+    /// points is exact), a row between two refined ones takes `curve exp(delta)` linearly
+    /// interpolated, which misses the true one by exactly `(x - x_a)(x_b - x) c` in `ln omega_b`, and
+    /// states that twice on top of the refined rows' relative errors interpolated; `omegabar_b`
+    /// keeps the member's time scale. A row past the last refined one is left as it was.
+    #[test]
+    fn the_interpolated_correction_states_twice_the_error_of_linear_interpolation() {
+        let c = 0.05;
+        let curve = |x: f64| 10.0 + x;
+        let refined = |x: f64, r: f64| {
+            let w = curve(x) * (c * x * x).exp();
+            row(x.exp(), curve(x), Some((w, r * w)))
+        };
+        let mut rows = vec![
+            refined(-2.0, 1e-3),
+            row(1.5f64.exp().recip(), curve(-1.5), None),
+            refined(-1.0, 3e-3),
+            refined(-0.5, 2e-3),
+            row(0.2f64.exp(), curve(0.2), None),
+        ];
+        interpolate(&mut rows, 5e-2);
+        let between = &rows[1];
+        assert_eq!(between.answer, Answer::Interpolated);
+        let (x, xa, xb) = (-1.5, -2.0, -1.0);
+        let exact = curve(x) * (c * x * x).exp();
+        let linear = curve(x) * (c * (xa * xa + xb * xb) / 2.0).exp();
+        assert!((between.omega_b - linear).abs() <= 1e-12 * linear);
+        let missed = (between.omega_b / exact).ln().abs();
+        assert!((missed - (x - xa) * (xb - x) * c).abs() <= 1e-3 * missed);
+        let stated = between.omega_b_error.unwrap() / between.omega_b;
+        assert!((stated - (2e-3 + 2.0 * missed)).abs() <= 1e-3 * stated);
+        assert_eq!(between.reached, Some(true));
+        assert_eq!(between.nodes, 241);
+        assert!((between.omegabar_b / between.omega_b - 2.0).abs() <= 1e-12);
+        assert_eq!(rows[4].answer, Answer::Curve);
+        assert_eq!(rows[4].omega_b, curve(0.2));
+    }
 }
