@@ -1,11 +1,14 @@
-//! Four `f64` handled side by side by the RPY quadrature kernels ([`super::rpy`]).
+//! Eight `f64` handled side by side by the RPY quadrature kernels ([`super::rpy`]).
 //!
 //! A plain array with element-wise operations, each a loop over the lanes that the compiler
 //! turns into vector instructions of the widest kind the function it is inlined into may use:
-//! two SSE2 registers in the baseline x86-64 copy of a kernel, one AVX register in the copy
-//! compiled for AVX2 and FMA. `wide::f64x4`, used before, fixes its representation when the
-//! crate is compiled (two SSE2 registers on the default target), so in the copy compiled for
-//! AVX2 it still ran as pairs of 128-bit operations (seen in the disassembly).
+//! one AVX-512 register in the copy of a kernel compiled for AVX-512, two AVX registers in the
+//! copy compiled for AVX2 and FMA, four SSE2 registers in the baseline x86-64 copy. `wide::f64x4`,
+//! used before, fixed its representation when the crate was compiled (two SSE2 registers on the
+//! default target), so in the copy compiled for AVX2 it still ran as pairs of 128-bit operations
+//! (seen in the disassembly). Eight lanes fill an AVX-512 register (checked in the disassembly:
+//! the AVX-512 copy of the velocity kernel works on `zmm` registers only); with four, the
+//! AVX-512 copy would have used half of each.
 //!
 //! Every lane is computed by the same IEEE operation whatever the registers (no operation is
 //! fused: Rust contracts no `a * b + c` into an FMA by itself), so every copy gives the same bits.
@@ -13,11 +16,11 @@
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// Lanes per vector.
-pub(crate) const LANES: usize = 4;
+pub(crate) const LANES: usize = 8;
 
 /// One `f64` per lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 pub(crate) struct Lanes(pub [f64; LANES]);
 
 /// A lane-wise condition (see [`Lanes::select`]).
@@ -78,11 +81,12 @@ impl Lanes {
         Mask(out)
     }
 
-    /// The sum of the lanes, `(l0 + l2) + (l1 + l3)`.
+    /// The sum of the lanes, `((l0 + l4) + (l2 + l6)) + ((l1 + l5) + (l3 + l7))` (the halves
+    /// added lane by lane, twice, then the last two).
     #[inline(always)]
     pub fn sum(self) -> f64 {
-        let [a, b, c, d] = self.0;
-        (a + c) + (b + d)
+        let [a, b, c, d, e, f, g, h] = self.0;
+        ((a + e) + (c + g)) + ((b + f) + (d + h))
     }
 }
 
@@ -153,28 +157,48 @@ impl Neg for Lanes {
 mod tests {
     use super::*;
 
-    /// Each operation is the scalar one in every lane.
+    /// The bits of every lane.
+    fn bits(v: Lanes) -> [u64; LANES] {
+        v.0.map(f64::to_bits)
+    }
+
+    /// Each operation is the scalar one in every lane (bit for bit, signed zeros included).
     #[test]
     fn lanes_compute_the_scalar_operations() {
-        let a = Lanes([1.0, -2.0, 0.0, 9.0]);
-        let b = Lanes([3.0, 0.5, 0.0, -4.0]);
-        assert_eq!((a + b).0, [4.0, -1.5, 0.0, 5.0]);
-        assert_eq!((a - b).0, [-2.0, -2.5, 0.0, 13.0]);
-        assert_eq!((a * b).0, [3.0, -1.0, 0.0, -36.0]);
-        assert_eq!((a / Lanes::splat(2.0)).0, [0.5, -1.0, 0.0, 4.5]);
-        assert_eq!((2.0 - a).0, [1.0, 4.0, 2.0, -7.0]);
-        assert_eq!((-a).0, [-1.0, 2.0, -0.0, -9.0]);
-        assert_eq!(Lanes([4.0, 9.0, 0.0, 2.25]).sqrt().0, [2.0, 3.0, 0.0, 1.5]);
-        assert_eq!(a.gt(b).select(a, b).0, [3.0, 0.5, 0.0, 9.0]);
-        assert_eq!(a.ge(b).select(a, b).0, [3.0, 0.5, 0.0, 9.0]);
-        assert_eq!(Lanes::ZERO.gt(b).select(a, b).0, [3.0, 0.5, 0.0, 9.0]);
-        assert_eq!(Lanes([1.0, 2.0, 4.0, 8.0]).sum(), 15.0);
+        let a = Lanes([1.0, -2.0, 0.0, 9.0, 0.5, -7.0, 3.0, 100.0]);
+        let b = Lanes([3.0, 0.5, -0.0, -4.0, 2.0, -7.0, -1.0, 0.25]);
+        let scalar =
+            |f: &dyn Fn(f64, f64) -> f64| bits(Lanes(std::array::from_fn(|i| f(a.0[i], b.0[i]))));
+        assert_eq!(bits(a + b), scalar(&|x, y| x + y));
+        assert_eq!(bits(a - b), scalar(&|x, y| x - y));
+        assert_eq!(bits(a * b), scalar(&|x, y| x * y));
+        assert_eq!(bits(a / b), scalar(&|x, y| x / y));
+        assert_eq!(bits(2.0 - a), scalar(&|x, _| 2.0 - x));
+        assert_eq!(bits(-a), scalar(&|x, _| -x));
+        assert_eq!(bits(b.sqrt()), scalar(&|_, y| y.sqrt()));
+        assert_eq!(
+            bits(a.gt(b).select(a, b)),
+            scalar(&|x, y| if x > y { x } else { y })
+        );
+        assert_eq!(
+            bits(a.ge(b).select(a, b)),
+            scalar(&|x, y| if x >= y { x } else { y })
+        );
+        // 0 > -0 is false, 0 >= -0 is true: the two conditions pick different zeros.
+        assert_ne!(bits(a.gt(b).select(a, b))[2], bits(a.ge(b).select(a, b))[2]);
+        let powers = Lanes(std::array::from_fn(|i| (1u64 << i) as f64));
+        assert_eq!(powers.sum(), 255.0);
+        // The order of the sum: 1e16 + 1 - 1e16 in lanes 0, 4, 2 gives 0, not 1.
+        let mut cancel = Lanes::ZERO;
+        (cancel.0[0], cancel.0[4], cancel.0[2]) = (1e16, 1.0, -1e16);
+        assert_eq!(cancel.sum(), ((1e16 + 1.0) + -1e16) + 0.0);
         let mut c = a;
         c += b;
         assert_eq!(c, a + b);
+        let v: Vec<f64> = (0..=LANES).map(|i| i as f64).collect();
         assert_eq!(
-            Lanes::load(&[0.0, 1.0, 2.0, 3.0, 4.0], 1).0,
-            [1.0, 2.0, 3.0, 4.0]
+            Lanes::load(&v, 1).0,
+            std::array::from_fn(|i| (i + 1) as f64)
         );
     }
 }

@@ -1,20 +1,73 @@
 //! The quadrature kernels of the RPY line (the [module documentation](super)): the kernel `M`
 //! and its derivative at the quadrature points, summed edge pair by edge pair, in lanes of
-//! [`LANES`] edges, in a baseline copy and one compiled for AVX2 and FMA.
+//! [`LANES`] edges, in a baseline copy and copies compiled for AVX2 and FMA and for AVX-512.
 
 use super::super::lanes::{LANES, Lanes};
 use super::{Discretisation, EdgeRows, Rpy};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 
-/// Whether the processor has AVX2 and FMA (detected at run time, once): the quadrature kernels
-/// then run in a copy compiled for them, where the lane operations of [`Lanes`] are inlined and
-/// carried out in one AVX register each (the baseline copy uses two SSE2 registers). The sums are
-/// the same: no operation is fused (Rust contracts no `a * b + c` into an FMA by itself), so
-/// both copies give the same bits (`tests::both_kernel_copies_give_the_same_bits`).
+/// The widest registers the processor has for the kernels (detected at run time; the standard
+/// library caches the answer): the quadrature kernels then run in a copy compiled for them,
+/// where the lane operations of [`Lanes`] are inlined and carried out in one AVX-512 register
+/// (eight `f64`), two AVX registers, or (the baseline copy) four SSE2 registers each. The
+/// AVX-512 copy took the default `locate` from 4.9-5.0 s (the AVX2 copy, taken by a build whose
+/// dispatch skipped the AVX-512 one) to 4.2-4.4 s on the 2-core machine (an Intel Xeon with
+/// AVX-512; `perf` put two thirds of that run in the kernels). The
+/// sums are the same: no operation is fused (Rust contracts no `a * b + c` into an FMA by
+/// itself), so every copy gives the same bits (`tests::every_kernel_copy_gives_the_same_bits`).
 #[cfg(target_arch = "x86_64")]
-fn wide_registers() -> bool {
-    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Registers {
+    Sse2,
+    Avx2,
+    Avx512,
+}
+
+#[cfg(target_arch = "x86_64")]
+fn registers() -> Registers {
+    use std::is_x86_feature_detected as has;
+    if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx2") && has!("fma") {
+        Registers::Avx512
+    } else if has!("avx2") && has!("fma") {
+        Registers::Avx2
+    } else {
+        Registers::Sse2
+    }
+}
+
+/// For a kernel `$kernel` of [`Rpy`]: its copies compiled for AVX2 and FMA (`$avx2`) and for
+/// AVX-512 (`$avx512`), and `$name`, which runs the widest copy the processor has
+/// ([`registers`]).
+macro_rules! wide_copies {
+    ($name:ident, $kernel:ident, $avx2:ident, $avx512:ident, ($($arg:ident: $ty:ty),*) -> $ret:ty) => {
+        #[doc = concat!("[`Rpy::", stringify!($kernel), "`] in the widest copy the processor has ([`registers`]).")]
+        pub(super) fn $name(&self, $($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            match registers() {
+                // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA, checked at run time.
+                Registers::Avx512 => return unsafe { self.$avx512($($arg),*) },
+                // SAFETY: the processor has AVX2 and FMA, checked at run time.
+                Registers::Avx2 => return unsafe { self.$avx2($($arg),*) },
+                Registers::Sse2 => {}
+            }
+            self.$kernel($($arg),*)
+        }
+
+        #[doc = concat!("[`Rpy::", stringify!($kernel), "`] for processors with AVX2 and FMA.")]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        pub(super) unsafe fn $avx2(&self, $($arg: $ty),*) -> $ret {
+            self.$kernel($($arg),*)
+        }
+
+        #[doc = concat!("[`Rpy::", stringify!($kernel), "`] for processors with AVX-512 (F, VL, DQ), AVX2 and FMA.")]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+        pub(super) unsafe fn $avx512(&self, $($arg: $ty),*) -> $ret {
+            self.$kernel($($arg),*)
+        }
+    };
 }
 
 /// `[f(0), f(1), f(2)]`, written out: in the kernels' inner loops `array::map` was left as a
@@ -145,27 +198,8 @@ impl Rpy {
             + (rhat * g.transpose() + Matrix3::identity() * rg - rr * (2.0 * rg)) * beta_over_r
     }
 
-    /// [`Rpy::edge_pairs_kernel`], compiled for AVX2 and FMA where the processor has them
-    /// (see [`wide_registers`]).
-    pub(super) fn edge_pairs(&self, d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]> {
-        #[cfg(target_arch = "x86_64")]
-        if wide_registers() {
-            // SAFETY: the processor has AVX2 and FMA, checked at run time.
-            return unsafe { self.edge_pairs_avx2(d, k) };
-        }
-        self.edge_pairs_kernel(d, k)
-    }
-
-    /// [`Rpy::edge_pairs_kernel`] for processors with AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn edge_pairs_avx2(
-        &self,
-        d: &Discretisation,
-        k: usize,
-    ) -> Vec<[[Matrix3<f64>; 2]; 2]> {
-        self.edge_pairs_kernel(d, k)
-    }
+    wide_copies!(edge_pairs, edge_pairs_kernel, edge_pairs_avx2, edge_pairs_avx512,
+        (d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]>);
 
     /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
     /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
@@ -332,33 +366,8 @@ impl Rpy {
         out
     }
 
-    /// [`Rpy::edge_rows_kernel`], compiled for AVX2 and FMA where the processor has them (see
-    /// [`wide_registers`]).
-    pub(super) fn edge_rows(
-        &self,
-        d: &Discretisation,
-        forces: &[Vec<f64>; 3],
-        k: usize,
-    ) -> EdgeRows {
-        #[cfg(target_arch = "x86_64")]
-        if wide_registers() {
-            // SAFETY: the processor has AVX2 and FMA, checked at run time.
-            return unsafe { self.edge_rows_avx2(d, forces, k) };
-        }
-        self.edge_rows_kernel(d, forces, k)
-    }
-
-    /// [`Rpy::edge_rows_kernel`] for processors with AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn edge_rows_avx2(
-        &self,
-        d: &Discretisation,
-        forces: &[Vec<f64>; 3],
-        k: usize,
-    ) -> EdgeRows {
-        self.edge_rows_kernel(d, forces, k)
-    }
+    wide_copies!(edge_rows, edge_rows_kernel, edge_rows_avx2, edge_rows_avx512,
+        (d: &Discretisation, forces: &[Vec<f64>; 3], k: usize) -> EdgeRows);
 
     /// The velocities `u_p = sum_p2 M(y_p - y_p2) G_p2` that the point forces of the edges'
     /// points induce at the points `p` of edge `k` (the point forces at the ends aside), for
@@ -404,35 +413,10 @@ impl Rpy {
         out
     }
 
-    /// [`Rpy::edge_velocities_kernel`], compiled for AVX2 and FMA where the processor has them
-    /// (see [`wide_registers`]).
-    pub(super) fn edge_velocities(
-        &self,
-        d: &Discretisation,
-        forces: &[[Vec<f64>; 3]],
-        sources: &[usize],
-        k: usize,
-    ) -> Vec<Vector3<f64>> {
-        #[cfg(target_arch = "x86_64")]
-        if wide_registers() {
-            // SAFETY: the processor has AVX2 and FMA, checked at run time.
-            return unsafe { self.edge_velocities_avx2(d, forces, sources, k) };
-        }
-        self.edge_velocities_kernel(d, forces, sources, k)
-    }
-
-    /// [`Rpy::edge_velocities_kernel`] for processors with AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn edge_velocities_avx2(
-        &self,
-        d: &Discretisation,
-        forces: &[[Vec<f64>; 3]],
-        sources: &[usize],
-        k: usize,
-    ) -> Vec<Vector3<f64>> {
-        self.edge_velocities_kernel(d, forces, sources, k)
-    }
+    wide_copies!(edge_velocities, edge_velocities_kernel, edge_velocities_avx2,
+        edge_velocities_avx512,
+        (d: &Discretisation, forces: &[[Vec<f64>; 3]], sources: &[usize], k: usize)
+            -> Vec<Vector3<f64>>);
 
     /// The point forces `G_p = sum_j P_pj z_j` of the edges' points, by component, in the
     /// layout of [`PointLanes`].
@@ -448,15 +432,15 @@ impl Rpy {
 
 #[cfg(test)]
 mod tests {
-    /// The kernels compiled for AVX2 and FMA give the same bits as the baseline ones, on a
-    /// configuration with near and far pairs (a helix turned in on itself).
+    /// The kernels compiled for wider registers give the same bits as the baseline ones (each
+    /// copy the processor has), on a configuration with near and far pairs (a helix turned in
+    /// on itself) and a number of edges that is no multiple of the lanes.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn both_kernel_copies_give_the_same_bits() {
+    fn every_kernel_copy_gives_the_same_bits() {
+        use super::Registers;
         use nalgebra::Vector3;
-        if !super::wide_registers() {
-            return;
-        }
+        let widest = super::registers();
         let x: Vec<Vector3<f64>> = (0..23)
             .map(|i| {
                 let t = 0.4 * i as f64;
@@ -473,17 +457,31 @@ mod tests {
         let rpy = super::Rpy::for_polygon(1.0, 0.012, 8.0, &x);
         let d = rpy.discretise(&x);
         let forces = rpy.point_forces(&y);
+        let sets = [forces.clone()];
+        let sources: Vec<usize> = (0..x.len() - 1).step_by(super::LANES).collect();
         for k in 0..x.len() - 1 {
-            // SAFETY: the processor has AVX2 and FMA (checked above).
-            let wide = unsafe { rpy.edge_pairs_avx2(&d, k) };
-            assert_eq!(wide, rpy.edge_pairs_kernel(&d, k), "edge {k}");
-            let wide = unsafe { rpy.edge_rows_avx2(&d, &forces, k) };
-            let base = rpy.edge_rows_kernel(&d, &forces, k);
-            assert_eq!(wide.b, base.b);
-            let sets = [forces.clone()];
-            let sources: Vec<usize> = (0..x.len() - 1).step_by(super::LANES).collect();
-            let wide = unsafe { rpy.edge_velocities_avx2(&d, &sets, &sources, k) };
-            assert_eq!(wide, rpy.edge_velocities_kernel(&d, &sets, &sources, k));
+            let pairs = rpy.edge_pairs_kernel(&d, k);
+            let rows = rpy.edge_rows_kernel(&d, &forces, k).b;
+            let velocities = rpy.edge_velocities_kernel(&d, &sets, &sources, k);
+            if widest != Registers::Sse2 {
+                // SAFETY: the processor has AVX2 and FMA (AVX-512 implies them here).
+                unsafe {
+                    assert_eq!(rpy.edge_pairs_avx2(&d, k), pairs, "edge {k}");
+                    assert_eq!(rpy.edge_rows_avx2(&d, &forces, k).b, rows);
+                    assert_eq!(rpy.edge_velocities_avx2(&d, &sets, &sources, k), velocities);
+                }
+            }
+            if widest == Registers::Avx512 {
+                // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA.
+                unsafe {
+                    assert_eq!(rpy.edge_pairs_avx512(&d, k), pairs, "edge {k}");
+                    assert_eq!(rpy.edge_rows_avx512(&d, &forces, k).b, rows);
+                    assert_eq!(
+                        rpy.edge_velocities_avx512(&d, &sets, &sources, k),
+                        velocities
+                    );
+                }
+            }
         }
     }
 }
