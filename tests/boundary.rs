@@ -444,6 +444,10 @@ fn a_boundary_carried_with_a_spacing_states_errors_that_cover_each_points_own_re
         );
     }
     let (a, b) = (&sparse[refined[0]], &sparse[refined[1]]);
+    assert!(
+        refined[1] >= refined[0] + 2,
+        "no point between the first two refined"
+    );
     let m = (refined[0] + refined[1]) / 2;
     let t = (sparse[m].q.ln() - a.q.ln()) / (b.q.ln() - a.q.ln());
     let relative =

@@ -1063,6 +1063,21 @@ fn a_boundary_study_refuses_a_refinement_it_cannot_do() {
         assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
         assert!(stderr.contains(message), "{extra}: {stderr}");
     }
+    // A spacing in ln |q| needs the range on one side of 0.
+    let (code, stderr, _) = run_boundary_study(
+        &dir,
+        ("-0.1", "0.31"),
+        "accuracy = 1e-3\ncarry_spacing = 0.1\n",
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(
+            "study.carry_spacing: spaces the points in ln |q|, which needs the range on one side \
+             of 0, got -0.1 to 0.31"
+        ),
+        "{stderr}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -300,20 +300,19 @@ pub(super) fn reaching(omega_max: f64, omega: f64) -> f64 {
 }
 
 impl<O: BoundaryObserver> Recorder<'_, O> {
-    /// The row of the curve's `point` (on `model`, the member at its `q`) and, where it was
-    /// carried to an accuracy and fell short of it, why: the answer of its refinement, or where
-    /// there is none to give (`carried` says why), the curve's own row marked not reached.
+    /// The row of the curve's `point` (on `model`, the member at its `q`) carried to an accuracy
+    /// and, where it fell short of it, why: the answer of its refinement, or where there is none
+    /// to give (`carried` says why), the curve's own row, kept and marked not reached.
     fn row(
         &self,
         point: &CurvePoint,
         model: &Model,
-        carried: Option<&Carried>,
+        carried: &Carried,
     ) -> Result<(BoundaryPoint, Option<String>)> {
         let segment = self.boundary.segments - 1;
         let kept = match carried {
-            None => None,
-            Some(Carried::Kept(why)) => Some(why.clone()),
-            Some(Carried::Refined(r)) => match refined_row(r, (point.q, segment), model, point.p) {
+            Carried::Kept(why) => why.clone(),
+            Carried::Refined(r) => match refined_row(r, (point.q, segment), model, point.p) {
                 Ok(row) => {
                     let short = (!r.reached).then(|| {
                         r.stopped
@@ -322,15 +321,13 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                     });
                     return Ok((row, short));
                 }
-                Err(why) => Some(why),
+                Err(why) => why,
             },
         };
         let mut row = self.curve_row(point, model, true)?;
-        if kept.is_some() {
-            row.reached = Some(false);
-            row.answer = Answer::Kept;
-        }
-        Ok((row, kept))
+        row.reached = Some(false);
+        row.answer = Answer::Kept;
+        Ok((row, Some(kept)))
     }
 
     /// The row of the curve's own `point` on `model` (the member at its `q`), with its

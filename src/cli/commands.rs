@@ -225,6 +225,7 @@ pub fn boundary(b: &BoundaryArgs) -> Outcome {
     let accuracy = with_carry_spacing(
         point_accuracy(b.accuracy, max_nodes, ["--accuracy", "--max-nodes"])?,
         b.carry_spacing,
+        (b.from, b.to),
         ["--accuracy", "--carry-spacing"],
     )?;
     if let Some(a) = accuracy {

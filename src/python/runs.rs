@@ -276,7 +276,10 @@ pub(crate) fn boundary(
     let file = &study.study;
     let max_nodes = max_nodes.map(|m| count("max_nodes", m, 5)).transpose()?;
     let refinement = point_accuracy(accuracy, max_nodes, ["accuracy", "max_nodes"])
-        .and_then(|r| with_carry_spacing(r, carry_spacing, ["accuracy", "carry_spacing"]))
+        .and_then(|r| {
+            let fields = ["accuracy", "carry_spacing"];
+            with_carry_spacing(r, carry_spacing, (start, stop), fields)
+        })
         .and_then(|r| {
             if let Some(r) = r {
                 check_refinement_room("max_nodes", r.max_nodes, &file.physical())?;

@@ -493,7 +493,7 @@ impl Plan {
                 ..
             } => {
                 let refinement = point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
-                with_carry_spacing(refinement, *carry_spacing, CARRY_SPACING)?;
+                with_carry_spacing(refinement, *carry_spacing, (*from, *to), CARRY_SPACING)?;
                 if !(from.is_finite() && to.is_finite() && from != to) {
                     return Err(Error::input(
                         "study.from",
@@ -553,10 +553,12 @@ pub const CARRY_SPACING: [&str; 2] = ["study.accuracy", "study.carry_spacing"];
 
 /// `refinement` (of [`point_accuracy`]) with a curve's carry `spacing` in `ln q`
 /// ([`PointAccuracy::spacing`]; absent: 0, every point refined), which must be in `[0,`
-/// [`CARRY_SPACING_MAX`]`]` and needs an accuracy. `fields` name the two as the user gave them.
+/// [`CARRY_SPACING_MAX`]`]`, needs an accuracy and, above 0, a range `from .. to` of the curve on
+/// one side of 0 (the spacing is in `ln |q|`). `fields` name the two as the user gave them.
 pub fn with_carry_spacing(
     refinement: Option<PointAccuracy>,
     spacing: Option<f64>,
+    (from, to): (f64, f64),
     [accuracy_field, spacing_field]: [&str; 2],
 ) -> Result<Option<PointAccuracy>> {
     let Some(spacing) = spacing else {
@@ -574,6 +576,15 @@ pub fn with_carry_spacing(
             format!(
                 "must be in [0, {CARRY_SPACING_MAX}] (a distance in ln of the varied value; 0 \
                  refines every point), got {spacing}"
+            ),
+        ));
+    }
+    if spacing > 0.0 && from * to <= 0.0 {
+        return Err(Error::input(
+            spacing_field,
+            format!(
+                "spaces the points in ln |q|, which needs the range on one side of 0, got {from} \
+                 to {to}"
             ),
         ));
     }

@@ -204,6 +204,7 @@ pub fn run(
                 accuracy: with_carry_spacing(
                     point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?,
                     *carry_spacing,
+                    (*from, *to),
                     CARRY_SPACING,
                 )?,
             };

@@ -36,8 +36,9 @@ pub struct PointAccuracy {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Answer {
-    /// The curve's own value at its `N` (no accuracy asked for, a fold or branch point, or a
-    /// point not yet reached by the interpolation between refined points).
+    /// The curve's own value at its `N` (no accuracy asked for, a fold or branch point, or with
+    /// a carry spacing a point not between two refined ones: not yet, or, where the curve
+    /// stopped on a failure, for good).
     Curve,
     /// The point's own refinement in `N` ([`carry`]).
     Refined,
@@ -181,7 +182,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
         omega: f64,
     ) -> Result<BoundaryPoint> {
         let carried = carry(self.family, &self.locate, accuracy, point, omega)?;
-        let (row, short) = self.row(point, model, Some(&carried))?;
+        let (row, short) = self.row(point, model, &carried)?;
         self.note_shortfall(point.q, short);
         Ok(row)
     }
@@ -222,10 +223,11 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .count()
     }
 
-    /// Ends a segment followed with a carry spacing: refines its last Hopf point if it was not,
-    /// then more (each the one farthest in `ln q` from the refined ones) until three are
-    /// refined where the segment has them (the interpolation's error needs a second
-    /// difference), and interpolates the rest ([`interpolate`]).
+    /// Ends a segment followed with a carry spacing: refines its last Hopf point if it was not
+    /// (where that refinement is kept at the curve's `N`, the point before it, and so on back
+    /// to the last refined one), then more (each the one farthest in `ln q` from the refined
+    /// ones) until three are refined where the segment has them (the interpolation's error
+    /// needs a second difference), and interpolates the rest ([`interpolate`]).
     pub(super) fn close_segment(&mut self) -> Result<()> {
         let Some(accuracy) = self.accuracy.filter(|a| a.spacing > 0.0) else {
             return Ok(());
@@ -238,8 +240,17 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .filter(|r| r.answer == Answer::Refined)
                 .map(|r| r.q.abs().ln())
                 .collect();
-            let last = self.boundary.points.len().checked_sub(1);
-            let next = match self.uncarried.iter().position(|(i, _)| Some(*i) == last) {
+            // The last point past the last refined one (the segment's last point, or, where its
+            // refinement was kept at the curve's N, the one before, and so on).
+            let last_refined = rows
+                .iter()
+                .rposition(|r| r.answer == Answer::Refined)
+                .map(|i| start + i);
+            let past = self
+                .uncarried
+                .iter()
+                .rposition(|(i, _)| last_refined.is_none_or(|l| *i > l));
+            let next = match past {
                 Some(k) => k,
                 None if refined.len() < 3 && !self.uncarried.is_empty() => {
                     let distance = |q: f64| {
