@@ -1113,3 +1113,40 @@ fn a_boundary_study_that_falls_short_of_its_accuracy_fails_after_writing_everyth
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A phase study's carry spacing for its boundary curve (`carry_spacing`) is refused without an
+/// accuracy and out of `[0, 1]`, before anything runs, in one line naming the key, with exit
+/// code 2.
+#[test]
+fn a_phase_study_refuses_a_carry_spacing_it_cannot_use() {
+    let out = std::env::temp_dir().join(format!("helixbif-phase-spacing-{}", std::process::id()));
+    for (extra, message) in [
+        (
+            vec!["study.carry_spacing=0.1"],
+            "invalid input: study.carry_spacing: spaces the points refined to an accuracy, which \
+             needs study.accuracy",
+        ),
+        (
+            vec!["study.accuracy=1e-3", "study.carry_spacing=1.5"],
+            "invalid input: study.carry_spacing: must be in [0, 1]",
+        ),
+    ] {
+        let mut args = vec![
+            "run",
+            "studies/fig4d_phase.toml",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        for set in &extra {
+            args.extend(["--set", set]);
+        }
+        let (code, _, stderr) = helixbif(&args);
+        assert_eq!(code, 2, "{extra:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        assert!(
+            !out.exists(),
+            "nothing is written before the study is checked"
+        );
+    }
+}

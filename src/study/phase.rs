@@ -11,7 +11,10 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::plan::{Case, POINT_REFINEMENT, Plan, Vary, check_refinement_room, point_accuracy};
+use super::plan::{
+    CARRY_SPACING, Case, POINT_REFINEMENT, Plan, Vary, check_refinement_room, point_accuracy,
+    with_carry_spacing,
+};
 use super::sweep::{located_point, variant};
 use super::{LAMBDA_OVER_L, Study};
 use crate::analysis::boundary::{BoundaryPoint, PointAccuracy};
@@ -390,6 +393,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         bacteria,
         accuracy,
         max_nodes,
+        carry_spacing,
     }) = &study.study
     else {
         return Err(Error::input("study.kind", "expected a phase study"));
@@ -397,6 +401,9 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
     let accuracy = point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
     let mut values = lambda_over_l.clone();
     values.sort_by(f64::total_cmp);
+    // The curve's points, refined at its carry spacing; the columns each.
+    let range = (values[0], values[values.len() - 1]);
+    let curve_accuracy = with_carry_spacing(accuracy, *carry_spacing, range, CARRY_SPACING)?;
     // Every column's N, and the curve's, leave the refinement room; checked before anything
     // runs.
     if let Some(a) = accuracy {
@@ -506,7 +513,7 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
         study,
         (&values, *r_over_lambda),
         m,
-        accuracy,
+        curve_accuracy,
         &dir.join("boundary_curve"),
         provenance,
     );

@@ -173,6 +173,11 @@ pub enum Plan {
         accuracy: Option<f64>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         max_nodes: Option<usize>,
+        /// With `accuracy`: the boundary curve's carry spacing in `ln(lambda/l)`
+        /// ([`PointAccuracy::spacing`]; the columns are each refined); absent: every Hopf point
+        /// of the curve refined.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        carry_spacing: Option<f64>,
     },
     /// The stability boundary `omega_b(q)` as a curve in the field `vary` from `from` to `to`,
     /// one curve per case (e.g. a `lambda/l` each), by two-parameter continuation of the Hopf
@@ -377,9 +382,10 @@ impl Plan {
                 rows,
                 accuracy,
                 max_nodes,
+                carry_spacing,
                 ..
             } => {
-                point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
+                let refinement = point_accuracy(*accuracy, *max_nodes, POINT_REFINEMENT)?;
                 let mut sorted = lambda_over_l.clone();
                 sorted.sort_by(f64::total_cmp);
                 let distinct = sorted.windows(2).all(|w| w[0] < w[1]);
@@ -392,6 +398,8 @@ impl Plan {
                         "needs at least two distinct positive values",
                     ));
                 }
+                let range = (sorted[0], sorted[sorted.len() - 1]);
+                with_carry_spacing(refinement, *carry_spacing, range, CARRY_SPACING)?;
                 if r_over_lambda.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
                     return Err(Error::input(
                         "study.R_over_lambda",
