@@ -2,7 +2,9 @@
 //!
 //! 1. the refinement of the built-in default (RPY line, `N = 60, 119, 237`, the answer the limit
 //!    of the three) to the default accuracy `1e-3`, each rung's method and time, the Lyapunov
-//!    coefficient at the finest rung, and the peak resident memory of the process after it;
+//!    coefficient at the finest rung, and the peak resident memory of the process after it; in
+//!    the widest copy of the RPY kernels the processor has, and again in each narrower copy
+//!    (AVX2, baseline), as a ratio to the first;
 //! 2. one finer rung at `N = 473` by grid sequencing (from the `N = 237` rung's Hopf point,
 //!    Newton on the carried state, the Hopf condition solved directly, the first-loss
 //!    certificate) against a continuation from rest at `N = 473` (event search included), both
@@ -22,6 +24,7 @@ use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
 use helixbif::engine::stop::Silent;
 use helixbif::model::Model;
+use helixbif::model::fluid::rpy::{KernelCopy, use_at_most};
 use helixbif::model::params::Physical;
 use helixbif::study::Study;
 
@@ -108,19 +111,38 @@ fn main() {
         ..with_l1
     };
 
-    // `physical` refined to `accuracy` (at most `max_nodes`), timed and printed.
+    // `physical` refined to `accuracy` (at most `max_nodes`), timed and printed; the seconds.
     let refined_to = |physical: &Physical, accuracy: f64, max_nodes: usize| {
         let started = Instant::now();
         let refinement = refine(physical, Some(accuracy), max_nodes, &with_l1, &mut Silent);
+        let seconds = started.elapsed().as_secs_f64();
         print_refinement(
-            &format!("locate on the default, accuracy {accuracy:.0e}"),
+            &format!(
+                "locate on the default, accuracy {accuracy:.0e}, {} kernels",
+                KernelCopy::in_use().name()
+            ),
             &refinement.unwrap(),
-            started.elapsed().as_secs_f64(),
+            seconds,
         );
+        seconds
     };
 
-    // 1. The default locate: refined to 1e-3.
-    refined_to(&physical, 1e-3, 500);
+    // 1. The default locate: refined to 1e-3, in the widest copy of the RPY kernels and again
+    //    in each narrower one the processor has (the same bits, another time).
+    let widest = KernelCopy::in_use();
+    let seconds = refined_to(&physical, 1e-3, 500);
+    for narrower in [KernelCopy::Avx2, KernelCopy::Baseline] {
+        if narrower < widest {
+            use_at_most(narrower);
+            let t = refined_to(&physical, 1e-3, 500);
+            println!(
+                "  {:.2} times the time in the {} kernels",
+                t / seconds,
+                widest.name()
+            );
+        }
+    }
+    use_at_most(widest);
 
     // 2. One rung at N = 473: sequenced from N = 237 against a continuation from rest.
     let at = |nodes: usize| -> Physical {

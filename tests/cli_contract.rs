@@ -1150,3 +1150,45 @@ fn a_phase_study_refuses_a_carry_spacing_it_cannot_use() {
         );
     }
 }
+
+/// `HELIXBIF_KERNELS` caps the copy of the RPY kernels: each copy gives the same report to the
+/// last bit (the copies differ in speed only), and a value that names no copy is bad input,
+/// named in one line with the values allowed.
+#[test]
+fn the_kernel_copy_is_chosen_by_the_environment_and_changes_no_bit() {
+    let solve = |copy: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+            .args([
+                "solve",
+                "--omega",
+                "0.3",
+                "--set",
+                "discretization.nodes=25",
+                "--json",
+            ])
+            .env("HELIXBIF_KERNELS", copy)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8(out.stdout).unwrap(),
+            String::from_utf8(out.stderr).unwrap(),
+        )
+    };
+    let (code, widest, stderr) = solve("avx512");
+    assert_eq!(code, Some(0), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(widest.trim()).unwrap();
+    assert!(v["hbar"].as_f64().is_some_and(f64::is_finite), "{v}");
+    for copy in ["avx2", "baseline", ""] {
+        let (code, json, stderr) = solve(copy);
+        assert_eq!(code, Some(0), "{copy}: {stderr}");
+        assert_eq!(json, widest, "the {copy} copy");
+    }
+    let (code, stdout, stderr) = solve("avx3");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stdout.is_empty(), "{stdout}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    for word in ["HELIXBIF_KERNELS", "avx3", "baseline, avx2 or avx512"] {
+        assert!(stderr.contains(word), "{word}: {stderr}");
+    }
+}

@@ -38,6 +38,7 @@ pub fn machine() -> String {
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
     format!(
         "{cpu}, {cores} cores (dense LU, its solves and the RPY kernels on two threads, the rest \
-         of faer on one)"
+         of faer on one; the RPY kernels' {} copy)",
+        helixbif::model::fluid::rpy::KernelCopy::in_use().name()
     )
 }

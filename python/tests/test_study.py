@@ -1,7 +1,10 @@
 """Studies: construction, `with_` (the dotted keys and validation of `--set`), TOML round trips,
 and bad input as ValueError with the command line's message."""
 
+import os
 import pickle
+import subprocess
+import sys
 
 import pytest
 
@@ -131,3 +134,21 @@ def test_lookup_and_types():
     with pytest.raises(ValueError):
         study.with_(3)
     assert isinstance(study.to_dict()["rod"], dict)
+
+
+def test_a_kernel_copy_that_does_not_exist_refuses_the_import():
+    env = dict(os.environ, HELIXBIF_KERNELS="avx3")
+    child = subprocess.run(
+        [sys.executable, "-c", "import helixbif"], env=env, capture_output=True, text=True
+    )
+    assert child.returncode != 0
+    assert "ValueError" in child.stderr
+    assert "invalid input: HELIXBIF_KERNELS: `avx3` is not a copy of the kernels" in child.stderr
+    env["HELIXBIF_KERNELS"] = "baseline"
+    ok = subprocess.run(
+        [sys.executable, "-c", "import helixbif; print(helixbif.__version__)"],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert ok.returncode == 0, ok.stderr

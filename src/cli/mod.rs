@@ -35,7 +35,9 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     // A panic (a bug) ends the command with one line and exit code 1, like a numerical
     // failure; the panic hook has printed where it happened.
+    // The copy of the RPY kernels the environment asks for, checked like an option.
     let guarded = |run: &dyn Fn() -> commands::Outcome| -> commands::Outcome {
+        helixbif::model::fluid::rpy::cap_from_environment()?;
         helixbif::error::caught(|| Ok(run()))?
     };
     let (result, json) = match &cli.command {

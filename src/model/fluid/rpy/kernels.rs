@@ -6,50 +6,127 @@ use super::super::lanes::{LANES, Lanes};
 use super::{Discretisation, EdgeRows, Rpy};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
+use std::sync::atomic::{AtomicU8, Ordering};
 
-/// The widest registers the processor has for the kernels (detected at run time; the standard
-/// library caches the answer): the quadrature kernels then run in a copy compiled for them,
-/// where the lane operations of [`Lanes`] are inlined and carried out in one AVX-512 register
-/// (eight `f64`), two AVX registers, or (the baseline copy) four SSE2 registers each. The
-/// AVX-512 copy took the default `locate` from 4.9-5.0 s (the AVX2 copy, taken by a build whose
-/// dispatch skipped the AVX-512 one) to 4.2-4.4 s on the 2-core machine (an Intel Xeon with
-/// AVX-512; `perf` put two thirds of that run in the kernels). The
-/// sums are the same: no operation is fused (Rust contracts no `a * b + c` into an FMA by
-/// itself), so every copy gives the same bits (`tests::every_kernel_copy_gives_the_same_bits`).
-#[cfg(target_arch = "x86_64")]
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Registers {
-    Sse2,
+/// A copy of the quadrature kernels, by the registers it is compiled for: the lane operations of
+/// [`Lanes`] are inlined and carried out in four SSE2 registers each (the baseline copy), two
+/// AVX registers, or one AVX-512 register (eight `f64`). The widest copy the processor has runs
+/// (detected at run time; the standard library caches the answer), or a narrower one where the
+/// process asks for it ([`use_at_most`], the environment variable [`KERNELS_VARIABLE`]): every
+/// copy gives the same bits, so the choice changes the time only. The sums are the same because
+/// no operation is fused (Rust contracts no `a * b + c` into an FMA by itself;
+/// `tests::every_kernel_copy_gives_the_same_bits`). `cargo bench --bench refine` ran the
+/// default refinement in 4.3, 5.1 and 7.1 s in the AVX-512, AVX2 and baseline copies on the
+/// 2-core Intel Xeon (`perf` put two thirds of that run in the kernels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum KernelCopy {
+    Baseline,
     Avx2,
     Avx512,
 }
 
-#[cfg(target_arch = "x86_64")]
-fn registers() -> Registers {
-    use std::is_x86_feature_detected as has;
-    if has!("avx512f") && has!("avx512vl") && has!("avx512dq") && has!("avx2") && has!("fma") {
-        Registers::Avx512
-    } else if has!("avx2") && has!("fma") {
-        Registers::Avx2
-    } else {
-        Registers::Sse2
+/// The environment variable that caps the copy of the kernels: `baseline`, `avx2` or `avx512`
+/// (the widest copy allowed; one the processor lacks is not used).
+pub const KERNELS_VARIABLE: &str = "HELIXBIF_KERNELS";
+
+impl KernelCopy {
+    /// Its name, as [`KERNELS_VARIABLE`] takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            KernelCopy::Baseline => "baseline",
+            KernelCopy::Avx2 => "avx2",
+            KernelCopy::Avx512 => "avx512",
+        }
+    }
+
+    /// The copy named `name`, or an input error naming [`KERNELS_VARIABLE`].
+    pub fn parse(name: &str) -> crate::Result<KernelCopy> {
+        [KernelCopy::Baseline, KernelCopy::Avx2, KernelCopy::Avx512]
+            .into_iter()
+            .find(|c| c.name() == name)
+            .ok_or_else(|| {
+                crate::Error::input(
+                    KERNELS_VARIABLE,
+                    format!("`{name}` is not a copy of the kernels (baseline, avx2 or avx512)"),
+                )
+            })
+    }
+
+    /// The widest copy the processor can run.
+    pub fn widest() -> KernelCopy {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::is_x86_feature_detected as has;
+            if has!("avx512f")
+                && has!("avx512vl")
+                && has!("avx512dq")
+                && has!("avx2")
+                && has!("fma")
+            {
+                return KernelCopy::Avx512;
+            }
+            if has!("avx2") && has!("fma") {
+                return KernelCopy::Avx2;
+            }
+        }
+        KernelCopy::Baseline
+    }
+
+    /// The copy that runs: the widest the processor has, or the cap where that is narrower.
+    pub fn in_use() -> KernelCopy {
+        let cap = match CAP.load(Ordering::Relaxed) {
+            UNCAPPED => KernelCopy::Avx512,
+            c => COPIES[usize::from(c)],
+        };
+        KernelCopy::widest().min(cap)
+    }
+}
+
+/// The copies in the order of [`KernelCopy`], indexed by the cap.
+const COPIES: [KernelCopy; 3] = [KernelCopy::Baseline, KernelCopy::Avx2, KernelCopy::Avx512];
+
+/// No cap set.
+const UNCAPPED: u8 = u8::MAX;
+
+/// The widest copy allowed (its index in [`COPIES`]), process-wide.
+static CAP: AtomicU8 = AtomicU8::new(UNCAPPED);
+
+/// Runs the kernels in no copy wider than `widest` from now on (in the whole process).
+pub fn use_at_most(widest: KernelCopy) {
+    CAP.store(widest as u8, Ordering::Relaxed);
+}
+
+/// The cap named by [`KERNELS_VARIABLE`], applied where it is set (and not empty); an input
+/// error naming the variable where it holds something else than a copy's name. A front end
+/// (the command line, the Python module) calls it at its start.
+pub fn cap_from_environment() -> crate::Result<()> {
+    match std::env::var(KERNELS_VARIABLE) {
+        Ok(name) if !name.trim().is_empty() => {
+            use_at_most(KernelCopy::parse(name.trim())?);
+            Ok(())
+        }
+        Ok(_) | Err(std::env::VarError::NotPresent) => Ok(()),
+        Err(std::env::VarError::NotUnicode(_)) => Err(crate::Error::input(
+            KERNELS_VARIABLE,
+            "is not valid Unicode (baseline, avx2 or avx512)",
+        )),
     }
 }
 
 /// For a kernel `$kernel` of [`Rpy`]: its copies compiled for AVX2 and FMA (`$avx2`) and for
-/// AVX-512 (`$avx512`), and `$name`, which runs the widest copy the processor has
-/// ([`registers`]).
+/// AVX-512 (`$avx512`), and `$name`, which runs the copy in use ([`KernelCopy::in_use`]).
 macro_rules! wide_copies {
     ($name:ident, $kernel:ident, $avx2:ident, $avx512:ident, ($($arg:ident: $ty:ty),*) -> $ret:ty) => {
-        #[doc = concat!("[`Rpy::", stringify!($kernel), "`] in the widest copy the processor has ([`registers`]).")]
+        #[doc = concat!("[`Rpy::", stringify!($kernel), "`] in the copy in use ([`KernelCopy::in_use`]).")]
         pub(super) fn $name(&self, $($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
-            match registers() {
-                // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA, checked at run time.
-                Registers::Avx512 => return unsafe { self.$avx512($($arg),*) },
+            match KernelCopy::in_use() {
+                // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA, checked at run time
+                // ([`KernelCopy::widest`]).
+                KernelCopy::Avx512 => return unsafe { self.$avx512($($arg),*) },
                 // SAFETY: the processor has AVX2 and FMA, checked at run time.
-                Registers::Avx2 => return unsafe { self.$avx2($($arg),*) },
-                Registers::Sse2 => {}
+                KernelCopy::Avx2 => return unsafe { self.$avx2($($arg),*) },
+                KernelCopy::Baseline => {}
             }
             self.$kernel($($arg),*)
         }
@@ -438,9 +515,9 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn every_kernel_copy_gives_the_same_bits() {
-        use super::Registers;
+        use super::KernelCopy;
         use nalgebra::Vector3;
-        let widest = super::registers();
+        let widest = KernelCopy::widest();
         let x: Vec<Vector3<f64>> = (0..23)
             .map(|i| {
                 let t = 0.4 * i as f64;
@@ -463,7 +540,7 @@ mod tests {
             let pairs = rpy.edge_pairs_kernel(&d, k);
             let rows = rpy.edge_rows_kernel(&d, &forces, k).b;
             let velocities = rpy.edge_velocities_kernel(&d, &sets, &sources, k);
-            if widest != Registers::Sse2 {
+            if widest != KernelCopy::Baseline {
                 // SAFETY: the processor has AVX2 and FMA (AVX-512 implies them here).
                 unsafe {
                     assert_eq!(rpy.edge_pairs_avx2(&d, k), pairs, "edge {k}");
@@ -471,7 +548,7 @@ mod tests {
                     assert_eq!(rpy.edge_velocities_avx2(&d, &sets, &sources, k), velocities);
                 }
             }
-            if widest == Registers::Avx512 {
+            if widest == KernelCopy::Avx512 {
                 // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA.
                 unsafe {
                     assert_eq!(rpy.edge_pairs_avx512(&d, k), pairs, "edge {k}");

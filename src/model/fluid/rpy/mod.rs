@@ -149,6 +149,8 @@ mod basis;
 mod kernels;
 mod quadrature;
 
+pub use kernels::{KERNELS_VARIABLE, KernelCopy, cap_from_environment, use_at_most};
+
 use super::Resistance;
 use super::lanes::LANES;
 use super::mobility::add_block;
