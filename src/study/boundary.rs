@@ -100,12 +100,30 @@ enum BoundaryRun<'a> {
     Stopped { error: String },
 }
 
-/// Writes the boundary to `boundary.csv` and `points.csv` in `dir` as it grows, and draws a
-/// progress bar over the range.
+/// What a curve has found, as last written to disk: its rows and special points. A boundary
+/// study draws them in its combined figures for every curve, one that ended in a panic (a bug)
+/// included, whose rows would otherwise be on disk only.
+#[derive(Default)]
+pub struct Kept {
+    pub rows: Vec<BoundaryPoint>,
+    pub special: Vec<SpecialPoint>,
+}
+
+impl Kept {
+    /// Holds a copy of `boundary`'s rows and special points.
+    fn hold(&mut self, boundary: &Boundary) {
+        self.rows.clone_from(&boundary.points);
+        self.special.clone_from(&boundary.special);
+    }
+}
+
+/// Writes the boundary to `boundary.csv` and `points.csv` in `dir` as it grows (a copy of what
+/// it wrote in `kept`), and draws a progress bar over the range.
 struct BoundaryWriter<'a> {
     dir: &'a Path,
     bar: ProgressBar,
     range: (f64, f64),
+    kept: &'a mut Kept,
 }
 
 impl BoundaryWriter<'_> {
@@ -133,6 +151,7 @@ impl BoundaryObserver for BoundaryWriter<'_> {
             point.q, point.omega_b
         ));
         self.write(boundary)?;
+        self.kept.hold(boundary);
         crate::study::interrupt::check()
     }
 }
@@ -165,19 +184,37 @@ pub fn run_boundary(
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
-    let family = family(study, key)?;
-    run_family(study, &family, (from, to), accuracy, dir, provenance)
+    let mut kept = Kept::default();
+    let outcome = keeping(
+        study,
+        key,
+        (from, to),
+        (accuracy, dir, provenance),
+        &mut kept,
+    )?;
+    Ok((kept.rows, outcome))
 }
 
-/// [`run_boundary`] over the members of `family`.
+/// [`run_boundary`], with what the curve found held in `kept` as it grows (and at its end).
+fn keeping(
+    study: &Study,
+    key: &str,
+    range: (f64, f64),
+    (accuracy, dir, provenance): (Option<PointAccuracy>, &Path, &Provenance),
+    kept: &mut Kept,
+) -> Result<Result<BoundaryReport>> {
+    let family = family(study, key)?;
+    run_family(study, &family, range, (accuracy, dir, provenance), kept)
+}
+
+/// [`run_boundary`] over the members of `family`, what it found held in `kept`.
 pub(crate) fn run_family(
     study: &Study,
     family: &RodFamily,
     (from, to): (f64, f64),
-    accuracy: Option<PointAccuracy>,
-    dir: &Path,
-    provenance: &Provenance,
-) -> Result<(Vec<BoundaryPoint>, Result<BoundaryReport>)> {
+    (accuracy, dir, provenance): (Option<PointAccuracy>, &Path, &Provenance),
+    kept: &mut Kept,
+) -> Result<Result<BoundaryReport>> {
     let key = family.field().key();
     crate::analysis::boundary::check_range(family, from, to)?;
     let started = Instant::now();
@@ -187,10 +224,12 @@ pub(crate) fn run_family(
         dir,
         bar,
         range: (from, to),
+        kept,
     };
     let settings = study.locate_settings();
     let (boundary, outcome) = follow_boundary(family, (&settings, accuracy), from, to, &mut writer);
     writer.bar.finish_and_clear();
+    writer.kept.hold(&boundary);
     // What was found is kept (tables and figures) even when the curve could not be finished.
     let written = writer.write(&boundary).and_then(|()| {
         let special: Vec<(String, SpecialPoint)> = boundary
@@ -263,7 +302,7 @@ pub(crate) fn run_family(
         },
     };
     Meta::new(study, scales, run, provenance).write(&dir.join("meta.json"))?;
-    Ok((boundary.points, report))
+    Ok(report)
 }
 
 /// What a boundary study reports: each curve, and the power law they share over the fit range.
@@ -402,12 +441,16 @@ pub fn run_study(
         } else {
             dir.join(slug(&case.label))
         };
-        // A panic (a bug) ends this curve, not the others; its rows so far are on disk.
-        let (rows, outcome) =
-            match caught(|| run_boundary(&s, key, (from, to), accuracy, &sub, provenance)) {
-                Err(e @ Error::Internal(_)) => (Vec::new(), Err(e)),
-                other => other?,
-            };
+        // A panic (a bug) ends this curve, not the others; its rows so far are on disk and
+        // in `kept`.
+        let mut kept = Kept::default();
+        let outcome = match caught(|| {
+            keeping(&s, key, (from, to), (accuracy, &sub, provenance), &mut kept)
+        }) {
+            Err(e @ Error::Internal(_)) => Err(e),
+            other => other?,
+        };
+        let Kept { rows, special } = kept;
         let (report, error) = match outcome {
             Ok(r) => {
                 failures.extend(r.shortfall().map(|f| format!("{}: {f}", case.label)));
@@ -420,9 +463,7 @@ pub fn run_study(
             }
         };
         let (m, power) = exponents(&rows, fit);
-        if let Some(r) = &report {
-            all_special.extend(r.special.iter().map(|p| (case.label.clone(), p.clone())));
-        }
+        all_special.extend(special.into_iter().map(|p| (case.label.clone(), p)));
         all_rows.push((case.label.clone(), rows));
         summaries.push(CurveSummary {
             label: case.label.clone(),

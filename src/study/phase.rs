@@ -27,7 +27,7 @@ use crate::model::Model;
 use crate::model::params::Field;
 use crate::model::params::ShapeParams;
 use crate::plot::{Heatmap, MarkerShape, Series, Style, write_heatmap};
-use crate::study::boundary::{family, run_family};
+use crate::study::boundary::{Kept, family, run_family};
 use crate::study::figures::{FPBAR_LABEL, typeset};
 use crate::study::output::{CsvWriter, Provenance, Table};
 use crate::study::progress;
@@ -626,8 +626,16 @@ fn boundary_curve(
         family = family.holding(Field::ROverLambda, r);
     }
     let (from, to) = (values[0], values[values.len() - 1]);
-    let (rows, outcome) = run_family(study, &family, (from, to), accuracy, dir, provenance)?;
+    let mut kept = Kept::default();
+    let outcome = run_family(
+        study,
+        &family,
+        (from, to),
+        (accuracy, dir, provenance),
+        &mut kept,
+    )?;
     let shortfall = outcome?.shortfall();
+    let rows = kept.rows;
     let segments = rows.last().map_or(0, |r| r.segment + 1);
     let lines = (0..segments)
         .map(|k| {
