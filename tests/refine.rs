@@ -5,7 +5,7 @@
 
 use helixbif::analysis::locate::{LocateSettings, locate};
 use helixbif::analysis::refine::{
-    Answer, QuadratureError, error_orders, ladder, refine, trusted_limit,
+    Answer, QuadratureError, Refinement, error_orders, ladder, refine, trusted_limit,
 };
 use helixbif::engine::ContinuationSettings;
 use helixbif::engine::newton::NewtonSettings;
@@ -24,6 +24,36 @@ fn settings<'a>(
         continuation,
         criticality: false,
     }
+}
+
+/// The study file `study` with `sets` refined to two rungs, the second at `fine` nodes: that rung
+/// is sequenced and finds the point of a continuation from rest at `fine` nodes, to the event
+/// tolerance. Returns the refinement.
+fn sequenced_as_from_rest(study: &str, sets: &[&str], omega_max: f64, fine: usize) -> Refinement {
+    use helixbif::study::Study;
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let study = Study::from_path(Some(study.as_ref()), &sets).unwrap();
+    let mut physical = study.physical();
+    let located = LocateSettings {
+        omega_max,
+        ..settings(&newton, &continuation)
+    };
+    let refined = refine(&physical, None, fine, &located, &mut Silent).unwrap();
+    let rung = &refined.rungs[1];
+    assert_eq!(rung.nodes, fine);
+    assert_eq!(rung.method, "sequenced", "{:?}", rung.fallback);
+    physical.discretization.nodes = fine;
+    physical.discretization.per_turn = None;
+    let model = Model::new(&physical).unwrap();
+    let (direct, _) = locate(&model, &located, &mut Silent).unwrap();
+    let (a, b) = (rung.omega_b.unwrap(), direct.omega_b.unwrap());
+    assert!(
+        (a - b).abs() <= 2.0 * continuation.event_tol * b,
+        "sequenced {a} against continuation {b}"
+    );
+    refined
 }
 
 #[test]
@@ -75,32 +105,9 @@ fn a_sequenced_rung_finds_the_point_of_a_continuation_from_rest() {
 /// at `N = 241` is sequenced and finds the point of the continuation from rest.
 #[test]
 fn a_long_helix_at_fifteen_nodes_per_turn_is_sequenced() {
-    use helixbif::study::Study;
-    helixbif::numerics::process::configure();
-    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
-    let sets = [
-        "fluid.model=rpy".to_string(),
-        "discretization.per_turn=15".into(),
-    ];
-    let study = Study::from_path(Some("studies/fig4d_phase.toml".as_ref()), &sets).unwrap();
-    let mut physical = study.physical();
-    let located = LocateSettings {
-        omega_max: 0.15,
-        ..settings(&newton, &continuation)
-    };
-    let refined = refine(&physical, None, 241, &located, &mut Silent).unwrap();
+    let sets = ["fluid.model=rpy", "discretization.per_turn=15"];
+    let refined = sequenced_as_from_rest("studies/fig4d_phase.toml", &sets, 0.15, 241);
     assert_eq!(refined.rungs[0].nodes, 121);
-    let fine = &refined.rungs[1];
-    assert_eq!(fine.method, "sequenced", "{:?}", fine.fallback);
-    physical.discretization.nodes = 241;
-    physical.discretization.per_turn = None;
-    let model = Model::new(&physical).unwrap();
-    let (direct, _) = locate(&model, &located, &mut Silent).unwrap();
-    let (a, b) = (fine.omega_b.unwrap(), direct.omega_b.unwrap());
-    assert!(
-        (a - b).abs() <= 2.0 * continuation.event_tol * b,
-        "sequenced {a} against continuation {b}"
-    );
 }
 
 /// A point of the coarsest branch checked on a mesh that is not the next rung's (a narrow helix
@@ -144,6 +151,30 @@ fn the_coarsest_branch_is_checked_from_its_own_mesh() {
         (finer - coarse).abs() <= 0.1 * coarse.abs(),
         "{coarse} against {finer}"
     );
+}
+
+/// Points of the coarsest branch that Newton's method cannot correct once carried onto the finer
+/// mesh (fig. 4c's widest helix on the RPY line, `R/lambda = 0.5`, from 15 nodes per turn: at
+/// `N = 121` the carried states at 0.0023 and 0.150 rad/s, which the certificate checks, are
+/// outside the basin; the rung fell back to a continuation from rest) are reached by ramping the
+/// rate on the finer mesh from its own nearest state (at rest, or the crossing's stable end):
+/// the rung is sequenced, checks them, and finds the point of the continuation from rest.
+#[test]
+fn points_newton_cannot_correct_once_carried_are_reached_by_a_ramp_on_the_finer_mesh() {
+    let sets = [
+        "fluid.model=rpy",
+        "discretization.per_turn=15",
+        "shape.R_over_lambda=0.5",
+    ];
+    let refined = sequenced_as_from_rest("studies/fig4c_radius.toml", &sets, 3.0, 121);
+    assert_eq!(refined.rungs[0].nodes, 61);
+    let checked = &refined.rungs[1].certificate.as_ref().unwrap().checked;
+    for omega in [2.3098e-3, 0.15024] {
+        assert!(
+            checked.iter().any(|c| (c - omega).abs() <= 1e-4 * omega),
+            "{omega} not among the points checked: {checked:?}"
+        );
+    }
 }
 
 #[test]

@@ -329,7 +329,7 @@ fn predict(
 /// Natural-parameter continuation of `load` from the state `start` to `target`, with the tangent
 /// predictor. The step is doubled after an easy solve (at most 4 iterations), shortened after a
 /// laborious one (7 or more) and halved after a failure.
-fn ramp(
+pub(crate) fn ramp(
     model: &Model,
     start: &SteadyState,
     load: Parameter,

@@ -6,15 +6,16 @@ use serde::Serialize;
 
 use super::{RungObserver, Solved, at_nodes};
 use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located};
-use crate::analysis::solve::rest_state;
+use crate::analysis::solve::{ramp, rest_state};
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
 use crate::engine::curve::others;
-use crate::engine::newton;
+use crate::engine::newton::{self, NewtonSettings};
 use crate::model::Model;
 use crate::model::rod::Config;
 use crate::problem::carry::{carry, carry_config};
 use crate::problem::rod::{Parameter, RodProblem, omega_scale};
+use crate::problem::steady::SteadyState;
 use crate::problem::twist::{natural_chart_unknowns, slave_twist};
 use crate::{Error, Result};
 
@@ -71,6 +72,10 @@ const SLOPE_STEP: f64 = 1e-3;
 /// branch must stay from the axis to be left unchecked on a finer mesh (docs/model.md
 /// section 10).
 const K_MARGIN: f64 = 10.0;
+
+/// Newton iterations allowed to a point of the coarsest branch carried onto a finer mesh before
+/// it is reached by a ramp on that mesh instead ([`sequenced_rung`]).
+const CARRIED_ITERATIONS: usize = 10;
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),
@@ -168,30 +173,82 @@ pub(super) fn sequenced_rung(
     let branch_mesh = branch_mesh.as_ref().unwrap_or(&coarse.model);
     let nx = fine.rod.layout.free_positions();
     let mut checked = Vec::new();
+    // This mesh's own states, the starts of its ramps (below): at rest, at the crossing's stable
+    // end, and where ramps ended. Newton's method on a carried state: one that converges does so
+    // in 3 to 6 iterations; one that has not after [`CARRIED_ITERATIONS`] is left for a ramp.
+    let near = &crossing.near;
+    let mut own = vec![
+        rest.clone(),
+        SteadyState {
+            omega: near.p,
+            weight: fine.weight,
+            config: problem.steady(near.p).config(&near.u),
+            chart: problem.chart(),
+            report: rest.report.clone(),
+        },
+    ];
+    let carried_newton = NewtonSettings {
+        max_iter: settings.newton.max_iter.min(CARRIED_ITERATIONS),
+        ..settings.newton.clone()
+    };
     for state in close.iter().rev() {
         let omega = scales.omega_from_bar(state.omegabar);
         // The state at rest is this mesh's own. The others: the positions carried, the twist
         // started from the carried Hopf point's scaled with the rate (the twist carries the
         // motor's torque, about proportional to it below the instability), then slaved.
-        let guess = if state.omegabar == 0.0 {
-            natural_chart_unknowns(&fine, &rest.config, &rest.chart)
-        } else {
-            let ratio = state.omegabar / critical.event.p;
-            // The branch keeps positions only; the twist carried here is replaced below.
-            let untwisted = Config {
-                x: state.x.clone(),
-                theta: vec![0.0; state.x.len() - 1],
-            };
-            let mut u = carry_config(branch_mesh, &untwisted, &fine);
-            for (t, t0) in u[nx..].iter_mut().zip(&u0[nx..]) {
-                *t = ratio * t0;
+        let carried_guess = || {
+            if state.omegabar == 0.0 {
+                natural_chart_unknowns(&fine, &rest.config, &rest.chart)
+            } else {
+                let ratio = state.omegabar / critical.event.p;
+                // The branch keeps positions only; the twist carried here is replaced below.
+                let untwisted = Config {
+                    x: state.x.clone(),
+                    theta: vec![0.0; state.x.len() - 1],
+                };
+                let mut u = carry_config(branch_mesh, &untwisted, &fine);
+                for (t, t0) in u[nx..].iter_mut().zip(&u0[nx..]) {
+                    *t = ratio * t0;
+                }
+                slave_twist(&fine, &u)
             }
-            slave_twist(&fine, &u)
         };
-        let spectrum = guess.and_then(|guess| {
-            let at = AtParameter::new(&problem, state.omegabar);
-            let context = format!("checking omega = {omega:e} rad/s");
-            let (u, _) = newton::solve(&at, guess, settings.newton, &context)?;
+        let at = AtParameter::new(&problem, state.omegabar);
+        let context = format!("checking omega = {omega:e} rad/s");
+        // Where Newton's method does not correct the carried state (the coarse mesh's error in
+        // the stiff stretching can put it outside the basin), this mesh's own state is reached
+        // by ramping the rate from the nearest of this mesh's own states, on this mesh
+        // throughout.
+        let solved = carried_guess()
+            .and_then(|guess| newton::solve(&at, guess, &carried_newton, &context))
+            .or_else(|carried| {
+                let start = own
+                    .iter()
+                    .min_by(|a, b| {
+                        let d = |s: &SteadyState| (s.omega - state.omegabar).abs();
+                        d(a).total_cmp(&d(b))
+                    })
+                    .expect("the state at rest is one");
+                let from = scales.omega_from_bar(start.omega);
+                ramp(
+                    &fine,
+                    start,
+                    Parameter::Omega,
+                    state.omegabar,
+                    settings.newton,
+                )
+                .and_then(|reached| {
+                    let guess = natural_chart_unknowns(&fine, &reached.config, &reached.chart);
+                    own.push(reached);
+                    newton::solve(&at, guess?, settings.newton, &context)
+                })
+                .map_err(|ramping| {
+                    Error::Numerical(format!(
+                        "{carried}; ramped from omega = {from:e} rad/s on this mesh: {ramping}"
+                    ))
+                })
+            });
+        let spectrum = solved.and_then(|(u, _)| {
             let lin = at.linearization_at(&u)?;
             stability(
                 &problem,
