@@ -158,7 +158,8 @@ fn the_coarsest_branch_is_checked_from_its_own_mesh() {
 /// `N = 121` the carried states at 0.0023 and 0.150 rad/s, which the certificate checks, are
 /// outside the basin; the rung fell back to a continuation from rest) are reached by ramping the
 /// rate on the finer mesh from its own nearest state (at rest, or the crossing's stable end):
-/// the rung is sequenced, checks them, and finds the point of the continuation from rest.
+/// the rung is sequenced, checks them by ramps, and finds the point of the continuation from
+/// rest.
 #[test]
 fn points_newton_cannot_correct_once_carried_are_reached_by_a_ramp_on_the_finer_mesh() {
     let sets = [
@@ -168,11 +169,12 @@ fn points_newton_cannot_correct_once_carried_are_reached_by_a_ramp_on_the_finer_
     ];
     let refined = sequenced_as_from_rest("studies/fig4c_radius.toml", &sets, 3.0, 121);
     assert_eq!(refined.rungs[0].nodes, 61);
-    let checked = &refined.rungs[1].certificate.as_ref().unwrap().checked;
+    let certificate = refined.rungs[1].certificate.as_ref().unwrap();
     for omega in [2.3098e-3, 0.15024] {
+        let near = |c: &f64| (c - omega).abs() <= 1e-4 * omega;
         assert!(
-            checked.iter().any(|c| (c - omega).abs() <= 1e-4 * omega),
-            "{omega} not among the points checked: {checked:?}"
+            certificate.checked.iter().any(near) && certificate.ramped.iter().any(near),
+            "{omega} not among the points checked by a ramp: {certificate:?}"
         );
     }
 }

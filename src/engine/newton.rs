@@ -229,8 +229,8 @@ impl NewtonSettings {
     }
 }
 
-/// What a converged Newton solve reports.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// What a converged Newton solve reports (by default: none taken).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct NewtonReport {
     /// Number of Newton steps taken.
     pub iterations: usize,

@@ -100,13 +100,13 @@ enum BoundaryRun<'a> {
     Stopped { error: String },
 }
 
-/// What a curve has found, as last written to disk: its rows and special points. A boundary
-/// study draws them in its combined figures for every curve, one that ended in a panic (a bug)
-/// included, whose rows would otherwise be on disk only.
+/// What a curve has found: its rows and special points as written to disk after its last point
+/// (and at its end). A boundary study draws them in its combined figures for every curve, one
+/// that ended in a panic (a bug) included, whose rows would otherwise be on disk only.
 #[derive(Default)]
-pub struct Kept {
-    pub rows: Vec<BoundaryPoint>,
-    pub special: Vec<SpecialPoint>,
+pub(crate) struct Kept {
+    pub(crate) rows: Vec<BoundaryPoint>,
+    pub(crate) special: Vec<SpecialPoint>,
 }
 
 impl Kept {
@@ -229,7 +229,6 @@ pub(crate) fn run_family(
     let settings = study.locate_settings();
     let (boundary, outcome) = follow_boundary(family, (&settings, accuracy), from, to, &mut writer);
     writer.bar.finish_and_clear();
-    writer.kept.hold(&boundary);
     // What was found is kept (tables and figures) even when the curve could not be finished.
     let written = writer.write(&boundary).and_then(|()| {
         let special: Vec<(String, SpecialPoint)> = boundary
@@ -244,6 +243,7 @@ pub(crate) fn run_family(
             &special,
         )
     });
+    writer.kept.hold(&boundary);
     let report = outcome.and(written).map(|()| {
         let last = boundary.points.last().expect("a finished curve has points");
         let check_omega_b = check_end(family, &settings, last);

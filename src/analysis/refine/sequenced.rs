@@ -10,7 +10,7 @@ use crate::analysis::solve::{ramp, rest_state};
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
 use crate::engine::curve::others;
-use crate::engine::newton::{self, NewtonSettings};
+use crate::engine::newton::{self, NewtonReport, NewtonSettings};
 use crate::model::Model;
 use crate::model::rod::Config;
 use crate::problem::carry::{carry, carry_config};
@@ -35,6 +35,9 @@ pub struct Certificate {
     /// The rates (rad/s) of the coarsest branch's points checked on this mesh (each with no
     /// unstable eigenvalue); the others kept a margin on it.
     pub checked: Vec<f64>,
+    /// Those of them whose state on this mesh was reached by a ramp of the rate on it, its
+    /// carried state not corrected by Newton's method.
+    pub ramped: Vec<f64>,
 }
 
 /// The slope `d Re s / d omegabar` of the critical eigenvalue at the Hopf point of `critical`
@@ -76,6 +79,25 @@ const K_MARGIN: f64 = 10.0;
 /// Newton iterations allowed to a point of the coarsest branch carried onto a finer mesh before
 /// it is reached by a ramp on that mesh instead ([`sequenced_rung`]).
 const CARRIED_ITERATIONS: usize = 10;
+
+/// How far (in units of the carried Hopf point's own correction on the finer mesh) a state
+/// reached by a ramp may lie from the carried state it replaces ([`sequenced_rung`]): farther,
+/// it is taken for a state of another branch, and the rung falls back.
+const RAMP_REACH: f64 = 10.0;
+
+/// The largest distance between corresponding nodes of two vectors of node positions.
+fn node_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| {
+            p.iter()
+                .zip(q)
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
+}
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),
@@ -173,6 +195,7 @@ pub(super) fn sequenced_rung(
     let branch_mesh = branch_mesh.as_ref().unwrap_or(&coarse.model);
     let nx = fine.rod.layout.free_positions();
     let mut checked = Vec::new();
+    let mut ramped = Vec::new();
     // This mesh's own states, the starts of its ramps (below): at rest, at the crossing's stable
     // end, and where ramps ended. Newton's method on a carried state: one that converges does so
     // in 3 to 6 iterations; one that has not after [`CARRIED_ITERATIONS`] is left for a ramp.
@@ -184,44 +207,49 @@ pub(super) fn sequenced_rung(
             weight: fine.weight,
             config: problem.steady(near.p).config(&near.u),
             chart: problem.chart(),
-            report: rest.report.clone(),
+            report: NewtonReport::default(),
         },
     ];
     let carried_newton = NewtonSettings {
         max_iter: settings.newton.max_iter.min(CARRIED_ITERATIONS),
         ..settings.newton.clone()
     };
+    // How far Newton's method moved the carried Hopf point's nodes on this mesh (its first
+    // sample): the size of a carried state's error, against which a ramp's end is measured.
+    let correction = node_distance(&u0[..nx], &crossing.first.u[..nx]);
     for state in close.iter().rev() {
         let omega = scales.omega_from_bar(state.omegabar);
         // The state at rest is this mesh's own. The others: the positions carried, the twist
         // started from the carried Hopf point's scaled with the rate (the twist carries the
         // motor's torque, about proportional to it below the instability), then slaved.
-        let carried_guess = || {
-            if state.omegabar == 0.0 {
-                natural_chart_unknowns(&fine, &rest.config, &rest.chart)
-            } else {
-                let ratio = state.omegabar / critical.event.p;
-                // The branch keeps positions only; the twist carried here is replaced below.
-                let untwisted = Config {
-                    x: state.x.clone(),
-                    theta: vec![0.0; state.x.len() - 1],
-                };
-                let mut u = carry_config(branch_mesh, &untwisted, &fine);
-                for (t, t0) in u[nx..].iter_mut().zip(&u0[nx..]) {
-                    *t = ratio * t0;
-                }
-                slave_twist(&fine, &u)
+        let carried = (state.omegabar != 0.0).then(|| {
+            let ratio = state.omegabar / critical.event.p;
+            // The branch keeps positions only; the twist carried here is replaced below.
+            let untwisted = Config {
+                x: state.x.clone(),
+                theta: vec![0.0; state.x.len() - 1],
+            };
+            let mut u = carry_config(branch_mesh, &untwisted, &fine);
+            for (t, t0) in u[nx..].iter_mut().zip(&u0[nx..]) {
+                *t = ratio * t0;
             }
+            u
+        });
+        let guess = match &carried {
+            Some(u) => slave_twist(&fine, u),
+            None => natural_chart_unknowns(&fine, &rest.config, &rest.chart),
         };
         let at = AtParameter::new(&problem, state.omegabar);
         let context = format!("checking omega = {omega:e} rad/s");
-        // Where Newton's method does not correct the carried state (the coarse mesh's error in
-        // the stiff stretching can put it outside the basin), this mesh's own state is reached
-        // by ramping the rate from the nearest of this mesh's own states, on this mesh
-        // throughout.
-        let solved = carried_guess()
+        // Where Newton's method does not correct the carried state within its iterations (the
+        // coarse mesh's error in the stiff stretching can put it outside the basin), this
+        // mesh's own state is reached by ramping the rate from the nearest of this mesh's own
+        // states, on this mesh throughout; its nodes must lie within [`RAMP_REACH`] times the
+        // carried Hopf point's correction of the carried state's (the same branch, not another
+        // one the ramp found).
+        let solved = guess
             .and_then(|guess| newton::solve(&at, guess, &carried_newton, &context))
-            .or_else(|carried| {
+            .or_else(|failed| {
                 let start = own
                     .iter()
                     .min_by(|a, b| {
@@ -230,23 +258,35 @@ pub(super) fn sequenced_rung(
                     })
                     .expect("the state at rest is one");
                 let from = scales.omega_from_bar(start.omega);
-                ramp(
+                let ramp_failed = |why: String| {
+                    Error::Numerical(format!(
+                        "{failed}; ramped from omega = {from:e} rad/s on this mesh: {why}"
+                    ))
+                };
+                let reached = ramp(
                     &fine,
                     start,
                     Parameter::Omega,
                     state.omegabar,
                     settings.newton,
                 )
-                .and_then(|reached| {
-                    let guess = natural_chart_unknowns(&fine, &reached.config, &reached.chart);
-                    own.push(reached);
-                    newton::solve(&at, guess?, settings.newton, &context)
-                })
-                .map_err(|ramping| {
-                    Error::Numerical(format!(
-                        "{carried}; ramped from omega = {from:e} rad/s on this mesh: {ramping}"
-                    ))
-                })
+                .map_err(|e| ramp_failed(e.to_string()))?;
+                let guess = natural_chart_unknowns(&fine, &reached.config, &reached.chart)?;
+                let (u, report) = newton::solve(&at, guess, settings.newton, &context)
+                    .map_err(|e| ramp_failed(e.to_string()))?;
+                if let Some(c) = &carried {
+                    let apart = node_distance(&u[..nx], &c[..nx]);
+                    if apart > RAMP_REACH * correction {
+                        return Err(ramp_failed(format!(
+                            "its nodes lie {apart:.3e} from the carried state's, more than \
+                             {RAMP_REACH} times the carried Hopf point's correction \
+                             {correction:.3e} (another branch?)"
+                        )));
+                    }
+                }
+                own.push(reached);
+                ramped.push(omega);
+                Ok((u, report))
             });
         let spectrum = solved.and_then(|(u, _)| {
             let lin = at.linearization_at(&u)?;
@@ -290,6 +330,7 @@ pub(super) fn sequenced_rung(
         shift: shift / scales.time,
         margin: margin / scales.time,
         checked,
+        ramped,
     };
     let solved = Solved {
         slope,
