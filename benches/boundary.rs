@@ -2,7 +2,8 @@
 //! at the same points, in one run on one machine: the `exponent_m` rod at `lambda/l = 0.1875`
 //! (10 nodes per turn, `N = 54`), `R/lambda` from 0.4 down to 0.1, and the default helix at
 //! `N = 60` from `R/lambda = 0.32` down to 0.25. Prints, per curve, the points, the steady
-//! solves, both times, their ratio and the largest relative difference of `omega_b`.
+//! solves, both times, their ratio and the largest relative difference of `omega_b`, and where
+//! the curve's time went (the report's `time`).
 //!
 //! Run: `cargo bench --bench boundary`.
 
@@ -85,6 +86,12 @@ fn main() {
             rows.len(),
             report.evaluations,
             sweep / curve
+        );
+        let t = report.time;
+        println!(
+            "{:>30} the curve's time: following it {:.2} s, window checks {:.2} s, the points' \
+             errors {:.2} s, the check at the end {:.2} s",
+            "", t.curve, t.window_checks, t.rows, t.end_check
         );
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -70,6 +70,15 @@ fn every_point_of_the_boundary_is_found_again_by_an_independent_locate() {
         assert!((2.0..3.0).contains(&m), "m_loc = {m} at {q}");
     }
     assert!(report.check_difference.unwrap() <= 1e-7);
+    // Where the time went: every part ran, and they are timed apart (none inside another), so
+    // that the curve's own share, the rest of the total, is left positive.
+    let t = report.time;
+    assert!(report.window_checks > 0);
+    assert!(
+        t.curve > 0.0 && t.window_checks > 0.0 && t.rows > 0.0 && t.end_check > 0.0,
+        "{t:?} of {} s",
+        report.seconds
+    );
     for figure in ["boundary.svg", "m_loc.svg", "points.csv"] {
         assert!(dir.join(figure).exists(), "{figure}");
     }

@@ -343,6 +343,10 @@ class Boundary(_Result):
     """Where the first point fell short of `accuracy`, and why its refinement stopped."""
     nodes_max: int
     seconds: float
+    time: dict[str, float]
+    """Where the seconds went: `curve` (its steady solves, spectra and Lyapunov coefficients),
+    `window_checks`, `rows` (the points' errors, or their refinements with `accuracy`),
+    `end_check`."""
     """Wall time of the run, s."""
     out: str
 

@@ -29,6 +29,7 @@
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
+use std::time::Instant;
 
 use serde::{Serialize, Serializer};
 
@@ -186,6 +187,24 @@ pub struct Boundary {
     /// Where the first point carried to an accuracy fell short of it, and why its refinement
     /// stopped.
     pub first_shortfall: Option<String>,
+    /// Where the time went, beside the curve itself.
+    pub time: TimeSpent,
+}
+
+/// Where the seconds of a boundary went: what the run reports of its cost, so that the part
+/// worth saving (a carry spacing, a shorter range) can be seen.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct TimeSpent {
+    /// The rest: following the curve (the corrector's steady solves and spectra, the first
+    /// Lyapunov coefficient at every point, the special points) and writing the files.
+    pub curve: f64,
+    /// The independent `locate` runs below the curve (and those bisecting a window's opening).
+    pub window_checks: f64,
+    /// The points' rows: each point's observables and, without an accuracy, its error from a
+    /// coarser rung (a `locate` at `N/2 + 1` nodes); with one, its refinement in `N`.
+    pub rows: f64,
+    /// The independent `locate` at the end of the range.
+    pub end_check: f64,
 }
 
 impl Boundary {
@@ -419,7 +438,10 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
         self.left = false;
         if check {
             self.boundary.window_checks += 1;
-            match loss_below(self.family, &self.locate, point.q, point.p) {
+            let started = Instant::now();
+            let below = loss_below(self.family, &self.locate, point.q, point.p);
+            self.boundary.time.window_checks += started.elapsed().as_secs_f64();
+            match below {
                 Ok(None) => {}
                 Ok(Some(found)) => {
                     self.window = Some(Seen {
@@ -435,6 +457,7 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
                 }
             }
         }
+        let started = Instant::now();
         let result = self.family.member(point.q).and_then(|member| {
             let scales = member.model.scales;
             let omega = scales.omega_from_bar(point.p);
@@ -467,6 +490,7 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
                 omega: scales.omega_from_bar(point.p),
             });
             self.boundary.local_exponents();
+            self.boundary.time.rows += started.elapsed().as_secs_f64();
             self.observer.grown(&self.boundary)
         });
         self.record(result);
@@ -809,7 +833,9 @@ fn follow_segments<O: BoundaryObserver>(
             recorder,
         )?;
         if recorder.error.is_none() {
+            let started = Instant::now();
             let closed = recorder.close_segment();
+            recorder.boundary.time.rows += started.elapsed().as_secs_f64();
             recorder.record(closed);
         }
         if let Some(e) = recorder.error.take() {
@@ -896,7 +922,10 @@ fn switch_to_window<O: BoundaryObserver>(
     let clean = (on_curve.q, on_curve.omegabar, on_curve.wbar);
     let tol = 1e-6 * (to - from).abs();
     let checks = &mut recorder.boundary.window_checks;
-    let (found, width) = window_opening(family, settings, clean, seen, tol, checks)?;
+    let started = Instant::now();
+    let opening = window_opening(family, settings, clean, seen, tol, checks);
+    recorder.boundary.time.window_checks += started.elapsed().as_secs_f64();
+    let (found, width) = opening?;
     let q = found.q;
     let (start, member) = curve_start(family, found)?;
     let scales = member.model.scales;

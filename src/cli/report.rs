@@ -712,6 +712,21 @@ impl Text for BoundaryReport {
             self.window_checks,
             self.seconds
         )?;
+        let t = &self.time;
+        writeln!(
+            f,
+            "  time: following the curve {:.1} s (steady solves, spectra, Lyapunov coefficients), \
+             window checks {:.1} s, the points' {} {:.1} s, the check at the end {:.1} s",
+            t.curve,
+            t.window_checks,
+            if self.accuracy.is_some() {
+                "refinements"
+            } else {
+                "errors from N/2 + 1"
+            },
+            t.rows,
+            t.end_check
+        )?;
         let worst =
             self.relative_error_max
                 .map_or("no point states an error".to_string(), |[e, q]| {

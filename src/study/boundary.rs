@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::analysis::boundary::{
     Answer, Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint,
-    check_end, follow_boundary,
+    TimeSpent, check_end, follow_boundary,
 };
 use crate::error::caught;
 use crate::model::Model;
@@ -44,6 +44,8 @@ pub struct BoundaryReport {
     /// mode opening there (a point carried to an accuracy is checked by one, then refined).
     pub window_checks: usize,
     pub seconds: f64,
+    /// Where the seconds went.
+    pub time: TimeSpent,
     /// `omega_b` of an independent `locate` at the end of the range, and its relative
     /// difference from the curve's last point.
     pub check_omega_b: Option<f64>,
@@ -246,7 +248,14 @@ pub(crate) fn run_family(
     writer.kept.hold(&boundary);
     let report = outcome.and(written).map(|()| {
         let last = boundary.points.last().expect("a finished curve has points");
+        let checked = Instant::now();
         let check_omega_b = check_end(family, &settings, last);
+        let seconds = started.elapsed().as_secs_f64();
+        let mut time = TimeSpent {
+            end_check: checked.elapsed().as_secs_f64(),
+            ..boundary.time
+        };
+        time.curve = seconds - time.window_checks - time.rows - time.end_check;
         BoundaryReport {
             key: key.to_string(),
             from,
@@ -257,7 +266,8 @@ pub(crate) fn run_family(
             special: boundary.special.clone(),
             evaluations: boundary.evaluations,
             window_checks: boundary.window_checks,
-            seconds: started.elapsed().as_secs_f64(),
+            seconds,
+            time,
             check_difference: check_omega_b
                 .map(|w| (w - last.curve_omega_b).abs() / last.curve_omega_b.abs()),
             check_omega_b,
