@@ -17,8 +17,9 @@ import helixbif
 
 REPO = Path(__file__).resolve().parents[2]
 
-# Keys whose values differ between two runs of the same computation (wall time, output folder).
-VOLATILE = {"seconds", "out"}
+# Keys whose values differ between two runs of the same computation (wall time and where it
+# went, output folder).
+VOLATILE = {"seconds", "time", "out"}
 
 
 def find_cli():
