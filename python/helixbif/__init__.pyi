@@ -343,11 +343,12 @@ class Boundary(_Result):
     """Where the first point fell short of `accuracy`, and why its refinement stopped."""
     nodes_max: int
     seconds: float
-    time: dict[str, float]
-    """Where the seconds went: `curve` (its steady solves, spectra and Lyapunov coefficients),
-    `window_checks`, `rows` (the points' errors, or their refinements with `accuracy`),
-    `end_check`."""
     """Wall time of the run, s."""
+    time: dict[str, float]
+    """Where the seconds went: `curve` (the rest: the locate at the start, the curve's steady
+    solves, spectra and Lyapunov coefficients, its special points, the files), `window_checks`,
+    `rows` (the points' rows: their errors from N/2 + 1, or their refinements with
+    `accuracy`), `end_check`."""
     out: str
 
 class Simulation(_Result):

@@ -195,8 +195,9 @@ pub struct Boundary {
 /// worth saving (a carry spacing, a shorter range) can be seen.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct TimeSpent {
-    /// The rest: following the curve (the corrector's steady solves and spectra, the first
-    /// Lyapunov coefficient at every point, the special points) and writing the files.
+    /// The rest: following the curve (the `locate` at its start and after each jump, the
+    /// corrector's steady solves and spectra, the first Lyapunov coefficient at every point, the
+    /// special points; a fold or branch-point curve whole) and writing the files.
     pub curve: f64,
     /// The independent `locate` runs below the curve (and those bisecting a window's opening).
     pub window_checks: f64,

@@ -715,16 +715,17 @@ impl Text for BoundaryReport {
         let t = &self.time;
         writeln!(
             f,
-            "  time: following the curve {:.1} s (steady solves, spectra, Lyapunov coefficients), \
-             window checks {:.1} s, the points' {} {:.1} s, the check at the end {:.1} s",
+            "  time: following the curve {:.1} s (the start, steady solves, spectra, Lyapunov \
+             coefficients, special points, files), window checks {:.1} s, the points' rows {:.1} s \
+             ({}), the check at the end {:.1} s",
             t.curve,
             t.window_checks,
-            if self.accuracy.is_some() {
-                "refinements"
-            } else {
-                "errors from N/2 + 1"
-            },
             t.rows,
+            if self.accuracy.is_some() {
+                "their refinements"
+            } else {
+                "their errors from N/2 + 1"
+            },
             t.end_check
         )?;
         let worst =
