@@ -24,8 +24,9 @@
 //! finds the first loss of stability, its switches and its special points; the refinement gives
 //! each point its value and error, where its first rung (from rest at the curve's `N`) finds
 //! the point again; else the point is kept at the curve's `N` and says why. With a carry
-//! spacing ([`PointAccuracy::spacing`]) only points that far apart in `ln q` are refined, and
-//! the others take the refined correction interpolated ([`carry::interpolate`]).
+//! spacing ([`PointAccuracy::spacing`]) only points that far apart in `ln q` are refined (and
+//! the two on either side of a change of the RPY quadrature, where the curve's values jump),
+//! and the others take the refined correction interpolated ([`carry::interpolate`]).
 
 use std::ops::ControlFlow;
 use std::rc::Rc;
@@ -300,6 +301,8 @@ struct Recorder<'a, O> {
     /// With a carry spacing: the Hopf points of the current segment not refined yet, with
     /// their rows' indices.
     uncarried: Vec<(usize, CurvePoint)>,
+    /// The quadrature points per edge of the member of the last row recorded (RPY line).
+    points_per_edge: Option<usize>,
 }
 
 /// A point of the curve at its own `N`: `q`, the rate and the critical frequency (solver units
@@ -462,7 +465,12 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
         let result = self.family.member(point.q).and_then(|member| {
             let scales = member.model.scales;
             let omega = scales.omega_from_bar(point.p);
+            let quadrature = member.model.fluid.points_per_edge();
             let row = match self.accuracy.filter(|_| self.kind == EventKind::Hopf) {
+                Some(a) if self.quadrature_changes(quadrature, a) => {
+                    self.carry_previous(a)?;
+                    self.carried_row(point, &member.model, a, omega)?
+                }
                 Some(a) if self.refines(point.q, a) => {
                     self.carried_row(point, &member.model, a, omega)?
                 }
@@ -479,6 +487,7 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             };
             let refined = row.answer == Answer::Refined;
             self.boundary.points.push(row);
+            self.points_per_edge = quadrature;
             if let (true, Some(a)) = (refined, self.accuracy) {
                 let start = self.segment_start();
                 interpolate(&mut self.boundary.points[start..], a.accuracy);
@@ -782,6 +791,7 @@ pub(crate) fn follow_boundary(
         accuracy,
         last_on_curve: None,
         uncarried: Vec::new(),
+        points_per_edge: None,
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)

@@ -211,6 +211,51 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             || last.is_none_or(|r| (q.abs().ln() - r.q.abs().ln()).abs() >= accuracy.spacing)
     }
 
+    /// Whether the member of the next Hopf point, whose RPY quadrature has `points_per_edge`,
+    /// has another quadrature than the last row's of the same segment (with a carry spacing).
+    /// The quadrature's points per edge are chosen per member from its edge lengths
+    /// (docs/model.md section 9), so where they change along the curve its values jump by the
+    /// change of the quadrature's error (on the thick rod of `tests/boundary.rs` at `N = 31`,
+    /// `4e-3` of `omega_b` with two points per blob radius, `9e-4` with four): an interpolation
+    /// of the refined correction across it would miss the jump, which its stated error does not
+    /// see. So both points on either side of the change are refined, and no interpolation
+    /// spans it.
+    pub(super) fn quadrature_changes(
+        &self,
+        points_per_edge: Option<usize>,
+        accuracy: PointAccuracy,
+    ) -> bool {
+        let segment = self.boundary.segments - 1;
+        accuracy.spacing > 0.0
+            && self
+                .boundary
+                .points
+                .last()
+                .is_some_and(|r| r.segment == segment)
+            && points_per_edge != self.points_per_edge
+    }
+
+    /// Refines the last row if it is a Hopf point not refined yet (before a change of the
+    /// quadrature, [`Recorder::quadrature_changes`]).
+    pub(super) fn carry_previous(&mut self, accuracy: PointAccuracy) -> Result<()> {
+        let last = self.boundary.points.len().checked_sub(1);
+        match self.uncarried.last() {
+            Some(&(index, _)) if Some(index) == last => {
+                self.carry_uncarried(self.uncarried.len() - 1, accuracy)
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Refines the `k`-th Hopf point not refined yet, in place of its row.
+    fn carry_uncarried(&mut self, k: usize, accuracy: PointAccuracy) -> Result<()> {
+        let (index, point) = self.uncarried.remove(k);
+        let member = self.family.member(point.q)?;
+        let omega = member.model.scales.omega_from_bar(point.p);
+        self.boundary.points[index] = self.carried_row(&point, &member.model, accuracy, omega)?;
+        Ok(())
+    }
+
     /// The index of the first row of the current segment.
     pub(super) fn segment_start(&self) -> usize {
         let segment = self.boundary.segments - 1;
@@ -268,11 +313,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 }
                 None => break,
             };
-            let (index, point) = self.uncarried.remove(next);
-            let member = self.family.member(point.q)?;
-            let omega = member.model.scales.omega_from_bar(point.p);
-            self.boundary.points[index] =
-                self.carried_row(&point, &member.model, accuracy, omega)?;
+            self.carry_uncarried(next, accuracy)?;
         }
         self.uncarried.clear();
         interpolate(&mut self.boundary.points[start..], accuracy.accuracy);

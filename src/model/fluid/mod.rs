@@ -213,7 +213,7 @@ impl Fluid {
     }
 
     /// The RPY line's quadrature points per edge; `None` for Lighthill's operator.
-    pub(crate) fn points_per_edge(&self) -> Option<usize> {
+    pub fn points_per_edge(&self) -> Option<usize> {
         match self {
             Fluid::Lighthill(_) => None,
             Fluid::Rpy(f) => Some(f.points_per_edge()),
