@@ -4,10 +4,10 @@
 mod common;
 
 use common::helixbif;
-use helixbif::analysis::boundary::{Answer, PointAccuracy};
+use helixbif::analysis::boundary::{Answer, BoundaryPoint, PointAccuracy};
 use helixbif::model::Model;
 use helixbif::study::Study;
-use helixbif::study::boundary::run_boundary;
+use helixbif::study::boundary::{BoundaryReport, run_boundary};
 use helixbif::study::locate::run_locate;
 use helixbif::study::output::Provenance;
 
@@ -399,6 +399,31 @@ fn a_boundary_carried_to_an_accuracy_states_errors_that_cover_a_finer_computatio
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The boundary of `study` in `R/lambda` over `range`, every Hopf point carried to `1e-2` (at most
+/// 500 nodes) with the carry `spacing`, written into a folder of `dir` named after the spacing.
+fn carried_with_spacing(
+    study: &Study,
+    range: (f64, f64),
+    spacing: f64,
+    dir: &std::path::Path,
+) -> (Vec<BoundaryPoint>, BoundaryReport) {
+    let accuracy = PointAccuracy {
+        accuracy: 1e-2,
+        max_nodes: 500,
+        spacing,
+    };
+    let (rows, report) = run_boundary(
+        study,
+        "shape.R_over_lambda",
+        range,
+        Some(accuracy),
+        &dir.join(format!("{spacing}")),
+        &Provenance::default(),
+    )
+    .unwrap();
+    (rows, report.unwrap())
+}
+
 /// A boundary carried to an accuracy with a carry spacing (docs/model.md section 11) refines
 /// only points at least the spacing apart in `ln q` (the first and last included) and gives
 /// the others the refined correction interpolated in `ln q`. On the thick rod (curve at
@@ -413,21 +438,8 @@ fn a_boundary_carried_to_an_accuracy_states_errors_that_cover_a_finer_computatio
 fn a_boundary_carried_with_a_spacing_states_errors_that_cover_each_points_own_refinement() {
     let dir = std::env::temp_dir().join(format!("helixbif-boundary-sparse-{}", std::process::id()));
     let carried = |spacing: f64| {
-        let accuracy = PointAccuracy {
-            accuracy: 1e-2,
-            max_nodes: 500,
-            spacing,
-        };
-        let (rows, report) = run_boundary(
-            &thick_rod(31, None),
-            "shape.R_over_lambda",
-            (0.3, 0.4),
-            Some(accuracy),
-            &dir.join(format!("{spacing}")),
-            &Provenance::default(),
-        )
-        .unwrap();
-        assert_eq!(report.unwrap().not_reached, Some(0));
+        let (rows, report) = carried_with_spacing(&thick_rod(31, None), (0.3, 0.4), spacing, &dir);
+        assert_eq!(report.not_reached, Some(0));
         rows
     };
     let (sparse, every) = (carried(0.1), carried(0.0));
@@ -459,8 +471,7 @@ fn a_boundary_carried_with_a_spacing_states_errors_that_cover_each_points_own_re
     );
     let m = (refined[0] + refined[1]) / 2;
     let t = (sparse[m].q.ln() - a.q.ln()) / (b.q.ln() - a.q.ln());
-    let relative =
-        |r: &helixbif::analysis::boundary::BoundaryPoint| r.omega_b_error.unwrap() / r.omega_b;
+    let relative = |r: &BoundaryPoint| r.omega_b_error.unwrap() / r.omega_b;
     let own = relative(&sparse[m]) - (relative(a) + t * (relative(b) - relative(a)));
     let missed = (sparse[m].omega_b / every[m].omega_b).ln().abs();
     assert!(
@@ -553,24 +564,7 @@ fn a_boundary_carried_with_a_spacing_refines_both_sides_of_a_change_of_the_quadr
         overrides.extend(q.map(|q| format!("shape.R_over_lambda={q:e}")));
         Study::load(None, &overrides).unwrap()
     };
-    let carried = |spacing: f64| {
-        let accuracy = PointAccuracy {
-            accuracy: 1e-2,
-            max_nodes: 500,
-            spacing,
-        };
-        let (rows, report) = run_boundary(
-            &study(None),
-            "shape.R_over_lambda",
-            (0.44, 0.48),
-            Some(accuracy),
-            &dir.join(format!("{spacing}")),
-            &Provenance::default(),
-        )
-        .unwrap();
-        report.unwrap();
-        rows
-    };
+    let carried = |spacing: f64| carried_with_spacing(&study(None), (0.44, 0.48), spacing, &dir).0;
     let (sparse, every) = (carried(0.1), carried(0.0));
     assert_eq!(sparse.len(), every.len());
     let points_per_edge = |q: f64| {
@@ -585,7 +579,7 @@ fn a_boundary_carried_with_a_spacing_refines_both_sides_of_a_change_of_the_quadr
     let i = changes[0];
     // The jump: the curve's ln omega_b at i against its value extrapolated linearly from the
     // two points before.
-    let ln = |r: &helixbif::analysis::boundary::BoundaryPoint| (r.q.ln(), r.curve_omega_b.ln());
+    let ln = |r: &BoundaryPoint| (r.q.ln(), r.curve_omega_b.ln());
     let ([a, b], c) = ([ln(&sparse[i - 2]), ln(&sparse[i - 1])], ln(&sparse[i]));
     let jump = (c.1 - (b.1 + (b.1 - a.1) * (c.0 - b.0) / (b.0 - a.0))).abs();
     assert!(jump >= 2e-3, "the curve's jump {jump}");
