@@ -392,6 +392,22 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
     );
 }
 
+/// The helix of its own of the two tests below (three turns, `l = 0.15 m`) at `points`
+/// quadrature points per blob radius, refined from `N = 40` to at most 313 without an accuracy.
+fn three_turns_refined(points: f64) -> Refinement {
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let overrides = [
+        "shape.l=0.15".to_string(),
+        "discretization.nodes=40".into(),
+        format!("fluid.points_per_blob={points}"),
+    ];
+    let physical = helixbif::study::Study::load(None, &overrides)
+        .unwrap()
+        .physical();
+    let settings = settings(&newton, &continuation);
+    refine(&physical, None, 313, &settings, &mut Silent).unwrap()
+}
+
 /// The quadrature's correction of a limit (docs/model.md section 10) on a helix of its own
 /// (three turns, `l = 0.15 m`, rungs 40, 79, 157, 313): the limits at 8 and at 16 points per
 /// blob radius, each less its own rule's error as measured at its first two rungs, agree within
@@ -400,18 +416,9 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
 /// against stated errors 1.6e-5 and 3.6e-6; the limits 0.85047097 and 0.85033894, 1.3e-4 apart.
 #[test]
 fn the_limits_at_two_rules_less_their_quadrature_errors_agree_within_the_stated_errors() {
-    use helixbif::study::Study;
     helixbif::numerics::process::configure();
-    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
-    let settings = settings(&newton, &continuation);
     let at_rule = |points: f64| {
-        let overrides = [
-            "shape.l=0.15".to_string(),
-            "discretization.nodes=40".into(),
-            format!("fluid.points_per_blob={points}"),
-        ];
-        let physical = Study::load(None, &overrides).unwrap().physical();
-        let refined = refine(&physical, None, 313, &settings, &mut Silent).unwrap();
+        let refined = three_turns_refined(points);
         assert_eq!(
             refined.answer,
             Answer::Limit,
@@ -487,5 +494,34 @@ fn the_error_of_l1_in_n_covers_a_finer_rung_it_did_not_use() {
             .is_some_and(|why| why.contains("do not shrink")),
         "{:?}",
         refused.failed
+    );
+}
+
+/// The RPY quadrature's points stay where they were from one rung to the next only while the
+/// coarser rung has at least two cells per edge (docs/model.md section 9). On a helix of its
+/// own (three turns, `l = 0.15 m`, rungs from `N = 40`) at two points per blob radius, the
+/// refinement stops at the rung with one cell per edge and says why, and the error it states
+/// there covers the difference to the refinement at eight points per blob radius, whose rungs
+/// stay nested to `N = 313`. Measured: stopped at `N = 157`, `0.851808 +- 2.1e-3` rad/s
+/// against `0.850290 +- 1.9e-4` at eight points (the limit of 79, 157, 313); carried on to 313,
+/// the rungs did not converge as the known order allows, and the answer was the finest rung's,
+/// `0.848392 +- 3.7e-3`.
+#[test]
+fn the_refinement_stops_where_a_finer_rung_would_move_the_quadratures_points() {
+    helixbif::numerics::process::configure();
+    let (coarse, fine) = (three_turns_refined(2.0), three_turns_refined(8.0));
+    assert_eq!(fine.finest.nodes, 313, "{:?}", fine.stopped);
+    assert!(coarse.finest.nodes < 313);
+    let why = coarse.stopped.clone().unwrap();
+    assert!(why.contains("one cell per edge"), "{why}");
+    let (a, e) = (
+        coarse.finest.omega_b.unwrap(),
+        coarse.omega_b_error.unwrap(),
+    );
+    let (b, f) = (fine.finest.omega_b.unwrap(), fine.omega_b_error.unwrap());
+    assert!(
+        (a - b).abs() <= e + f,
+        "two points per blob radius: {a} +- {e:e} at N = {}; eight: {b} +- {f:e}",
+        coarse.finest.nodes
     );
 }

@@ -502,6 +502,33 @@ pub fn estimate_at_nodes(
     Ok(alone)
 }
 
+/// Why no finer rung may follow the rung `finest` on the RPY line, if none may: its quadrature
+/// has one cell per edge (two Gauss points), so a finer rung cannot halve the cells and keep the
+/// points where they were, but would put them closer (docs/model.md section 9). The rungs'
+/// quadrature errors would then differ (by up to four times at a halving) while the
+/// refinement takes them as the same at every rung, measures the error at the coarsest rungs
+/// and removes it from the limit in `N`: on the representative helix at two points per blob
+/// radius, refined to `1e-4`, the rungs `N = 237` (one cell) and `473` led to a limit
+/// `0.500495 +- 5.2e-4` rad/s, `7.7e-4` from the nested rungs' answer at four and eight points
+/// per blob radius (`0.501280`, `0.501261`).
+fn unnested_beyond(physical: &Physical, finest: &Option<Solved>) -> Option<String> {
+    let solved = finest.as_ref()?;
+    let nodes = solved.located.nodes;
+    (solved.model.fluid.points_per_edge() == Some(2)).then(|| {
+        let per_blob = physical
+            .fluid
+            .points_per_blob
+            .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
+        format!(
+            "the RPY quadrature has one cell per edge at N = {nodes} ({per_blob} points per blob \
+             radius): a finer rung would move its points closer and change the quadrature's \
+             error, which the refinement takes as the same at every rung (docs/model.md section \
+             9); raise fluid.points_per_blob (twice as many keep the points nested one rung \
+             further)"
+        )
+    })
+}
+
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated
 /// relative error of the answer ([`Refinement`]) is below `accuracy` (with none, until `max_nodes`),
 /// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
@@ -679,6 +706,9 @@ pub fn refine(
                     q / value
                 ));
             }
+        }
+        if let (Some(_), Some(why)) = (refined(n, limit), unnested_beyond(physical, &finest)) {
+            break Some(why);
         }
         match (refined(n, limit), accuracy) {
             (Some(next), _) => n = next,

@@ -121,7 +121,8 @@
 //! to `2e-4` of `omega_b`, the size of the discretisation increments). Here `m` is the power of
 //! two nearest to `per_blob * lbar / (2 a)` (at least 1), from the longest natural edge: halving
 //! the edges (`N -> 2N - 1`) halves `m`, and the points of the natural polygon stay where they
-//! were as long as `m >= 1` before the halving (`lbar >= 2a/per_blob`, about `a/4` by default).
+//! were as long as `m >= 2` before the halving (the refinement in `N` stops before a rung past
+//! that, `crate::analysis::refine`).
 //! `m` is held fixed for every configuration of the model so that `A(X)` is smooth in `X`.
 //!
 //! **Spectrum.** The line operator is of order `-2` (the `|r|` term of `M` at `r = 0`), coercive
