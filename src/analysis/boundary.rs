@@ -115,6 +115,10 @@ pub struct BoundaryPoint {
     /// Where `omega_b` comes from: the curve, the point's own refinement, the refinements on
     /// either side interpolated (a carry spacing), or kept at the curve's `N`.
     pub answer: Answer,
+    /// The RPY quadrature's points per edge of the curve's member at `q` (not written): where it
+    /// changes along a curve, the curve's values jump, and no interpolation spans the change.
+    #[serde(skip)]
+    pub points_per_edge: Option<usize>,
 }
 
 /// A special point of the boundary (a row of `points.csv`).
@@ -402,6 +406,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
             curve_omega_b: o.omega,
             curve_nodes: model.nodes(),
             answer: Answer::Curve,
+            points_per_edge: model.fluid.points_per_edge(),
         })
     }
 

@@ -382,6 +382,17 @@ pub fn ladder(
             format!("the extrapolation needs at least three distinct node counts, got {ladder:?}"),
         ));
     }
+    // As in a refinement, rungs past the second keep the coarsest's quadrature point spacing.
+    let coarsest_spacing = point_spacing(&Model::new(&at_nodes(physical, distinct[0]))?);
+    for &n in distinct.iter().skip(2) {
+        if let Some(why) = coarsest_spacing
+            .map(|s| unnested(physical, n, s))
+            .transpose()?
+            .flatten()
+        {
+            return Err(Error::input("--nodes", format!("{ladder:?}: {why}")));
+        }
+    }
     let mut results = Vec::new();
     // The rungs at the two smallest node counts, where the quadrature's error is measured.
     let mut coarsest: Vec<Solved> = Vec::new();
@@ -502,38 +513,53 @@ pub fn estimate_at_nodes(
     Ok(alone)
 }
 
-/// Why no finer rung may follow the rung `finest` on the RPY line, if none may: its quadrature
-/// has one cell per edge (two Gauss points), so a finer rung cannot halve the cells and keep the
-/// points where they were, but would put them closer (docs/model.md section 9). The rungs'
-/// quadrature errors would then differ (by up to four times at a halving) while the
-/// refinement takes them as the same at every rung, measures the error at the coarsest rungs
-/// and removes it from the limit in `N`: on the representative helix at two points per blob
-/// radius, refined to `1e-4`, the rungs `N = 237` (one cell) and `473` led to a limit
-/// `0.500495 +- 5.2e-4` rad/s, `7.7e-4` from the nested rungs' answer at four and eight points
-/// per blob radius (`0.501280`, `0.501261`).
-fn unnested_beyond(physical: &Physical, finest: &Option<Solved>) -> Option<String> {
-    let solved = finest.as_ref()?;
-    let nodes = solved.located.nodes;
-    (solved.model.fluid.points_per_edge() == Some(2)).then(|| {
-        let per_blob = physical
-            .fluid
-            .points_per_blob
-            .unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
-        format!(
-            "the RPY quadrature has one cell per edge at N = {nodes} ({per_blob} points per blob \
-             radius): a finer rung would move its points closer and change the quadrature's \
-             error, which the refinement takes as the same at every rung (docs/model.md section \
-             9); raise fluid.points_per_blob (twice as many keep the points nested one rung \
-             further)"
-        )
-    })
+/// The RPY quadrature's point spacing of `model` (solver units): its longest natural edge over
+/// the points per edge; `None` on Lighthill's line.
+fn point_spacing(model: &Model) -> Option<f64> {
+    let points = model.fluid.points_per_edge()?;
+    let longest = (model.natural.windows(2))
+        .map(|e| (e[1] - e[0]).norm())
+        .fold(0.0, f64::max);
+    Some(longest / points as f64)
+}
+
+/// Why the rung at `nodes` may not join a refinement on the RPY line whose coarsest rung has the
+/// quadrature point spacing `coarsest`, if it may not: its own spacing differs by more than a
+/// quarter. The refinement takes the quadrature's error as the same at every rung (the cells per
+/// edge halve as the edges do, docs/model.md section 9), measures it at the coarsest rungs and
+/// removes it from the limit in `N`. Once a rung has one cell per edge the next cannot halve
+/// it, its points are twice as dense, and the error falls about four times: the increments then
+/// carry that fall, and the correction removes what is no longer there. On the representative
+/// helix at two points per blob radius, refined to `1e-4` through `N = 237` (one cell per
+/// edge), 473 and 500, the answer would be `0.500495 +- 5.2e-4` rad/s, `7.7e-4` from the answers
+/// at four and eight points per blob radius (`0.501280 +- 3.5e-5`, `0.501261 +- 2.6e-5`),
+/// whose rungs keep their spacing. The second rung may always differ: a refinement of two rungs
+/// makes no correction and puts the quadrature's whole error in its bar.
+fn unnested(physical: &Physical, nodes: usize, coarsest: f64) -> Result<Option<String>> {
+    let Some(spacing) = point_spacing(&Model::new(&at_nodes(physical, nodes))?) else {
+        return Ok(None);
+    };
+    let ratio = spacing / coarsest;
+    if (0.75..=4.0 / 3.0).contains(&ratio) {
+        return Ok(None);
+    }
+    let per_blob =
+        (physical.fluid.points_per_blob).unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
+    Ok(Some(format!(
+        "at N = {nodes} the RPY quadrature's points would lie {ratio:.2} times as far apart as at \
+         the coarsest rung, at {per_blob} points per blob radius (its cells per edge cannot \
+         halve with the edges below one cell): that changes the quadrature's error, which the \
+         refinement takes as the same at every rung (docs/model.md section 9); raise \
+         fluid.points_per_blob (twice as many keep the spacing one rung further)"
+    )))
 }
 
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated
 /// relative error of the answer ([`Refinement`]) is below `accuracy` (with none, until `max_nodes`),
 /// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
-/// section 3) or `max_nodes`, a rung fails (the rungs before it are kept), or the rungs stop
-/// finding one kind of event.
+/// section 3) or `max_nodes`, a third rung or later would not keep the coarsest rung's RPY
+/// quadrature point spacing ([`unnested`]), a rung fails (the rungs before it are kept), or the
+/// rungs stop finding one kind of event.
 pub fn refine(
     physical: &Physical,
     accuracy: Option<f64>,
@@ -568,6 +594,8 @@ pub fn refine(
     let mut answered: Option<Answered> = None;
     // The quadrature's own error, measured at the coarsest rung and the next (RPY line).
     let mut measured = quadrature::Measured::default();
+    // The RPY quadrature's point spacing at the coarsest rung ([`unnested`]).
+    let mut first_spacing: Option<f64> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
     let quiet = without_criticality(settings);
     let mut n = start;
@@ -623,6 +651,9 @@ pub fn refine(
             Err(e) if finest.is_some() => break Some(format!("the rung at N = {n} failed: {e}")),
             Err(e) => return Err(e),
         };
+        if rungs.is_empty() {
+            first_spacing = point_spacing(&solved.model);
+        }
         observer.located(n, &solved.located);
         let located = &solved.located;
         rungs.push(Rung {
@@ -675,6 +706,13 @@ pub fn refine(
                 break None;
             }
         }
+        // A third rung or beyond must keep the coarsest rung's quadrature point spacing.
+        if let (Some(next), Some(spacing)) = (refined(n, limit), first_spacing)
+            && rungs.len() >= 2
+            && let Some(why) = unnested(physical, next, spacing)?
+        {
+            break Some(why);
+        }
         // The quadrature's error (RPY line), where a finer rung follows: at the coarsest rung (a
         // single rung has no error bar to put it in), and at the next where a trusted limit
         // may follow ([`Orders::Second`], the next rung a halving), to remove it from the answer
@@ -706,9 +744,6 @@ pub fn refine(
                     q / value
                 ));
             }
-        }
-        if let (Some(_), Some(why)) = (refined(n, limit), unnested_beyond(physical, &finest)) {
-            break Some(why);
         }
         match (refined(n, limit), accuracy) {
             (Some(next), _) => n = next,

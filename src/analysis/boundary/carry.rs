@@ -167,6 +167,7 @@ pub(super) fn refined_row(
         curve_omega_b: model.scales.omega_from_bar(curve_omegabar),
         curve_nodes: model.nodes(),
         answer: Answer::Refined,
+        points_per_edge: model.fluid.points_per_edge(),
     })
 }
 
@@ -216,10 +217,10 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     /// The quadrature's points per edge are chosen per member from its edge lengths
     /// (docs/model.md section 9), so where they change along the curve its values jump by the
     /// change of the quadrature's error (on the thick rod of `tests/boundary.rs` at `N = 31`,
-    /// `4e-3` of `omega_b` with two points per blob radius, `9e-4` with four): an interpolation
-    /// of the refined correction across it would miss the jump, which its stated error does not
-    /// see. So both points on either side of the change are refined, and no interpolation
-    /// spans it.
+    /// `3.9e-3` of `omega_b` with two points per blob radius, `9e-4` with four): an
+    /// interpolation of the refined correction across it would miss the jump, which its stated
+    /// error does not see. So both points on either side of the change are refined, for the
+    /// runs of one quadrature that [`interpolate`] keeps to.
     pub(super) fn quadrature_changes(
         &self,
         points_per_edge: Option<usize>,
@@ -271,8 +272,9 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     /// Ends a segment followed with a carry spacing: refines its last Hopf point if it was not
     /// (where that refinement is kept at the curve's `N`, the point before it, and so on back
     /// to the last refined one), then more (each the one farthest in `ln q` from the refined
-    /// ones) until three are refined where the segment has them (the interpolation's error
-    /// needs a second difference), and interpolates the rest ([`interpolate`]).
+    /// ones of its run of one quadrature, [`quadrature_runs`]) until three are refined in every
+    /// run that has them (the interpolation's error needs a second difference within a run),
+    /// and interpolates the rest ([`interpolate`]).
     pub(super) fn close_segment(&mut self) -> Result<()> {
         let Some(accuracy) = self.accuracy.filter(|a| a.spacing > 0.0) else {
             return Ok(());
@@ -280,11 +282,7 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
         let start = self.segment_start();
         loop {
             let rows = &self.boundary.points[start..];
-            let refined: Vec<f64> = rows
-                .iter()
-                .filter(|r| r.answer == Answer::Refined)
-                .map(|r| r.q.abs().ln())
-                .collect();
+            let runs = quadrature_runs(rows);
             // The last point past the last refined one (the segment's last point, or, where its
             // refinement was kept at the curve's N, the one before, and so on).
             let last_refined = rows
@@ -295,23 +293,30 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .uncarried
                 .iter()
                 .rposition(|(i, _)| last_refined.is_none_or(|l| *i > l));
-            let next = match past {
-                Some(k) => k,
-                None if refined.len() < 3 && !self.uncarried.is_empty() => {
-                    let distance = |q: f64| {
-                        refined
-                            .iter()
-                            .map(|x| (q.abs().ln() - x).abs())
-                            .fold(f64::INFINITY, f64::min)
-                    };
-                    (0..self.uncarried.len())
-                        .max_by(|&a, &b| {
-                            distance(self.uncarried[a].1.q)
-                                .total_cmp(&distance(self.uncarried[b].1.q))
-                        })
-                        .expect("not empty")
-                }
-                None => break,
+            // The refined points of run `run`, in `ln q`.
+            let refined_in = |run: usize| -> Vec<f64> {
+                (rows.iter().zip(&runs))
+                    .filter(|(r, k)| **k == run && r.answer == Answer::Refined)
+                    .map(|(r, _)| r.q.abs().ln())
+                    .collect()
+            };
+            // Else, in a run of one quadrature with fewer than three refined points, the point
+            // farthest from them.
+            let distance = |k: usize| {
+                let (index, point) = &self.uncarried[k];
+                let refined = refined_in(runs[index - start]);
+                (refined.len() < 3).then(|| {
+                    (refined.iter())
+                        .map(|x| (point.q.abs().ln() - x).abs())
+                        .fold(f64::INFINITY, f64::min)
+                })
+            };
+            let farthest = (0..self.uncarried.len())
+                .filter_map(|k| distance(k).map(|d| (k, d)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k);
+            let Some(next) = past.or(farthest) else {
+                break;
             };
             self.carry_uncarried(next, accuracy)?;
         }
@@ -343,6 +348,17 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     }
 }
 
+/// The run of one RPY quadrature each row of `rows` lies in: numbered from 0, the next where the
+/// points per edge change from the row before.
+fn quadrature_runs(rows: &[BoundaryPoint]) -> Vec<usize> {
+    (rows.iter().enumerate())
+        .scan(0, |run, (i, r)| {
+            *run += usize::from(i > 0 && r.points_per_edge != rows[i - 1].points_per_edge);
+            Some(*run)
+        })
+        .collect()
+}
+
 /// The Hopf rows of one segment of a boundary that were not refined themselves (`answer`
 /// [`Answer::Curve`] or [`Answer::Interpolated`]) and lie between two refined rows `a`, `b`
 /// (`answer` [`Answer::Refined`]; `accuracy` the relative accuracy asked for), given the
@@ -363,35 +379,46 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
 /// (hence the factor two). With only two refined rows there is no `delta''`: the
 /// row takes the interpolated value without an error and does not reach the accuracy. `w`,
 /// `Fpbar`, `hbar`, `precision` and `l1` stay the curve's own; `nodes` is the finer of `a`'s
-/// and `b`'s.
+/// and `b`'s. Where the RPY quadrature's points per edge change between two rows, the curve's
+/// values jump, and `delta` with them: rows are interpolated, and triples taken, only within a
+/// run of one quadrature ([`Recorder::quadrature_changes`] refines both sides of a change).
 pub(super) fn interpolate(rows: &mut [BoundaryPoint], accuracy: f64) {
-    /// A refined row: its index, `x`, `delta`, relative error and `N`.
+    /// A refined row: its index, run of one quadrature, `x`, `delta`, relative error and `N`.
     struct Refined {
         index: usize,
+        run: usize,
         x: f64,
         delta: f64,
         relative: Option<f64>,
         nodes: usize,
     }
+    let runs = quadrature_runs(rows);
     let refined: Vec<Refined> = (rows.iter().enumerate())
         .filter(|(_, r)| r.answer == Answer::Refined)
         .map(|(index, r)| Refined {
             index,
+            run: runs[index],
             x: r.q.abs().ln(),
             delta: (r.omega_b / r.curve_omega_b).ln(),
             relative: r.omega_b_error.map(|e| e / r.omega_b.abs()),
             nodes: r.nodes,
         })
         .collect();
-    // |delta''| over the triple of refined rows starting at the k-th.
+    // |delta''| over the triple of refined rows starting at the k-th, within one run.
     let curvature = |k: usize| -> Option<f64> {
         let [p1, p2, p3] = [0, 1, 2].map(|j| refined.get(k + j));
         let (p1, p2, p3) = (p1?, p2?, p3?);
+        if p1.run != p3.run {
+            return None;
+        }
         let slope = |a: &Refined, b: &Refined| (b.delta - a.delta) / (b.x - a.x);
         Some((2.0 * (slope(p2, p3) - slope(p1, p2)) / (p3.x - p1.x)).abs())
     };
     for (k, pair) in refined.windows(2).enumerate() {
         let (a, b) = (&pair[0], &pair[1]);
+        if a.run != b.run {
+            continue;
+        }
         let bend = [k.checked_sub(1).and_then(curvature), curvature(k)]
             .into_iter()
             .flatten()
@@ -450,6 +477,7 @@ mod tests {
             curve_omega_b: curve,
             curve_nodes: 61,
             answer,
+            points_per_edge: None,
         }
     }
 
@@ -490,5 +518,53 @@ mod tests {
         assert!((between.omegabar_b / between.omega_b - 2.0).abs() <= 1e-12);
         assert_eq!(rows[4].answer, Answer::Curve);
         assert_eq!(rows[4].omega_b, curve(0.2));
+    }
+
+    /// Where the quadrature's points per edge change between two rows (the curve's values jump
+    /// there by `j`), no row is interpolated across the change, and no second difference spans
+    /// it: a row between two refined rows of one quadrature, with the refined rows across the
+    /// change farther off, takes its correction from its own run only and states the error of
+    /// that run's triple, the jump being in no stated error. A row whose refined neighbours lie
+    /// on either side of a change (the refinement next to it kept) is left as the curve's.
+    #[test]
+    fn no_interpolation_spans_a_change_of_the_quadrature() {
+        let (c, j) = (0.05, 1e-2);
+        let curve = |x: f64| 10.0 + x;
+        // The curve jumps by j at x = 0: the correction jumps by -j there.
+        let refined = |x: f64, per_edge: usize| {
+            let jump = if x > 0.0 { -j } else { 0.0 };
+            let w = curve(x) * (c * x * x + jump).exp();
+            BoundaryPoint {
+                points_per_edge: Some(per_edge),
+                ..row(x.exp(), curve(x), Some((w, 1e-3 * w)))
+            }
+        };
+        let plain = |x: f64, per_edge: usize| BoundaryPoint {
+            points_per_edge: Some(per_edge),
+            ..row(x.exp(), curve(x), None)
+        };
+        let mut rows = vec![
+            refined(-1.5, 8),
+            refined(-1.0, 8),
+            plain(-0.75, 8),
+            refined(-0.5, 8),
+            plain(-0.25, 8),
+            plain(0.25, 4),
+            refined(0.5, 4),
+            refined(1.0, 4),
+        ];
+        interpolate(&mut rows, 5e-2);
+        let between = &rows[2];
+        assert_eq!(between.answer, Answer::Interpolated);
+        let (x, xa, xb) = (-0.75, -1.0, -0.5);
+        let missed = (between.omega_b / (curve(x) * (c * x * x).exp()))
+            .ln()
+            .abs();
+        assert!((missed - (x - xa) * (xb - x) * c).abs() <= 1e-3 * missed);
+        let stated = between.omega_b_error.unwrap() / between.omega_b;
+        assert!((stated - (1e-3 + 2.0 * missed)).abs() <= 1e-3 * stated);
+        for across in &rows[4..6] {
+            assert_eq!(across.answer, Answer::Curve);
+        }
     }
 }

@@ -120,9 +120,9 @@
 //! edge length) the point pattern, and with it the error, jumped from one `N` to the next (by up
 //! to `2e-4` of `omega_b`, the size of the discretisation increments). Here `m` is the power of
 //! two nearest to `per_blob * lbar / (2 a)` (at least 1), from the longest natural edge: halving
-//! the edges (`N -> 2N - 1`) halves `m`, and the points of the natural polygon stay where they
-//! were as long as `m >= 2` before the halving (the refinement in `N` stops before a rung past
-//! that, `crate::analysis::refine`).
+//! the edges (`N -> 2N - 1`) halves `m`, and the points of the natural polygon keep their
+//! spacing as long as `m >= 2` before the halving (the refinement in `N` stops before a rung
+//! whose spacing differs, `crate::analysis::refine`).
 //! `m` is held fixed for every configuration of the model so that `A(X)` is smooth in `X`.
 //!
 //! **Spectrum.** The line operator is of order `-2` (the `|r|` term of `M` at `r = 0`), coercive
