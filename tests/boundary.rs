@@ -576,7 +576,10 @@ fn a_boundary_carried_with_a_spacing_refines_both_sides_of_a_change_of_the_quadr
         .collect();
     assert_eq!(changes.len(), 1, "points per edge {per_edge:?}");
     let i = changes[0];
-    assert!(i >= 2, "the change at the second point");
+    assert!(
+        i >= 2,
+        "the change at the second point: no two points before it"
+    );
     // The jump: the curve's ln omega_b at i against its value extrapolated linearly from the
     // two points before.
     let ln = |r: &BoundaryPoint| (r.q.ln(), r.curve_omega_b.ln());
@@ -587,6 +590,21 @@ fn a_boundary_carried_with_a_spacing_refines_both_sides_of_a_change_of_the_quadr
         (sparse[i - 1].answer, sparse[i].answer),
         (Answer::Refined, Answer::Refined)
     );
+    // Every interpolated row lies between refined rows of its own quadrature.
+    let refined_at = |k: usize| sparse[k].answer == Answer::Refined;
+    let interpolated: Vec<usize> = (0..sparse.len())
+        .filter(|&k| sparse[k].answer == Answer::Interpolated)
+        .collect();
+    assert!(!interpolated.is_empty());
+    for &k in &interpolated {
+        let before = (0..k).rev().find(|&m| refined_at(m)).unwrap();
+        let after = (k + 1..sparse.len()).find(|&m| refined_at(m)).unwrap();
+        assert!(
+            per_edge[before] == per_edge[k] && per_edge[after] == per_edge[k],
+            "R/lambda = {}: interpolated across a change of the quadrature",
+            sparse[k].q
+        );
+    }
     for (s, e) in sparse.iter().zip(&every) {
         let stated = s.omega_b_error.unwrap();
         let difference = (s.omega_b - e.omega_b).abs();

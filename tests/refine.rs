@@ -396,16 +396,21 @@ fn the_quadrature_error_measured_at_the_coarsest_rung_predicts_a_finer_rule() {
 /// quadrature points per blob radius, refined from `N = 40` to at most 313 without an accuracy.
 fn three_turns_refined(points: f64) -> Refinement {
     let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let settings = settings(&newton, &continuation);
+    refine(&three_turns(points), None, 313, &settings, &mut Silent).unwrap()
+}
+
+/// The helix of its own of the tests below (three turns, `l = 0.15 m`, `N = 40`) at `points`
+/// quadrature points per blob radius.
+fn three_turns(points: f64) -> Physical {
     let overrides = [
         "shape.l=0.15".to_string(),
         "discretization.nodes=40".into(),
         format!("fluid.points_per_blob={points}"),
     ];
-    let physical = helixbif::study::Study::load(None, &overrides)
+    helixbif::study::Study::load(None, &overrides)
         .unwrap()
-        .physical();
-    let settings = settings(&newton, &continuation);
-    refine(&physical, None, 313, &settings, &mut Silent).unwrap()
+        .physical()
 }
 
 /// The quadrature's correction of a limit (docs/model.md section 10) on a helix of its own
@@ -513,7 +518,7 @@ fn the_refinement_stops_where_a_finer_rung_would_move_the_quadratures_points() {
     assert_eq!(fine.finest.nodes, 313, "{:?}", fine.stopped);
     assert!(coarse.finest.nodes < 313);
     let why = coarse.stopped.clone().unwrap();
-    assert!(why.contains("points would lie"), "{why}");
+    assert!(why.contains("point spacing would be"), "{why}");
     let (a, e) = (
         coarse.finest.omega_b.unwrap(),
         coarse.omega_b_error.unwrap(),
@@ -523,5 +528,26 @@ fn the_refinement_stops_where_a_finer_rung_would_move_the_quadratures_points() {
         (a - b).abs() <= e + f,
         "two points per blob radius: {a} +- {e:e} at N = {}; eight: {b} +- {f:e}",
         coarse.finest.nodes
+    );
+}
+
+/// An `--extrapolate` ladder whose third rung or later would not keep the coarsest rung's RPY
+/// quadrature point spacing is refused before any rung is solved, as bad input on `--nodes`
+/// (docs/model.md section 10): the helix of the tests above at two points per blob radius, whose
+/// rung at `N = 157` has one cell per edge, with the rungs 40, 79, 157, 313.
+#[test]
+fn a_ladder_that_would_change_the_quadratures_spacing_is_refused() {
+    helixbif::numerics::process::configure();
+    let (newton, continuation) = (NewtonSettings::default(), ContinuationSettings::default());
+    let settings = settings(&newton, &continuation);
+    let rungs = [40, 79, 157, 313];
+    let Err(refused) = ladder(&three_turns(2.0), &rungs, &settings, &mut Silent) else {
+        panic!("the ladder was run");
+    };
+    assert!(refused.is_input(), "{refused}");
+    let message = refused.to_string();
+    assert!(
+        message.contains("--nodes") && message.contains("N = 313"),
+        "{message}"
     );
 }

@@ -305,8 +305,6 @@ struct Recorder<'a, O> {
     /// With a carry spacing: the Hopf points of the current segment not refined yet, with
     /// their rows' indices.
     uncarried: Vec<(usize, CurvePoint)>,
-    /// The quadrature points per edge of the member of the last row recorded (RPY line).
-    points_per_edge: Option<usize>,
 }
 
 /// A point of the curve at its own `N`: `q`, the rate and the critical frequency (solver units
@@ -492,7 +490,6 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             };
             let refined = row.answer == Answer::Refined;
             self.boundary.points.push(row);
-            self.points_per_edge = quadrature;
             if let (true, Some(a)) = (refined, self.accuracy) {
                 let start = self.segment_start();
                 interpolate(&mut self.boundary.points[start..], a.accuracy);
@@ -796,7 +793,6 @@ pub(crate) fn follow_boundary(
         accuracy,
         last_on_curve: None,
         uncarried: Vec::new(),
-        points_per_edge: None,
     };
     let outcome = follow_segments(&mut recorder, settings, from, to);
     (recorder.boundary, outcome)

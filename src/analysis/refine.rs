@@ -11,7 +11,7 @@ use crate::engine::arclength::Point;
 use crate::engine::events::Event;
 use crate::engine::events::EventKind;
 use crate::engine::stop::{Observer, Silent};
-use crate::model::fluid::FluidModel;
+use crate::model::fluid::{FluidModel, rpy};
 use crate::model::params::{ClampEdge, Physical};
 use crate::model::{Model, admissible_max_nodes};
 use crate::numerics::extrapolation::{
@@ -383,14 +383,20 @@ pub fn ladder(
         ));
     }
     // As in a refinement, rungs past the second keep the coarsest's quadrature point spacing.
-    let coarsest_spacing = point_spacing(&Model::new(&at_nodes(physical, distinct[0]))?);
+    let first = distinct[0];
+    let coarsest_spacing = point_spacing(&Model::new(&at_nodes(physical, first))?);
     for &n in distinct.iter().skip(2) {
-        if let Some(why) = coarsest_spacing
-            .map(|s| unnested(physical, n, s))
-            .transpose()?
-            .flatten()
-        {
-            return Err(Error::input("--nodes", format!("{ladder:?}: {why}")));
+        if let Some(ratio) = coarsest_spacing.and_then(|s| spacing_change(physical, n, s)) {
+            return Err(Error::input(
+                "--nodes",
+                format!(
+                    "{ladder:?}: at N = {n} the RPY quadrature's point spacing would be \
+                     {ratio:.2} times that at N = {first}, which changes the quadrature's error \
+                     that the limit takes as the same at every rung (docs/model.md section 10): \
+                     choose rungs that halve the spacing (N, 2N - 1, 4N - 3), or, where it stops \
+                     halving at one cell per edge, raise fluid.points_per_blob"
+                ),
+            ));
         }
     }
     let mut results = Vec::new();
@@ -523,42 +529,55 @@ fn point_spacing(model: &Model) -> Option<f64> {
     Some(longest / points as f64)
 }
 
-/// Why the rung at `nodes` may not join a refinement on the RPY line whose coarsest rung has the
-/// quadrature point spacing `coarsest`, if it may not: its own spacing differs by more than a
-/// quarter. The refinement takes the quadrature's error as the same at every rung (the cells per
-/// edge halve as the edges do, docs/model.md section 9), measures it at the coarsest rungs and
-/// removes it from the limit in `N`. Once a rung has one cell per edge the next cannot halve
-/// it, its points are twice as dense, and the error falls about four times: the increments then
-/// carry that fall, and the correction removes what is no longer there. On the representative
-/// helix at two points per blob radius, refined to `1e-4` through `N = 237` (one cell per
-/// edge), 473 and 500, the answer would be `0.500495 +- 5.2e-4` rad/s, `7.7e-4` from the answers
-/// at four and eight points per blob radius (`0.501280 +- 3.5e-5`, `0.501261 +- 2.6e-5`),
-/// whose rungs keep their spacing. The second rung may always differ: a refinement of two rungs
-/// makes no correction and puts the quadrature's whole error in its bar.
-fn unnested(physical: &Physical, nodes: usize, coarsest: f64) -> Result<Option<String>> {
-    let Some(spacing) = point_spacing(&Model::new(&at_nodes(physical, nodes))?) else {
-        return Ok(None);
-    };
-    let ratio = spacing / coarsest;
-    if (0.75..=4.0 / 3.0).contains(&ratio) {
-        return Ok(None);
+/// The ratio of the RPY quadrature's point spacing ([`point_spacing`]) at `nodes` nodes to
+/// `coarsest`, the coarsest rung's, where it lies outside `[3/4, 4/3]`; `None` within, on
+/// Lighthill's line, and where the model at `nodes` cannot be built (that rung then fails on its
+/// own). A refinement takes the quadrature's error as the same at every rung (the cells per edge
+/// halve as the edges do, docs/model.md section 9), measures it at the coarsest rungs and removes
+/// it from the limit in `N`. Once a rung has one cell per edge the next cannot halve it, its
+/// points are twice as dense, and the error falls about four times (a rung capped by
+/// `--max-nodes` that does not halve the spacing changes it too): the increments then carry that
+/// fall, and the correction removes what is no longer there. On the representative helix at two
+/// points per blob radius, refined to `1e-4` through `N = 237` (one cell per edge), 473 and 500,
+/// the answer would be `0.500495 +- 5.2e-4` rad/s, `7.7e-4` from the answers at four and eight
+/// points per blob radius (`0.501280 +- 3.5e-5`, `0.501261 +- 2.6e-5`), whose rungs keep their
+/// spacing. A refinement of two rungs makes no correction and puts the quadrature's whole error
+/// in its bar, so only a third rung or later must keep the spacing.
+fn spacing_change(physical: &Physical, nodes: usize, coarsest: f64) -> Option<f64> {
+    let model = Model::new(&at_nodes(physical, nodes)).ok()?;
+    let ratio = point_spacing(&model)? / coarsest;
+    (!(0.75..=4.0 / 3.0).contains(&ratio)).then_some(ratio)
+}
+
+/// Why a refinement whose coarsest rung is `first` stops at `n` before `next`, where the
+/// quadrature's point spacing would change by `ratio` ([`spacing_change`]): what to change.
+fn unnested(physical: &Physical, (first, n, next): (usize, usize, usize), ratio: f64) -> String {
+    let change = format!(
+        "at N = {next} the RPY quadrature's point spacing would be {ratio:.2} times that at the \
+         coarsest rung (N = {first}), which changes the quadrature's error that the refinement \
+         takes as the same at every rung (docs/model.md section 10)"
+    );
+    if next == 2 * n - 1 {
+        let per_blob = (physical.fluid.points_per_blob).unwrap_or(rpy::POINTS_PER_BLOB);
+        format!(
+            "{change}: its cells per edge cannot halve with the edges below one cell, at \
+             {per_blob} points per blob radius; raise fluid.points_per_blob (twice as many keep \
+             the spacing one rung further)"
+        )
+    } else {
+        format!(
+            "{change}: N = {next}, the --max-nodes cap, does not halve the spacing of N = {n}; \
+             --max-nodes {} reaches the next halving",
+            2 * n - 1
+        )
     }
-    let per_blob =
-        (physical.fluid.points_per_blob).unwrap_or(crate::model::fluid::rpy::POINTS_PER_BLOB);
-    Ok(Some(format!(
-        "at N = {nodes} the RPY quadrature's points would lie {ratio:.2} times as far apart as at \
-         the coarsest rung, at {per_blob} points per blob radius (its cells per edge cannot \
-         halve with the edges below one cell): that changes the quadrature's error, which the \
-         refinement takes as the same at every rung (docs/model.md section 9); raise \
-         fluid.points_per_blob (twice as many keep the spacing one rung further)"
-    )))
 }
 
 /// Runs `locate` at the model's `N`, then at successively halved spacings, until the estimated
 /// relative error of the answer ([`Refinement`]) is below `accuracy` (with none, until `max_nodes`),
 /// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
 /// section 3) or `max_nodes`, a third rung or later would not keep the coarsest rung's RPY
-/// quadrature point spacing ([`unnested`]), a rung fails (the rungs before it are kept), or the
+/// quadrature point spacing ([`spacing_change`]), a rung fails (the rungs before it are kept), or the
 /// rungs stop finding one kind of event.
 pub fn refine(
     physical: &Physical,
@@ -709,9 +728,9 @@ pub fn refine(
         // A third rung or beyond must keep the coarsest rung's quadrature point spacing.
         if let (Some(next), Some(spacing)) = (refined(n, limit), first_spacing)
             && rungs.len() >= 2
-            && let Some(why) = unnested(physical, next, spacing)?
+            && let Some(ratio) = spacing_change(physical, next, spacing)
         {
-            break Some(why);
+            break Some(unnested(physical, (rungs[0].nodes, n, next), ratio));
         }
         // The quadrature's error (RPY line), where a finer rung follows: at the coarsest rung (a
         // single rung has no error bar to put it in), and at the next where a trusted limit

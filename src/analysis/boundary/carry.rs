@@ -228,12 +228,8 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     ) -> bool {
         let segment = self.boundary.segments - 1;
         accuracy.spacing > 0.0
-            && self
-                .boundary
-                .points
-                .last()
-                .is_some_and(|r| r.segment == segment)
-            && points_per_edge != self.points_per_edge
+            && (self.boundary.points.last())
+                .is_some_and(|r| r.segment == segment && r.points_per_edge != points_per_edge)
     }
 
     /// Refines the last row if it is a Hopf point not refined yet (before a change of the
@@ -528,7 +524,8 @@ mod tests {
     /// on either side of a change (the refinement next to it kept) is left as the curve's.
     #[test]
     fn no_interpolation_spans_a_change_of_the_quadrature() {
-        let (c, j) = (0.05, 1e-2);
+        // A jump large enough that a triple across it would give the larger second difference.
+        let (c, j) = (0.05, 0.3);
         let curve = |x: f64| 10.0 + x;
         // The curve jumps by j at x = 0: the correction jumps by -j there.
         let refined = |x: f64, per_edge: usize| {
