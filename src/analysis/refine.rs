@@ -577,8 +577,8 @@ fn unnested(physical: &Physical, (first, n, next): (usize, usize, usize), ratio:
 /// relative error of the answer ([`Refinement`]) is below `accuracy` (with none, until `max_nodes`),
 /// the next `N` would pass the fluid model's admissible range (Lighthill, docs/model.md
 /// section 3) or `max_nodes`, a third rung or later would not keep the coarsest rung's RPY
-/// quadrature point spacing ([`spacing_change`]), a rung fails (the rungs before it are kept), or the
-/// rungs stop finding one kind of event.
+/// quadrature point spacing ([`spacing_change`]), a rung fails (the rungs before it are kept),
+/// or the rungs stop finding one kind of event.
 pub fn refine(
     physical: &Physical,
     accuracy: Option<f64>,
@@ -613,7 +613,7 @@ pub fn refine(
     let mut answered: Option<Answered> = None;
     // The quadrature's own error, measured at the coarsest rung and the next (RPY line).
     let mut measured = quadrature::Measured::default();
-    // The RPY quadrature's point spacing at the coarsest rung ([`unnested`]).
+    // The RPY quadrature's point spacing at the coarsest rung ([`spacing_change`]).
     let mut first_spacing: Option<f64> = None;
     // Only the finest rung's Hopf point gets its Lyapunov coefficient (below).
     let quiet = without_criticality(settings);
