@@ -289,18 +289,18 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .uncarried
                 .iter()
                 .rposition(|(i, _)| last_refined.is_none_or(|l| *i > l));
-            // The refined points of run `run`, in `ln q`.
-            let refined_in = |run: usize| -> Vec<f64> {
-                (rows.iter().zip(&runs))
-                    .filter(|(r, k)| **k == run && r.answer == Answer::Refined)
-                    .map(|(r, _)| r.q.abs().ln())
-                    .collect()
-            };
+            // The refined points of each run, in `ln q`.
+            let mut refined_in = vec![Vec::new(); runs.last().map_or(0, |r| r + 1)];
+            for (r, &run) in rows.iter().zip(&runs) {
+                if r.answer == Answer::Refined {
+                    refined_in[run].push(r.q.abs().ln());
+                }
+            }
             // Else, in a run of one quadrature with fewer than three refined points, the point
             // farthest from them.
             let distance = |k: usize| {
                 let (index, point) = &self.uncarried[k];
-                let refined = refined_in(runs[index - start]);
+                let refined = &refined_in[runs[index - start]];
                 (refined.len() < 3).then(|| {
                     (refined.iter())
                         .map(|x| (point.q.abs().ln() - x).abs())
