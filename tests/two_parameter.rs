@@ -14,7 +14,7 @@ use helixbif::engine::event_curve::{EventPoint, follow_event_curve};
 use helixbif::engine::events::EventKind;
 use helixbif::engine::reference::{
     Members, OBLIQUE_BT, bautin, bogdanov_takens, bogdanov_takens_oblique, brusselator, cusp,
-    double_hopf, hopf_circle, hopf_line, shifted_pitchfork,
+    double_hopf, hopf_circle, hopf_cubic_fold, hopf_line, shifted_pitchfork,
 };
 use helixbif::engine::stop::{Observer, Silent, Stop};
 use helixbif::engine::{ContinuationSettings, Problem};
@@ -250,6 +250,83 @@ fn a_curve_that_turns_back_in_q_is_passed_and_its_turning_point_located() {
     // q is stationary there: known to the event tolerance; p to its square root.
     assert!((t.q - 1.0).abs() <= 1e-9, "turning at q = {}", t.q);
     assert!(t.p.abs() <= 1e-4, "turning at p = {}", t.p);
+}
+
+/// A turning point passed inside one step is located in that step, whether the step lands past
+/// it by more than the last point's distance (the chord's `q` part changes sign) or by less
+/// (`q` comes back short of the last point's, the chord keeps its sign, and only the parabola
+/// `q(p)` through the last points shows the turn); in the curve's first step (started 0.005
+/// from the turning point in `p`, with no point before it: the start tangent gives the slope,
+/// and a sample halfway along the step stands in for the point before) and in a later one
+/// (started 0.1 from it). Two curves: the unit circle, symmetric about its turning point
+/// `(0, 1)`, and `q = 1 - p^2 - p^3`, which is not, so that the parabola's vertex lies off the
+/// turning point (a step that lands next to it must not report it twice, nor one that stops
+/// short of it report it early). Constant steps of many lengths put the turning point at
+/// different places within a step.
+#[test]
+fn a_turning_point_passed_inside_a_step_is_located_in_that_step_wherever_it_lands() {
+    type Curve0 = fn(f64) -> helixbif::engine::reference::Reference;
+    let circle: (&str, Curve0, fn(f64) -> f64) = ("circle", hopf_circle, |p| (1.0 - p * p).sqrt());
+    let cubic: (&str, Curve0, fn(f64) -> f64) =
+        ("cubic", hopf_cubic_fold, |p| 1.0 - p * p * (1.0 + p));
+    let steps: Vec<f64> = (0..24).map(|k| 0.0055 * 1.09f64.powi(k)).collect();
+    for (name, member, q_of) in [circle, cubic] {
+        for p0 in [5e-3, 0.1] {
+            let mut short = 0;
+            for &ds in &steps {
+                let q0 = q_of(p0);
+                let first = start(&member(q0), vec![0.0; 2], 0.0, 2.0, q0);
+                assert!((first.p - p0).abs() < 1e-9, "starts at p = {}", first.p);
+                let settings_curve = CurveSettings {
+                    ds,
+                    ds_max: ds,
+                    ..CurveSettings::new(0.9, 1.5)
+                };
+                let (curve, _) = follow_curve(
+                    &Members(member),
+                    first,
+                    Rc::new(member(q0)),
+                    1.0,
+                    &settings_curve,
+                    &settings(),
+                    &mut Silent,
+                )
+                .unwrap();
+                let case = format!("{name}, p0 = {p0}, ds = {ds:.5}");
+                // The step that passes p = 0, and whether it lands short of the last point's q.
+                let across = curve
+                    .points
+                    .windows(2)
+                    .find(|w| w[0].p > 0.0 && w[1].p < 0.0)
+                    .unwrap_or_else(|| panic!("{case}: no step passes p = 0"));
+                let comes_back_short = across[1].q > across[0].q;
+                short += usize::from(comes_back_short);
+                let turning = of_kind(&curve, SpecialKind::Turning);
+                assert_eq!(turning.len(), 1, "{case}: {:?}", curve.special);
+                let t = &turning[0].point;
+                println!(
+                    "{case}: step from p = {:+.3e} to {:+.3e} (short {comes_back_short}), \
+                     turning point at (p, q) = ({:+.2e}, 1 {:+.1e})",
+                    across[0].p,
+                    across[1].p,
+                    t.p,
+                    t.q - 1.0
+                );
+                assert!((t.q - 1.0).abs() <= 1e-9, "{case}: turning at q = {}", t.q);
+                assert!(t.p.abs() <= 1e-4, "{case}: turning at p = {}", t.p);
+                // Found in the step that passes it (a special point carries the arclength of
+                // the point its step starts from), before the point past it is told.
+                assert_eq!(t.s, across[0].s, "{case}: found in another step");
+                assert_eq!(curve.stop, Stop::ParameterLimit, "{case}");
+            }
+            // Both kinds of landing occur.
+            assert!(
+                (2..steps.len() - 1).contains(&short),
+                "{name}, p0 = {p0}: {short} of {} steps land short",
+                steps.len()
+            );
+        }
+    }
 }
 
 #[test]

@@ -89,21 +89,7 @@ pub fn pitchfork(eps: f64) -> Reference {
 /// Hopf normal form: `x' = p x - y - x r^2`, `y' = x + p y - y r^2`; the origin has eigenvalues
 /// `p +- i`: a Hopf point at `p = 0` with frequency 1.
 pub fn hopf_normal_form() -> Reference {
-    Analytic {
-        dim: 2,
-        g: Box::new(|u, p| {
-            let r2 = u[0] * u[0] + u[1] * u[1];
-            vec![p * u[0] - u[1] - u[0] * r2, u[0] + p * u[1] - u[1] * r2]
-        }),
-        g_u: Box::new(|u, p| {
-            let (x, y) = (u[0], u[1]);
-            vec![
-                vec![p - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
-                vec![1.0 - 2.0 * x * y, p - x * x - 3.0 * y * y],
-            ]
-        }),
-        g_p: Box::new(|u, _| vec![u[0], u[1]]),
-    }
+    hopf_unfolded(|p| p, |_| 1.0)
 }
 
 /// The Hopf normal form with cubic coefficients `a + i b`: `x' = p x - w y + (a x - b y) r^2`,
@@ -212,7 +198,25 @@ pub fn double_hopf(q: f64) -> Reference {
 /// A Hopf normal form with `mu = p^2 + q^2 - 1`, frequency 1: its Hopf curve is the unit circle
 /// in `(p, q)`, which turns back in `q` at `(0, +-1)`.
 pub fn hopf_circle(q: f64) -> Reference {
-    let mu = move |p: f64| p * p + q * q - 1.0;
+    hopf_unfolded(move |p| p * p + q * q - 1.0, |p| 2.0 * p)
+}
+
+/// A Hopf normal form with `mu = p^2 + p^3 + q - 1`, frequency 1: its Hopf curve
+/// `q = 1 - p^2 - p^3` turns back in `q` at `(0, 1)`, where, unlike the circle's, it is not
+/// symmetric about its turning point.
+pub fn hopf_cubic_fold(q: f64) -> Reference {
+    hopf_unfolded(
+        move |p| p * p * (1.0 + p) + q - 1.0,
+        |p| p * (2.0 + 3.0 * p),
+    )
+}
+
+/// The Hopf normal form `z' = (mu(p) + i) z - |z|^2 z` in `u = (Re z, Im z)`, `dmu = mu'`: its
+/// steady state `u = 0` has the eigenvalues `mu(p) +- i`, a Hopf point where `mu` vanishes.
+fn hopf_unfolded(
+    mu: impl Fn(f64) -> f64 + Copy + Send + Sync + 'static,
+    dmu: impl Fn(f64) -> f64 + Send + Sync + 'static,
+) -> Reference {
     Analytic {
         dim: 2,
         g: Box::new(move |u, p| {
@@ -228,7 +232,10 @@ pub fn hopf_circle(q: f64) -> Reference {
                 vec![1.0 - 2.0 * x * y, m - x * x - 3.0 * y * y],
             ]
         }),
-        g_p: Box::new(move |u, p| vec![2.0 * p * u[0], 2.0 * p * u[1]]),
+        g_p: Box::new(move |u, p| {
+            let d = dmu(p);
+            vec![d * u[0], d * u[1]]
+        }),
     }
 }
 
@@ -308,24 +315,7 @@ pub fn bautin(c: f64) -> Reference {
 /// curve's units `(dp / max(|p|, 1), dq / Q)`): a curve steep in those units from its start at
 /// the origin.
 pub fn hopf_line(c: f64, q: f64) -> Reference {
-    let mu = move |p: f64| p - c * q;
-    Analytic {
-        dim: 2,
-        g: Box::new(move |u, p| {
-            let r2 = u[0] * u[0] + u[1] * u[1];
-            let m = mu(p);
-            vec![m * u[0] - u[1] - u[0] * r2, u[0] + m * u[1] - u[1] * r2]
-        }),
-        g_u: Box::new(move |u, p| {
-            let (x, y) = (u[0], u[1]);
-            let m = mu(p);
-            vec![
-                vec![m - 3.0 * x * x - y * y, -1.0 - 2.0 * x * y],
-                vec![1.0 - 2.0 * x * y, m - x * x - 3.0 * y * y],
-            ]
-        }),
-        g_p: Box::new(|u, _| vec![u[0], u[1]]),
-    }
+    hopf_unfolded(move |p| p - c * q, |_| 1.0)
 }
 
 /// The Bogdanov-Takens point of [`bogdanov_takens_oblique`], `(p, q)`.

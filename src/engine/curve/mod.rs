@@ -41,8 +41,11 @@
 //! its unstable count is a codimension-two point, pinned down on the curve by Brent's
 //! method on the real part of the eigenvalue that crossed (each sample a point of the
 //! curve): a **double Hopf** point when that eigenvalue is complex (a second oscillatory mode
-//! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A sign change of the
-//! `q` part of the tangent is a **turning point** of the curve, the extremum of `q(p)` found by
+//! reaches the axis), a **zero-Hopf** (fold-Hopf) point when it is real. A change of the way
+//! `q` moves along the curve is a **turning point** of the curve: a sign change of the `q` part
+//! of the chord, or, where a step passes the turning point and comes back short of the last
+//! point's `q`, a vertex of the parabola `q(p)` through the step's ends inside the step, kept
+//! where the turning point located lies inside it too. It is the extremum of `q(p)` found by
 //! successive parabolic interpolation (each sample a point of the curve at fixed `p`). Where the
 //! tracked pair meets on the real axis the Hopf curve ends at a **Bogdanov-Takens** point: the
 //! zero of `w2 = det - tr^2 / 4` of the critical pair's block (`w^2` on the Hopf curve) along

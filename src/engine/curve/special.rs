@@ -314,26 +314,47 @@ pub(super) fn locate_generalized_hopf<F: Family>(
 
 /// The turning point of the curve in `q` near `last`: the extremum of `q(p)` along the curve
 /// (which crosses every line `p = const` near it transversally), by successive parabolic
-/// interpolation through `a`, `last` and `new`, each new sample the curve's point at the
-/// parabola's vertex `p*` (corrected at fixed `p`). It stops when `p*` moves by less than
+/// interpolation through `before` (the point before `last`, `(p, q)`), `last` and `new`, each
+/// new sample the curve's point at the parabola's vertex `p*` (corrected at fixed `p`). In the
+/// first step of a curve there is no point before `last`: the curve's point halfway between
+/// `last` and `new` in `p` stands in for it. It stops when `p*` moves by less than
 /// `sqrt(event_tol)` in the units of (2): `q` is then known to about `event_tol`, since it is
 /// stationary there.
 pub(super) fn locate_turning<F: Family>(
     tracer: &Tracer<'_, F>,
-    a: &CurvePoint,
+    before: Option<(f64, f64)>,
     last: &At<F::Member>,
     new: &At<F::Member>,
     p_unit: f64,
     s_last: f64,
 ) -> Result<(Special, Rc<F::Member>)> {
-    // The three latest samples (p, q), and the solved state nearest the vertex.
-    let mut samples = [(a.p, a.q), (last.p, last.q), (new.p, new.q)];
-    let mut best = if (new.q - last.q) * (new.q - a.q) > 0.0 {
-        new.clone()
-    } else {
-        last.clone()
+    let mut evaluations = 0;
+    let mut solved = vec![last.clone(), new.clone()];
+    let a = match before {
+        Some(a) => a,
+        None => {
+            let p = 0.5 * (last.p + new.p);
+            let halfway = on_vertical(tracer, last, (p, 0.5 * (last.q + new.q)), p_unit)?;
+            evaluations += halfway.evaluations;
+            solved.push(halfway.at);
+            (solved[2].p, solved[2].q)
+        }
     };
-    let (mut evaluations, mut precision) = (0, 0.0);
+    // The three latest samples (p, q), and the solved state nearest the vertex: the one with
+    // the extreme `q` (the largest where the curve turns back down in `q`).
+    let mut samples = [a, (last.p, last.q), (new.p, new.q)];
+    let down = parabola(samples)?.2 < 0.0;
+    let mut best = solved
+        .into_iter()
+        .max_by(|x, y| {
+            if down {
+                x.q.total_cmp(&y.q)
+            } else {
+                y.q.total_cmp(&x.q)
+            }
+        })
+        .expect("two solved states at least");
+    let mut precision = 0.0;
     let tol = tracer.continuation.event_tol.sqrt();
     let mut moved = f64::INFINITY;
     let mut rounds = 0;
@@ -344,27 +365,9 @@ pub(super) fn locate_turning<F: Family>(
                 "a turning point of the curve not resolved within 30 samples".into(),
             ));
         }
-        let [(p0, q0), (p1, q1), (p2, q2)] = samples;
-        let d01 = (q1 - q0) / (p1 - p0);
-        let d12 = (q2 - q1) / (p2 - p1);
-        let curvature = (d12 - d01) / (p2 - p0);
-        let p_star = 0.5 * (p0 + p1) - 0.5 * d01 / curvature;
-        let q_star = q0 + d01 * (p_star - p0) + curvature * (p_star - p0) * (p_star - p1);
-        if !(p_star.is_finite() && q_star.is_finite()) {
-            return Err(Error::Numerical(
-                "no parabola through the samples near a turning point".into(),
-            ));
-        }
+        let (p_star, q_star, _) = parabola(samples)?;
         moved = (p_star - best.p).abs() / p_unit;
-        let step = Step {
-            p0: p_star,
-            q0: q_star,
-            p_unit,
-            t: (1.0, 0.0),
-            n: (0.0, 1.0),
-            pair: false,
-        };
-        let c = tracer.correct(&best, &step, 0.0, None, None, best.eigenvalue, 1.0)?;
+        let c = on_vertical(tracer, &best, (p_star, q_star), p_unit)?;
         evaluations += c.evaluations;
         precision = c.precision;
         samples = [samples[1], samples[2], (c.at.p, c.at.q)];
@@ -378,6 +381,62 @@ pub(super) fn locate_turning<F: Family>(
         precision: tol,
     };
     Ok((special, best.member))
+}
+
+/// Whether the parabola `q(p)` through `last` with the slope `dq/dp = slope` there and through
+/// `new` (each `(p, q)`) has its vertex strictly inside the step from `last` to `new`: `q` turns
+/// back within the step (next to a turning point the curve is the parabola
+/// `q - q_t ~ (p - p_t)^2`), even where it comes back short of the last point's `q`.
+pub(super) fn vertex_in_step(slope: f64, last: (f64, f64), new: (f64, f64)) -> bool {
+    let h = new.0 - last.0;
+    let a = (new.1 - last.1 - slope * h) / (h * h);
+    let x = -slope / (2.0 * a) / h;
+    x.is_finite() && 0.0 < x && x < 1.0
+}
+
+/// The slope `dq/dp` at `last` of the parabola `q(p)` through `before`, `last` and `new` (each
+/// `(p, q)`).
+pub(super) fn slope_through(before: (f64, f64), last: (f64, f64), new: (f64, f64)) -> f64 {
+    let d01 = (last.1 - before.1) / (last.0 - before.0);
+    let d12 = (new.1 - last.1) / (new.0 - last.0);
+    let curvature = (d12 - d01) / (new.0 - before.0);
+    d01 + curvature * (last.0 - before.0)
+}
+
+/// The vertex `(p*, q*)` of the parabola `q(p)` through three samples `(p, q)`, and its
+/// curvature `d2q/dp2 / 2`.
+fn parabola(samples: [(f64, f64); 3]) -> Result<(f64, f64, f64)> {
+    let [(p0, q0), (p1, q1), (p2, q2)] = samples;
+    let d01 = (q1 - q0) / (p1 - p0);
+    let d12 = (q2 - q1) / (p2 - p1);
+    let curvature = (d12 - d01) / (p2 - p0);
+    let p_star = 0.5 * (p0 + p1) - 0.5 * d01 / curvature;
+    let q_star = q0 + d01 * (p_star - p0) + curvature * (p_star - p0) * (p_star - p1);
+    if !(p_star.is_finite() && q_star.is_finite()) {
+        return Err(Error::Numerical(
+            "no parabola through the samples near a turning point".into(),
+        ));
+    }
+    Ok((p_star, q_star, curvature))
+}
+
+/// The curve's point on the line `p = guess.0` (the corrector started at `guess`, from the
+/// state of `from`), where the curve crosses it transversally, near a turning point.
+fn on_vertical<F: Family>(
+    tracer: &Tracer<'_, F>,
+    from: &At<F::Member>,
+    (p, q): (f64, f64),
+    p_unit: f64,
+) -> Result<Corrected<F::Member>> {
+    let step = Step {
+        p0: p,
+        q0: q,
+        p_unit,
+        t: (1.0, 0.0),
+        n: (0.0, 1.0),
+        pair: false,
+    };
+    tracer.correct(from, &step, 0.0, None, None, from.eigenvalue, 1.0)
 }
 
 /// The Bogdanov-Takens point within the step from `last` (`sigma = 0` on `step`) to

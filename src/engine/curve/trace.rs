@@ -12,7 +12,7 @@ use faer::c64;
 use super::corrector::{At, Corrected, REACH, Step, Tracer, accept};
 use super::special::{
     SignChange, Special, SpecialKind, locate_bogdanov_takens, locate_codim2,
-    locate_generalized_hopf, locate_turning,
+    locate_generalized_hopf, locate_turning, slope_through, vertex_in_step,
 };
 use super::tracked::others;
 use super::{Curve, CurveEnd, CurvePoint, CurveSettings, Family};
@@ -82,6 +82,10 @@ struct Trace<'a, F: Family> {
     /// The unit tangent in the units of (2): the chord of the last step (at the start,
     /// orthogonal to the gradient of the test function).
     t: (f64, f64),
+    /// Which way `q` moves along the curve at the last point (its sign): the chord's `q` part,
+    /// reversed where the curve turned back in `q` within the last step and came back short of
+    /// the point before ([`Trace::turning`]).
+    heading: f64,
     /// The slope `dh/d offset` of the last corrector's secant.
     slope: Option<f64>,
     /// The change of the state over the last step not explained by carrying it, per unit step.
@@ -167,6 +171,7 @@ impl<'a, F: Family> Trace<'a, F> {
             },
             last,
             t,
+            heading: t.1,
             slope,
             drift: None,
             rate: None,
@@ -213,7 +218,10 @@ impl<'a, F: Family> Trace<'a, F> {
         let length = dp.hypot(dq);
         let t_new = (dp / length, dq / length);
         // A special point that cannot be pinned down is retried from a shorter step.
-        let (mut specials, sign_change) = match self.specials(&new, &next, t_new) {
+        let in_step = self
+            .turning(&new, &next, t_new)
+            .and_then(|(heading, turning)| Ok((heading, self.specials(&new, &next, turning)?)));
+        let (heading, (mut specials, sign_change)) = match in_step {
             Ok(found) => found,
             Err(e) => {
                 return self
@@ -243,6 +251,7 @@ impl<'a, F: Family> Trace<'a, F> {
         );
         let told = observer.point(&point);
         self.curve.points.push(point);
+        self.heading = heading;
         self.take(
             new,
             &next,
@@ -370,15 +379,61 @@ impl<'a, F: Family> Trace<'a, F> {
         ControlFlow::Continue(())
     }
 
-    /// The special points between the last point and `new` (the tangent there `t_new`):
-    /// codimension-two points inside the step and a turning point at its end; and where the
+    /// Which way `q` moves along the curve at `new` (the chord `t_new` from the last point), and
+    /// the turning point in the step, if `q` turned back in it: where the chord's `q` part
+    /// differs from the way at the last point; and where it does not, but the step passed the
+    /// turning point and came back short of the last point's `q`. Only the parabola `q(p)`
+    /// shows that: through `new` and the last point with its slope there (from the parabola
+    /// through the point before it too, or in the first step the start tangent's), its vertex
+    /// lies inside the step ([`vertex_in_step`]); the turning point located from it must lie
+    /// inside the step too (the parabola's vertex lies off the curve's turning point where the
+    /// curve is not symmetric about it, and near a turning point in `p` it means nothing). Only
+    /// where both chords move `p` the same way is the curve taken for a graph `q(p)`.
+    fn turning(
+        &self,
+        new: &At<F::Member>,
+        next: &Next,
+        t_new: (f64, f64),
+    ) -> Result<(f64, Option<Found<F::Member>>)> {
+        let (last, t, p_unit) = (&self.last, self.t, next.line.p_unit);
+        let chord = if t_new.1 == 0.0 {
+            self.heading
+        } else {
+            t_new.1
+        };
+        let previous = (self.curve.points.iter().rev().nth(1)).map(|a| (a.p, a.q));
+        let s_last = self.s_last();
+        let locate = || locate_turning(&self.tracer, previous, last, new, p_unit, s_last);
+        if self.heading * chord < 0.0 {
+            return Ok((chord, Some(locate()?)));
+        }
+        let (at_last, at_new) = ((last.p, last.q), (new.p, new.q));
+        let slope = match previous {
+            Some(before) => slope_through(before, at_last, at_new),
+            None => t.1 * self.tracer.q_unit / (t.0 * p_unit),
+        };
+        if t.0 * t_new.0 > 0.0 && vertex_in_step(slope, at_last, at_new) {
+            // Not pinned down, or outside the step: a turning point past `new`, found by the
+            // chord of a later step.
+            if let Ok(found) = locate() {
+                let p = found.0.point.p;
+                if (p - last.p) * (p - new.p) < 0.0 {
+                    return Ok((-chord, Some(found)));
+                }
+            }
+        }
+        Ok((chord, None))
+    }
+
+    /// The special points between the last point and `new`: codimension-two points inside the
+    /// step and its `turning` point ([`Trace::turning`]); and where the
     /// sign of `l1` changes inside the step, its zero (a generalized Hopf point where resolved
     /// verdicts of both signs lie on either side: [`Trace::generalized_hopf`]).
     fn specials(
         &self,
         new: &At<F::Member>,
         next: &Next,
-        t_new: (f64, f64),
+        turning: Option<Found<F::Member>>,
     ) -> Result<InStep<F::Member>> {
         let (tracer, last, line, sigma) = (&self.tracer, &self.last, &next.line, next.sigma);
         let s_last = self.s_last();
@@ -396,18 +451,7 @@ impl<'a, F: Family> Trace<'a, F> {
             )?),
             _ => None,
         };
-        if self.t.1 * t_new.1 < 0.0
-            && let Some(previous) = self.curve.points.iter().rev().nth(1)
-        {
-            found.push(locate_turning(
-                tracer,
-                previous,
-                last,
-                new,
-                line.p_unit,
-                s_last,
-            )?);
-        }
+        found.extend(turning);
         Ok((found, sign_change))
     }
 
