@@ -397,19 +397,25 @@ pub(super) fn vertex_in_step(slope: f64, last: (f64, f64), new: (f64, f64)) -> b
 /// The slope `dq/dp` at `last` of the parabola `q(p)` through `before`, `last` and `new` (each
 /// `(p, q)`).
 pub(super) fn slope_through(before: (f64, f64), last: (f64, f64), new: (f64, f64)) -> f64 {
-    let d01 = (last.1 - before.1) / (last.0 - before.0);
-    let d12 = (new.1 - last.1) / (new.0 - last.0);
-    let curvature = (d12 - d01) / (new.0 - before.0);
+    let (d01, curvature) = divided_differences([before, last, new]);
     d01 + curvature * (last.0 - before.0)
+}
+
+/// The divided differences of `q(p)` over three samples `(p, q)`: the first over the first two,
+/// `d01`, and the second, `curvature = d2q/dp2 / 2` of the parabola through them, which is
+/// `q0 + d01 (p - p0) + curvature (p - p0) (p - p1)`.
+fn divided_differences(samples: [(f64, f64); 3]) -> (f64, f64) {
+    let [(p0, q0), (p1, q1), (p2, q2)] = samples;
+    let d01 = (q1 - q0) / (p1 - p0);
+    let d12 = (q2 - q1) / (p2 - p1);
+    (d01, (d12 - d01) / (p2 - p0))
 }
 
 /// The vertex `(p*, q*)` of the parabola `q(p)` through three samples `(p, q)`, and its
 /// curvature `d2q/dp2 / 2`.
 fn parabola(samples: [(f64, f64); 3]) -> Result<(f64, f64, f64)> {
-    let [(p0, q0), (p1, q1), (p2, q2)] = samples;
-    let d01 = (q1 - q0) / (p1 - p0);
-    let d12 = (q2 - q1) / (p2 - p1);
-    let curvature = (d12 - d01) / (p2 - p0);
+    let [(p0, q0), (p1, _), _] = samples;
+    let (d01, curvature) = divided_differences(samples);
     let p_star = 0.5 * (p0 + p1) - 0.5 * d01 / curvature;
     let q_star = q0 + d01 * (p_star - p0) + curvature * (p_star - p0) * (p_star - p1);
     if !(p_star.is_finite() && q_star.is_finite()) {
@@ -420,8 +426,8 @@ fn parabola(samples: [(f64, f64); 3]) -> Result<(f64, f64, f64)> {
     Ok((p_star, q_star, curvature))
 }
 
-/// The curve's point on the line `p = guess.0` (the corrector started at `guess`, from the
-/// state of `from`), where the curve crosses it transversally, near a turning point.
+/// The curve's point on the line at `p` (the corrector started at `(p, q)`, from the state of
+/// `from`), which the curve crosses transversally near a turning point in `q`.
 fn on_vertical<F: Family>(
     tracer: &Tracer<'_, F>,
     from: &At<F::Member>,
