@@ -523,10 +523,7 @@ pub fn estimate_at_nodes(
 /// the points per edge; `None` on Lighthill's line.
 fn point_spacing(model: &Model) -> Option<f64> {
     let points = model.fluid.points_per_edge()?;
-    let longest = (model.natural.windows(2))
-        .map(|e| (e[1] - e[0]).norm())
-        .fold(0.0, f64::max);
-    Some(longest / points as f64)
+    Some(rpy::longest_edge(&model.natural) / points as f64)
 }
 
 /// The ratio of the RPY quadrature's point spacing ([`point_spacing`]) at `nodes` nodes to

@@ -259,6 +259,15 @@ fn in_parallel_batches<T: Send>(
     }
 }
 
+/// The longest edge of the polygon `natural`, which sets the quadrature's cells per edge
+/// ([`Rpy::for_polygon`]).
+pub fn longest_edge(natural: &[Vector3<f64>]) -> f64 {
+    natural
+        .windows(2)
+        .map(|e| (e[1] - e[0]).norm())
+        .fold(0.0, f64::max)
+}
+
 impl Rpy {
     /// RPY mobility for configurations of the polygon `natural` (`N >= 2` nodes; its edge
     /// lengths are the material measure, see the [module documentation](self)), with `cells`
@@ -342,10 +351,7 @@ impl Rpy {
     /// the edges halves `m` and keeps the points where they were (see the
     /// [module documentation](self)).
     pub fn for_polygon(mu: f64, blob_radius: f64, per_blob: f64, natural: &[Vector3<f64>]) -> Self {
-        let longest = natural
-            .windows(2)
-            .map(|e| (e[1] - e[0]).norm())
-            .fold(0.0, f64::max);
+        let longest = longest_edge(natural);
         Self::new(
             mu,
             blob_radius,
