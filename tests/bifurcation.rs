@@ -424,3 +424,83 @@ fn follow_the_tight_arc(overrides: &[&str], omega_max: f64, every: usize) {
     let checked = agree_with_solve(&model, &rest, past);
     assert!(checked >= 2, "{overrides:?}: {checked}");
 }
+
+/// `exponent_m.toml`'s `lambda/l = 0.25` rod on the RPY line (15 nodes per turn, `N = 61`) at
+/// `R/lambda = 0.3725`, followed from rest up to 30 rad/s: a mode rises through the axis at
+/// 0.01452 rad/s and falls back at 0.01528, a window of instability about 5% wide that lies
+/// inside one step of the continuation (which stops at the next mode's loss, 0.01732). The probe
+/// of that step's near miss must find the window inside the step it names, and its loss must be
+/// the first loss of stability that an independent continuation finds with short steps (up to
+/// 0.03 rad/s: steps of at most a sixtieth of that, 0.0005 rad/s, against the 0.0038 rad/s of the
+/// step that holds the window), to `1e-7` relative, with the same critical frequency; the short
+/// steps' regain of stability must lie inside that step too.
+#[test]
+fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/exponent_m.toml");
+    let overrides: Vec<String> = [
+        "fluid.model=rpy",
+        "discretization.per_turn=15",
+        "shape.lambda_over_l=0.25",
+        "shape.R_over_lambda=0.3725",
+    ]
+    .map(String::from)
+    .to_vec();
+    let study = helixbif::study::Study::from_path(Some(path.as_ref()), &overrides).unwrap();
+    let model = Model::new(&study.physical()).unwrap();
+    assert_eq!(model.nodes(), 61);
+    let settings = |omega_max: f64| LocateSettings {
+        omega_max,
+        newton: &study.newton,
+        continuation: &study.continuation,
+        criticality: false,
+    };
+    let (located, critical) = locate(&model, &settings(30.0), &mut Silent).unwrap();
+    let [below, above] = located
+        .window_between
+        .expect("the window inside the step is found");
+    let omega_b = located.omega_b.unwrap();
+    assert!(
+        below < omega_b && omega_b < above,
+        "{omega_b} outside the step [{below}, {above}]"
+    );
+    assert!(located.near_miss_unresolved.is_none());
+    assert_eq!(located.kind.name(), "hopf");
+    assert!(critical.unwrap().event.eigenvalue.re.abs() < 1e-6);
+
+    // The same branch with short steps sees the window's loss and regain, then the next loss.
+    let rest = rest_state(&model, &study.newton).unwrap();
+    let omegabar_max = model.scales.omega_to_bar(0.03);
+    let branch = trace(
+        &model,
+        &rest,
+        omegabar_max,
+        &study.continuation,
+        false,
+        &mut Silent,
+    )
+    .unwrap();
+    let hopf: Vec<_> = branch
+        .events
+        .iter()
+        .filter(|e| e.kind == EventKind::Hopf)
+        .collect();
+    assert!(hopf.len() >= 3, "{} Hopf points", hopf.len());
+    assert!(hopf[0].loses_stability() && !hopf[1].loses_stability());
+    let first = model.scales.omega_from_bar(hopf[0].p);
+    let regained = model.scales.omega_from_bar(hopf[1].p);
+    assert!(
+        (omega_b - first).abs() < 1e-7 * first,
+        "probed {omega_b}, short steps {first}"
+    );
+    assert!(
+        regained > omega_b && regained < above,
+        "regained at {regained}, outside the step [{below}, {above}]"
+    );
+    let im = |s: f64| model.scales.omega_from_bar(s);
+    assert!(
+        (located.im.unwrap() - im(hopf[0].eigenvalue.im.abs())).abs() < 1e-6 * located.im.unwrap(),
+        "frequency {} against {}",
+        located.im.unwrap(),
+        im(hopf[0].eigenvalue.im.abs())
+    );
+}

@@ -162,6 +162,13 @@ class Located(_Result):
     l1_precision: float | None
     criticality: Literal["supercritical", "subcritical", "undetermined"] | None
     l1_failure: str | None
+    probes: int
+    """States solved to probe the branch's near misses (docs/model.md section 5)."""
+    window_between: list[float] | None
+    """Rates (rad/s) of the two points of the step a window of instability found by a probe
+    lies in; omega_b is then the window's loss."""
+    near_miss_unresolved: str | None
+    """A near miss whose probes neither found nor excluded a window (where and why)."""
     error: float | None
     """Estimated error of omega_b against the continuous model, rad/s (`omega_b_error`): the
     answer's error in N (the finest rung's discretization error, `estimate`, or the limit's,
@@ -340,6 +347,9 @@ class Boundary(_Result):
     relative_error_max: list[float] | None
     """The largest estimated relative error of omega_b over the points, and its q."""
     first_shortfall: str | None
+    first_unresolved_near_miss: str | None
+    """The first window check whose branch had a near miss its probes neither resolved nor
+    excluded (where and why)."""
     """Where the first point fell short of `accuracy`, and why its refinement stopped."""
     nodes_max: int
     seconds: float

@@ -192,6 +192,10 @@ pub struct Boundary {
     /// Where the first point carried to an accuracy fell short of it, and why its refinement
     /// stopped.
     pub first_shortfall: Option<String>,
+    /// The first window check below a point whose branch had a near miss that its probes
+    /// neither resolved nor excluded (docs/model.md section 5): the check's verdict there,
+    /// nothing unstable below the point, is not certain.
+    pub first_unresolved_near_miss: Option<String>,
     /// Where the time went, beside the curve itself.
     pub time: TimeSpent,
 }
@@ -449,8 +453,18 @@ impl<O: BoundaryObserver> Observer<CurvePoint, Special> for Recorder<'_, O> {
             let below = loss_below(self.family, &self.locate, point.q, point.p);
             self.boundary.time.window_checks += started.elapsed().as_secs_f64();
             match below {
-                Ok(None) => {}
-                Ok(Some(found)) => {
+                Ok((None, unresolved)) => {
+                    if let (Some(why), None) =
+                        (unresolved, &self.boundary.first_unresolved_near_miss)
+                    {
+                        self.boundary.first_unresolved_near_miss = Some(format!(
+                            "at {} = {}: {why}",
+                            self.family.field().key(),
+                            point.q
+                        ));
+                    }
+                }
+                Ok((Some(found), _)) => {
                     self.window = Some(Seen {
                         omegabar: point.p,
                         wbar: point.eigenvalue.im,
@@ -617,14 +631,15 @@ fn curve_start(family: &RodFamily, found: Found) -> Result<(CurveStart, Rc<RodPr
 
 /// The first loss of stability of the member at `q` below the point `omegabar` (solver units)
 /// of a curve: an independent `locate` from rest up to `(1 - WINDOW_MARGIN)` times its rate;
-/// `None` where the branch stays stable that far. A member whose rest state is unstable is an
+/// `None` where the branch stays stable that far, with the near miss of that branch that the
+/// probes neither resolved nor excluded, if any. A member whose rest state is unstable is an
 /// error: below it the boundary means nothing.
 fn loss_below(
     family: &RodFamily,
     settings: &LocateSettings,
     q: f64,
     omegabar: f64,
-) -> Result<Option<Found>> {
+) -> Result<(Option<Found>, Option<String>)> {
     let member = family.member(q)?;
     let limit = omegabar * (1.0 - WINDOW_MARGIN);
     let at = LocateSettings {
@@ -640,12 +655,15 @@ fn loss_below(
         ))),
         // The continuation's last step may pass the limit and find the curve's own loss of
         // stability beyond it: only a loss below the limit is a window.
-        (_, Some(critical)) if critical.event.p.abs() < limit.abs() => Ok(Some(Found {
-            q,
-            member,
-            critical,
-        })),
-        _ => Ok(None),
+        (_, Some(critical)) if critical.event.p.abs() < limit.abs() => Ok((
+            Some(Found {
+                q,
+                member,
+                critical,
+            }),
+            None,
+        )),
+        _ => Ok((None, located.near_miss_unresolved)),
     }
 }
 
@@ -675,7 +693,7 @@ fn window_opening(
     while (found.q - good).abs() > tol {
         let mid = 0.5 * (good + found.q);
         *checks += 1;
-        let loss = loss_below(family, settings, mid, along(mid, clean.1, omegabar))?;
+        let (loss, _) = loss_below(family, settings, mid, along(mid, clean.1, omegabar))?;
         // Where the curve bends, the chord can pass above it by more than the margin, and the
         // curve's own mode is found below the chord: a loss at the curve's frequency is that.
         let own_mode = |f: &Found| {

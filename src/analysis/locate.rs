@@ -19,7 +19,11 @@ use crate::problem::steady::SteadyState;
 
 use crate::analysis::branch::{observables_at, trace_in_chart};
 use crate::analysis::solve::rest_state;
-use crate::problem::rod::{OMEGA_SCALE, Parameter, RodProblem};
+use crate::problem::rod::{OMEGA_SCALE, Parameter, RodProblem, omega_scale};
+
+pub mod near_miss;
+
+use near_miss::probe_near_misses;
 
 /// What locating the first loss of stability needs besides the model: the rate (rad/s, signed)
 /// up to which the branch from rest is followed, and the settings of the steady solves and of
@@ -103,6 +107,15 @@ pub struct Located {
     pub criticality: Option<Verdict>,
     /// Why the coefficient of a Hopf point could not be computed, if it could not.
     pub l1_failure: Option<String>,
+    /// States solved to search the near misses of the branch (a mode rising towards the axis
+    /// and falling back between two points) for a window of instability inside a step
+    /// ([`near_miss`]; the solves that locate a window's loss are not counted).
+    pub probes: usize,
+    /// Where the continuation stepped over a window of instability that a probe found (the
+    /// rates, rad/s, of the two points of the step it lies in): the answer is the window's loss.
+    pub window_between: Option<[f64; 2]>,
+    /// A near miss whose probes neither found nor excluded a window, and why.
+    pub near_miss_unresolved: Option<String>,
 }
 
 /// The first Lyapunov coefficient of the Hopf point `event` of the rod's branch in `omegabar`,
@@ -138,6 +151,9 @@ impl Located {
             l1_precision: None,
             criticality: None,
             l1_failure: None,
+            probes: 0,
+            window_between: None,
+            near_miss_unresolved: None,
         }
     }
 
@@ -203,11 +219,13 @@ impl Located {
 pub struct Critical {
     pub event: Event,
     pub chart: Chart,
-    /// The last point of the branch before the event, `(u, omegabar)` (a start for following
-    /// the event in a second parameter).
+    /// A state of the branch just before the event, `(u, omegabar)` (a start for following the
+    /// event in a second parameter): the last point before it, or for a window found by a probe
+    /// the stable end of the crossing search's final bracket.
     pub lead: (Vec<f64>, f64),
-    /// The points of the branch from rest before the event: `omegabar`, the node positions and
-    /// the leading spectrum (what a finer mesh is checked against, docs/model.md section 10).
+    /// The points of the branch from rest before the event, with the stable probes of its near
+    /// misses among them ([`near_miss`]): `omegabar`, the node positions and the leading
+    /// spectrum (what a finer mesh is checked against, docs/model.md section 10).
     pub branch: Vec<BranchState>,
 }
 
@@ -226,6 +244,20 @@ impl Critical {
         s.chart = self.chart.clone();
         s
     }
+}
+
+/// The largest distance between corresponding nodes of two vectors of node positions.
+pub(crate) fn node_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| {
+            p.iter()
+                .zip(q)
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Follows the branch from rest to its first loss of stability and pins it down.
@@ -254,8 +286,17 @@ pub fn locate(
     };
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
-    match branch.stop {
-        Stop::Own(BranchStop::FirstInstability) => {}
+    let first = match branch.stop {
+        Stop::Own(BranchStop::FirstInstability) => Some(
+            branch
+                .first_loss_of_stability()
+                .ok_or_else(|| {
+                    crate::Error::Numerical(
+                        "the branch became unstable but no event was located where it did".into(),
+                    )
+                })?
+                .clone(),
+        ),
         Stop::Own(BranchStop::UnstableAtStart) => {
             let count = branch.points[0].spectrum.unstable;
             let located = Located {
@@ -265,7 +306,7 @@ pub fn locate(
             };
             return Ok((located, None));
         }
-        Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => return Ok((none, None)),
+        Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => None,
         Stop::StepTooSmall(reason) => {
             return Err(crate::Error::Numerical(format!(
                 "continuation stalled at omega = {reached_omega:.6e} rad/s before any \
@@ -297,31 +338,82 @@ pub fn locate(
                  instability found: raise continuation.max_points (or continuation.ds_max)"
             )));
         }
-    }
-    let event = branch
-        .first_loss_of_stability()
-        .ok_or_else(|| {
-            crate::Error::Numerical(
-                "the branch became unstable but no event was located where it did".into(),
+    };
+    // The stable points, searched for windows of instability inside their steps; a probe's
+    // twist is scaled from the event's (or the last point's), in the natural chart.
+    let stable: Vec<&Point> = branch
+        .points
+        .iter()
+        .filter(|p| first.as_ref().is_none_or(|e| p.s < e.s))
+        .collect();
+    let (u_ref, p_ref) = match (&first, branch.points.last()) {
+        (Some(e), _) => (&e.u, e.p),
+        (None, Some(last)) => (&last.u, last.p),
+        (None, None) => return Ok((none, None)),
+    };
+    let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
+    let misses = probe_near_misses(
+        model,
+        &problem,
+        &stable,
+        (u_ref, &chart, p_ref),
+        omegabar_max,
+        settings,
+    )?;
+    let counted = Located {
+        probes: misses.probes,
+        near_miss_unresolved: misses.unresolved.as_ref().map(|(p, why)| {
+            let omega = model.scales.omega_from_bar(*p);
+            format!("near omega = {omega:.6e} rad/s: {why}")
+        }),
+        ..none
+    };
+    // A window the continuation stepped over comes first: its state is in the natural chart.
+    let (event, chart, lead, window) = match (misses.window, first) {
+        (Some(window), _) => {
+            let near = &window.crossing.near;
+            let lead = (near.u.clone(), near.p);
+            (
+                window.crossing.event,
+                problem.chart(),
+                lead,
+                Some(window.step),
             )
-        })?
-        .clone();
-    let mut located = none.at_event(model, &rest, &event)?;
+        }
+        (None, Some(event)) => {
+            let before = branch.point_before(&event);
+            let lead = (before.u.clone(), before.p);
+            (event, chart, lead, None)
+        }
+        (None, None) => return Ok((counted, None)),
+    };
+    let mut located = Located {
+        window_between: window.map(|(a, b)| {
+            [
+                model.scales.omega_from_bar(a),
+                model.scales.omega_from_bar(b),
+            ]
+        }),
+        ..counted
+    }
+    .at_event(model, &rest, &event)?;
     if settings.criticality {
         located = located.with_criticality(model, &event, &chart);
     }
-    let before = branch.point_before(&event);
-    let lead = (before.u.clone(), before.p);
-    let states = branch
-        .points
-        .iter()
-        .filter(|p| p.s < event.s)
-        .map(|p| BranchState {
-            omegabar: p.p,
-            x: Steady::new(model, p.p).config(&p.u).x,
-            spectrum: p.spectrum.clone(),
-        })
-        .collect();
+    // The branch's points below the event, each followed by the stable probes after it.
+    let position = |p: f64, u: &[f64], spectrum: &Spectrum| BranchState {
+        omegabar: p,
+        x: Steady::new(model, p).config(u).x,
+        spectrum: spectrum.clone(),
+    };
+    let mut states = Vec::new();
+    for (i, point) in stable.iter().enumerate() {
+        states.push(position(point.p, &point.u, &point.spectrum));
+        let mut after: Vec<_> = misses.stable.iter().filter(|q| q.after == i).collect();
+        after.sort_by(|a, b| a.p.abs().total_cmp(&b.p.abs()));
+        states.extend(after.iter().map(|q| position(q.p, &q.u, &q.spectrum)));
+    }
+    states.retain(|state| state.omegabar.abs() < event.p.abs());
     Ok((
         located,
         Some(Critical {

@@ -251,6 +251,10 @@ pub struct Rung {
     pub fallback: Option<String>,
     /// A sequenced rung's evidence that its point is still the first loss of stability.
     pub certificate: Option<Certificate>,
+    /// A continuation rung's window of instability found inside a step by probing a near miss,
+    /// and a near miss neither resolved nor excluded ([`Located`]).
+    pub window_between: Option<[f64; 2]>,
+    pub near_miss_unresolved: Option<String>,
     pub seconds: f64,
 }
 
@@ -679,6 +683,8 @@ pub fn refine(
             method,
             fallback,
             certificate,
+            window_between: located.window_between,
+            near_miss_unresolved: located.near_miss_unresolved.clone(),
             seconds: started.elapsed().as_secs_f64(),
         });
         estimate = None;

@@ -780,6 +780,14 @@ impl Text for BoundaryReport {
                 }
             )?;
         }
+        if let Some(why) = &self.first_unresolved_near_miss {
+            writeln!(
+                f,
+                "  WARNING: a window check below the curve had a near miss that its probes neither \
+                 resolved nor excluded, {why}: a window of instability there may have been \
+                 stepped over"
+            )?;
+        }
         let c = &self.criticality;
         writeln!(
             f,

@@ -4,7 +4,9 @@
 //! parameter `p`, with the linearized dynamics `M du/dt = K du` whose eigenvalues decide the
 //! stability of a solution. [`arclength::follow`] traces a branch of solutions by
 //! pseudo-arclength continuation, [`stability`] computes the leading eigenvalues at each point,
-//! and [`events`] detects and pins down folds, branch points and Hopf points between points.
+//! and [`events`] detects and pins down folds, branch points and Hopf points between points;
+//! [`near_miss`] searches a mode that comes near the axis and falls back between two points for a
+//! window of instability inside the step.
 //! [`curve`] and [`event_curve`] follow a Hopf point, a fold or a branch point in a second
 //! parameter, [`periodic`] the orbits born at a Hopf point, [`criticality`] gives the first
 //! Lyapunov coefficient of a Hopf point. Every driver shares the step-size control ([`step`]),
@@ -31,6 +33,7 @@ pub mod curve;
 pub mod event_curve;
 pub mod events;
 pub mod krylov;
+pub mod near_miss;
 pub mod newton;
 pub mod periodic;
 #[cfg(feature = "reference-problems")]

@@ -67,6 +67,9 @@ pub struct BoundaryReport {
     pub relative_error_max: Option<[f64; 2]>,
     /// Where the first point fell short of the accuracy, and why its refinement stopped.
     pub first_shortfall: Option<String>,
+    /// The first window check whose branch had a near miss neither resolved nor excluded
+    /// (docs/model.md section 5).
+    pub first_unresolved_near_miss: Option<String>,
     /// The largest node count of a point's `omega_b` (`nodes` is the curve's).
     pub nodes_max: usize,
     pub out: String,
@@ -300,6 +303,7 @@ pub(crate) fn run_family(
                 .filter_map(|r| r.omega_b_error.map(|e| [e / r.omega_b.abs(), r.q]))
                 .max_by(|a, b| a[0].total_cmp(&b[0])),
             first_shortfall: boundary.first_shortfall.clone(),
+            first_unresolved_near_miss: boundary.first_unresolved_near_miss.clone(),
             nodes_max: boundary.points.iter().map(|r| r.nodes).max().unwrap_or(0),
             out: dir.display().to_string(),
         }

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::{RungObserver, Solved, at_nodes};
-use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located};
+use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located, node_distance};
 use crate::analysis::solve::{ramp, rest_state};
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
@@ -84,20 +84,6 @@ const CARRIED_ITERATIONS: usize = 10;
 /// reached by a ramp may lie from the carried state it replaces ([`sequenced_rung`]): farther,
 /// it is taken for a state of another branch, and the rung falls back.
 const RAMP_REACH: f64 = 10.0;
-
-/// The largest distance between corresponding nodes of two vectors of node positions.
-fn node_distance(a: &[f64], b: &[f64]) -> f64 {
-    a.chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(p, q)| {
-            p.iter()
-                .zip(q)
-                .map(|(x, y)| (x - y) * (x - y))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .fold(0.0, f64::max)
-}
 
 /// One rung by sequencing (docs/model.md section 10): the Hopf point of the coarser rung
 /// `coarse` carried onto the mesh of the model `fine` and located there ([`locate_crossing`]),

@@ -59,20 +59,56 @@ impl Section for Located {
                     maybe(self.fpbar, 6)
                 )?;
                 writeln!(f, "  hbar       = {}", maybe(self.hbar, 6))?;
+                for line in near_misses(self) {
+                    writeln!(f, "{line}")?;
+                }
                 write!(
                     f,
                     "  ({} continuation points, {} corrector iterations)",
                     self.points, self.corrector_iterations
                 )
             }
-            _ => write!(
-                f,
-                "the branch of `{study}` at N = {} stays stable up to omega_max = {} rad/s \
-                 (kind: none)",
-                self.nodes, self.omega_max
-            ),
+            _ => {
+                write!(
+                    f,
+                    "the branch of `{study}` at N = {} stays stable up to omega_max = {} rad/s \
+                     (kind: none)",
+                    self.nodes, self.omega_max
+                )?;
+                for line in near_misses(self) {
+                    write!(f, "\n{line}")?;
+                }
+                Ok(())
+            }
         }
     }
+}
+
+/// What the probes of the branch's near misses found (docs/model.md section 5), one line each,
+/// where any were made.
+fn near_misses(located: &Located) -> Vec<String> {
+    let mut lines = Vec::new();
+    if let Some([a, b]) = located.window_between {
+        lines.push(format!(
+            "  window     the continuation stepped over a window of instability inside its step \
+             from omega = {a:.6e} to {b:.6e} rad/s; a probe of that near miss found it ({} probes), \
+             and its loss is the answer",
+            located.probes
+        ));
+    }
+    match &located.near_miss_unresolved {
+        Some(why) => lines.push(format!(
+            "  WARNING    a near miss was neither resolved nor excluded, {why}: a window of \
+             instability below omega_b may have been stepped over"
+        )),
+        None if located.window_between.is_none() && located.probes > 0 => lines.push(format!(
+            "  near miss  where a mode came near the axis between points, {} probes found every \
+             state stable",
+            located.probes
+        )),
+        None => {}
+    }
+    lines
 }
 
 impl Section for LocateResult {
@@ -317,6 +353,13 @@ impl Section for Refinement {
                     ),
                     (None, None) => "continuation from rest".into(),
                 };
+                let how = match r.window_between {
+                    Some([a, b]) => format!(
+                        "{how}, a window of instability inside its step from {a:.6} to {b:.6} \
+                         rad/s found by probing a near miss"
+                    ),
+                    None => how,
+                };
                 writeln!(
                     f,
                     "  N = {:4}: omega_b = {} rad/s ({}, {how}; {:.1} s)",
@@ -325,6 +368,14 @@ impl Section for Refinement {
                     r.kind,
                     r.seconds
                 )?;
+                if let Some(why) = &r.near_miss_unresolved {
+                    writeln!(
+                        f,
+                        "  WARNING: at N = {} a near miss was neither resolved nor excluded, {why}: \
+                         a window of instability below omega_b may have been stepped over",
+                        r.nodes
+                    )?;
+                }
             }
         }
         // The finest rung's own point (the top-level omega_b may be the limit).
