@@ -5,7 +5,9 @@
 //! from it by the crossing search ([`locate_crossing`]) and is the first loss (docs/model.md
 //! section 5). A probe whose state lies farther from the nearest of the three points around it
 //! than the outer two lie apart (the largest move of a node) is taken for a state of another
-//! branch: the near miss is then unresolved.
+//! branch: the near miss is then unresolved. A window whose loss the crossing search cannot
+//! locate is a numerical failure that says where the window is: the continuation's own event
+//! would not be the first loss.
 
 use crate::Result;
 use crate::analysis::locate::{LocateSettings, node_distance};
@@ -38,8 +40,8 @@ pub struct NearMisses {
     /// The first near miss (`omegabar` of its highest sample) whose search neither found nor
     /// excluded a window, and why.
     pub unresolved: Option<(f64, String)>,
-    /// The stable probes, where a mode came nearer the axis than at the branch's points: what a
-    /// finer mesh's certificate checks besides them (docs/model.md section 10).
+    /// The stable probes, states between the points where a mode came near the axis: what a
+    /// finer mesh's certificate checks besides the points (docs/model.md section 10).
     pub stable: Vec<Probed>,
 }
 
