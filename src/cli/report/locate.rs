@@ -99,7 +99,7 @@ fn near_misses(located: &Located) -> Vec<String> {
     match &located.near_miss_unresolved {
         Some(why) => lines.push(format!(
             "  WARNING    a near miss was neither resolved nor excluded, {why}: a window of \
-             instability below omega_b may have been stepped over"
+             instability there may have been stepped over"
         )),
         None if located.window_between.is_none() && located.probes > 0 => lines.push(format!(
             "  near miss  where a mode came near the axis between points, {} probes found every \
