@@ -173,10 +173,8 @@ pub fn search<S>(
                 probes,
                 highest: best,
                 why: format!(
-                    "the peak is pinned between p = {:e} and {:e}, its parabola's peak {:.1e} \
-                     within its error of the axis",
-                    left.p,
-                    right.p,
+                    "the peak is pinned within the tolerance, its parabola's peak {:.1e} within \
+                     its error of the axis",
                     parabola.vertex().1
                 ),
             };
@@ -211,14 +209,14 @@ pub fn search<S>(
                 return Peak::Unresolved {
                     probes,
                     highest: best,
-                    why: format!("the probe at p = {p:e} gave no finite real part"),
+                    why: "a probe gave no finite real part".into(),
                 };
             }
             Err(e) => {
                 return Peak::Unresolved {
                     probes,
                     highest: best,
-                    why: format!("the probe at p = {p:e} failed: {e}"),
+                    why: format!("a probe failed: {e}"),
                 };
             }
         };
