@@ -15,6 +15,18 @@ use crate::{Error, Result};
 
 use crate::model::rod::frame::rechart;
 
+/// The free unknowns `u` with its positions kept and the twist of `reference` (free unknowns of
+/// the same model, natural chart) times `ratio`, the ratio of their rates: below the instability
+/// the twist carries the motor's torque, about proportional to the rate. A start for
+/// [`slave_twist`] where `u`'s own twist is in an unknown chart or missing.
+pub fn scaled_twist(model: &Model, mut u: Vec<f64>, reference: &[f64], ratio: f64) -> Vec<f64> {
+    let nx = model.rod.layout.free_positions();
+    for (t, t0) in u[nx..].iter_mut().zip(&reference[nx..]) {
+        *t = ratio * t0;
+    }
+    u
+}
+
 /// The free unknowns with the twist re-solved (`R_theta = 0`, the twist slaved) for the
 /// positions of `u`, in the model's natural chart, by Newton's method on the twist block started
 /// from the twist of `u`. That start must be close: the twist of a state measured in another

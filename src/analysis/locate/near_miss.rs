@@ -20,7 +20,7 @@ use crate::model::Model;
 use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
 use crate::problem::rod::RodProblem;
-use crate::problem::twist::{natural_chart_unknowns, slave_twist};
+use crate::problem::twist::{natural_chart_unknowns, scaled_twist, slave_twist};
 
 /// A window of instability the continuation stepped over, found by a probe and located.
 pub struct Window {
@@ -108,11 +108,7 @@ pub fn probe_near_misses(
                             empty.insert(natural_chart_unknowns(model, &config, chart)?)
                         }
                     };
-                    let ratio = p / reference.2;
-                    let mut u = near.u.clone();
-                    for (t, t0) in u[nx..].iter_mut().zip(&twist[nx..]) {
-                        *t = ratio * t0;
-                    }
+                    let u = scaled_twist(model, near.u.clone(), twist, p / reference.2);
                     slave_twist(model, &u)?
                 }
             };

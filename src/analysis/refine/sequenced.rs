@@ -16,7 +16,7 @@ use crate::model::rod::Config;
 use crate::problem::carry::{carry, carry_config};
 use crate::problem::rod::{Parameter, RodProblem, omega_scale};
 use crate::problem::steady::SteadyState;
-use crate::problem::twist::{natural_chart_unknowns, slave_twist};
+use crate::problem::twist::{natural_chart_unknowns, scaled_twist, slave_twist};
 use crate::{Error, Result};
 
 /// Why a sequenced rung's Hopf point is the first loss of stability of its mesh
@@ -215,11 +215,12 @@ pub(super) fn sequenced_rung(
                 x: state.x.clone(),
                 theta: vec![0.0; state.x.len() - 1],
             };
-            let mut u = carry_config(branch_mesh, &untwisted, &fine);
-            for (t, t0) in u[nx..].iter_mut().zip(&u0[nx..]) {
-                *t = ratio * t0;
-            }
-            u
+            scaled_twist(
+                &fine,
+                carry_config(branch_mesh, &untwisted, &fine),
+                &u0,
+                ratio,
+            )
         });
         let guess = match &carried {
             Some(u) => slave_twist(&fine, u),
