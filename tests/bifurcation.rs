@@ -18,6 +18,8 @@ use helixbif::model::Model;
 use helixbif::model::params::{Handedness, Physical, ShapeParams};
 use helixbif::numerics::extrapolation::extrapolate;
 use helixbif::problem::rod::{Parameter, RodProblem};
+use helixbif::study::branch::branch_report;
+use helixbif::study::output::Provenance;
 
 /// Greenhill's column: a straight rod clamped at the bottom, standing up, buckling under its
 /// own weight at `q L^3 / EI = 7.8373` (continuum).
@@ -502,5 +504,68 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
         "frequency {} against {}",
         located.im.unwrap(),
         im(hopf[0].eigenvalue.im.abs())
+    );
+
+    // `branch` with the long steps (its first 20 points, to 0.037 rad/s) probes the same near
+    // miss and lists the window's loss and regain before the next loss, as the short steps do.
+    let long = helixbif::study::Study::from_path(
+        Some(path.as_ref()),
+        &[overrides, vec!["continuation.max_points=20".into()]].concat(),
+    )
+    .unwrap();
+    let dir = common::temp_dir("branch_window");
+    let report = branch_report(&long, &model, 30.0, &dir, &Provenance::default()).unwrap();
+    assert_eq!(
+        report.windows_between.len(),
+        1,
+        "{:?}",
+        report.windows_between
+    );
+    let [from, to] = report.windows_between[0];
+    assert!(
+        from < first && regained < to,
+        "the window [{first}, {regained}] outside the step [{from}, {to}]"
+    );
+    assert!(report.near_miss_unresolved.is_empty());
+    assert!(report.events.len() >= 3, "{} events", report.events.len());
+    for (listed, short) in report.events.iter().zip(&hopf) {
+        let omega = model.scales.omega_from_bar(short.p);
+        assert_eq!(listed.kind, "hopf");
+        assert_eq!(
+            (listed.unstable_before, listed.unstable_after),
+            (short.unstable_before, short.unstable_after)
+        );
+        assert!(
+            (listed.omega - omega).abs() < 1e-7 * omega,
+            "branch {}, short steps {omega}",
+            listed.omega
+        );
+    }
+    // The probes are rows of branch.csv inside the step, in order along it, one unstable.
+    let mut table = csv::Reader::from_path(dir.join("branch.csv")).unwrap();
+    let header = table.headers().unwrap().clone();
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (omega, n_unstable, probe) = (column("omega"), column("n_unstable"), column("probe"));
+    let rows: Vec<(f64, usize, bool)> = table
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            (
+                r[omega].parse().unwrap(),
+                r[n_unstable].parse().unwrap(),
+                r[probe].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert!(
+        rows.windows(2).all(|w| w[0].0 < w[1].0),
+        "rows out of order"
+    );
+    let probes: Vec<_> = rows.iter().filter(|r| r.2).collect();
+    assert!(probes.iter().all(|r| from < r.0 && r.0 < to));
+    assert!(
+        probes
+            .iter()
+            .any(|r| r.1 == 2 && first < r.0 && r.0 < regained)
     );
 }

@@ -362,7 +362,7 @@ fn branch_writes_csv_files_and_meta() {
     let header = branch.lines().next().unwrap();
     assert_eq!(
         header,
-        "s,omega,omegabar,Fp,Fpbar,Fpbar_rigid,Tp,eta,h,hbar,max_re,n_unstable,stable"
+        "s,omega,omegabar,Fp,Fpbar,Fpbar_rigid,Tp,eta,h,hbar,max_re,n_unstable,stable,probe"
     );
     assert!(branch.lines().count() > 5);
     let events = std::fs::read_to_string(dir.join("events.csv")).unwrap();

@@ -402,11 +402,12 @@ fn newton_reports_the_indefinite_mobility_not_a_bare_line_search_failure() {
 
 /// A Hopf pair whose real part bends with the parameter, `r(p) = (p^2 - 4) + a (p^2 - 4)^2`
 /// (`a = 2`), through a state that moves with it (`u0 = p^2`, so every solve has work): the
-/// Hopf point is at `p = 2`, where `dr/dp = 4` exactly.
-fn bent_hopf() -> Reference {
+/// Hopf point is at `p = 2`, where `dr/dp = 4` exactly. With `sign = -1` the real part is `-r`:
+/// unstable below `p = 2`, stable above (the end of a window of instability).
+fn bent_hopf(sign: f64) -> Reference {
     let a = 2.0;
-    let r = move |u0: f64| (u0 - 4.0) + a * (u0 - 4.0).powi(2);
-    let dr = move |u0: f64| 1.0 + 2.0 * a * (u0 - 4.0);
+    let r = move |u0: f64| sign * ((u0 - 4.0) + a * (u0 - 4.0).powi(2));
+    let dr = move |u0: f64| sign * (1.0 + 2.0 * a * (u0 - 4.0));
     Analytic {
         dim: 3,
         g: Box::new(move |u: &[f64], p: f64| {
@@ -435,13 +436,15 @@ fn bent_hopf() -> Reference {
 fn a_crossing_is_located_from_a_nearby_state_on_its_stable_side() {
     use faer::c64;
     use helixbif::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
-    let problem = bent_hopf();
+    let problem = bent_hopf(1.0);
     let continuation = ContinuationSettings::default();
     let search = CrossingSettings {
         first_step: 5e-3,
         slope: Some(6.0),
         max_evaluations: 40,
-        unstable_before: 0,
+        unstable_stable_side: 0,
+        travel: 1.0,
+        regain: false,
     };
     let u0 = [2.1f64 * 2.1, 0.0, 0.0];
     let crossing = locate_crossing(
@@ -479,4 +482,81 @@ fn a_crossing_is_located_from_a_nearby_state_on_its_stable_side() {
     assert!((slope - secant).abs() < 1e-6, "{slope} against {secant}");
     // The secant's own error against dr/dp = 4 is r''/2 times the step: 33 * 2e-3 = 0.066.
     assert!((slope - 4.0).abs() < 0.02 * 4.0, "{slope}");
+}
+
+/// The crossing search with the stable side on either side of the crossing at `p = 2`, the
+/// branch travelled either way: stability regained at increasing `p` on the mirrored
+/// `bent_hopf` (stable above), and at decreasing `p` on `bent_hopf` itself (stable below), and
+/// lost at decreasing `p` on the mirrored one. From an unstable state 5% away with a slope half
+/// again too steep, and from a stable one 5% away without a slope, each ends within the event
+/// tolerance of `p = 2` with the near end on the stable side, the counts before and after in
+/// the direction of travel, the precision covering the distance.
+#[test]
+fn a_regain_of_stability_is_located_from_either_side() {
+    use faer::c64;
+    use helixbif::engine::crossing::{CrossingSettings, locate_crossing};
+    let continuation = ContinuationSettings::default();
+    let tol = continuation.event_tol;
+    // (sign of the real part above p = 2, travel, regain, the stable side's sign from p = 2)
+    let cases = [
+        (-1.0, 1.0, true, 1.0),
+        (1.0, -1.0, true, -1.0),
+        (-1.0, -1.0, false, 1.0),
+    ];
+    for (sign, travel, regain, stable_side) in cases {
+        let problem = bent_hopf(sign);
+        // h = sign r(p), r' = 4 at p = 2: the slope 1.5 times too steep.
+        let steep = 6.0 * sign;
+        let unstable_p0 = 2.0 - 0.1 * stable_side;
+        let stable_p0 = 2.0 + 0.1 * stable_side;
+        let counts = if travel * stable_side > 0.0 {
+            (2, 0)
+        } else {
+            (0, 2)
+        };
+        for (p0, slope) in [(unstable_p0, Some(steep)), (stable_p0, None)] {
+            let case = format!("sign {sign}, travel {travel}, regain {regain}, from {p0}");
+            let search = CrossingSettings {
+                first_step: 5e-3,
+                slope,
+                max_evaluations: 40,
+                unstable_stable_side: 0,
+                travel,
+                regain,
+            };
+            let u0 = [p0 * p0, 0.0, 0.0];
+            let crossing = locate_crossing(
+                &problem,
+                &u0,
+                p0,
+                c64::new(0.0, 1.0),
+                &search,
+                &continuation,
+            )
+            .unwrap_or_else(|e| panic!("{case}: {e}"));
+            let event = &crossing.event;
+            let distance = (event.p - 2.0).abs() / 2.0;
+            assert!(event.kind == EventKind::Hopf, "{case}: {:?}", event.kind);
+            assert!(distance <= tol, "{case}: p = {}", event.p);
+            assert!(
+                distance <= event.precision,
+                "{case}: {distance:e} {event:?}"
+            );
+            assert_eq!(
+                (event.unstable_before, event.unstable_after),
+                counts,
+                "{case}"
+            );
+            assert!(
+                (crossing.near.p - 2.0) * stable_side > 0.0 && crossing.near.spectrum.unstable == 0,
+                "{case}: near end at {}",
+                crossing.near.p
+            );
+            assert!(
+                crossing.evaluations <= 12,
+                "{case}: {}",
+                crossing.evaluations
+            );
+        }
+    }
 }

@@ -248,12 +248,21 @@ class Branch(_Result):
     """1/s"""
     n_unstable: _I
     stable: _B
+    probe: _B
+    """A state solved by a probe of a near miss between two points (docs/model.md section 5)."""
     events: list[dict[str, Any]]
     study: str
     nodes: int
     points: int
     omega_reached: float
     omega_max: float
+    probes: int
+    """States solved to probe the branch's near misses."""
+    windows_between: list[list[float]]
+    """The steps (rates of their two points, rad/s) that hold a window of instability a probe
+    found; its loss and regain are among the events."""
+    near_miss_unresolved: list[str]
+    """Near misses whose probes neither found nor excluded a window: where and why."""
     stop: str
     stalled: bool
     seconds: float

@@ -17,13 +17,10 @@ use crate::model::rod::frame::Chart;
 use crate::model::steady::Steady;
 use crate::problem::steady::SteadyState;
 
-use crate::analysis::branch::{observables_at, trace_in_chart};
+use crate::analysis::branch::{Traced, observables_at, trace_charted};
+use crate::analysis::near_miss::{NearMisses, Seek, probe_near_misses};
 use crate::analysis::solve::rest_state;
 use crate::problem::rod::{OMEGA_SCALE, Parameter, RodProblem, omega_scale};
-
-pub mod near_miss;
-
-use near_miss::probe_near_misses;
 
 /// What locating the first loss of stability needs besides the model: the rate (rad/s, signed)
 /// up to which the branch from rest is followed, and the settings of the steady solves and of
@@ -109,7 +106,7 @@ pub struct Located {
     pub l1_failure: Option<String>,
     /// States solved to search the near misses of the branch (a mode rising towards the axis
     /// and falling back between two points) for a window of instability inside a step
-    /// ([`near_miss`]; the solves that locate a window's loss are not counted).
+    /// ([`crate::analysis::near_miss`]; the solves that locate a window's loss are not counted).
     pub probes: usize,
     /// Where the continuation stepped over a window of instability that a probe found (the
     /// rates, rad/s, of the two points of the step it lies in): the answer is the window's loss.
@@ -246,20 +243,6 @@ impl Critical {
     }
 }
 
-/// The largest distance between corresponding nodes of two vectors of node positions.
-pub(crate) fn node_distance(a: &[f64], b: &[f64]) -> f64 {
-    a.chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(p, q)| {
-            p.iter()
-                .zip(q)
-                .map(|(x, y)| (x - y) * (x - y))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .fold(0.0, f64::max)
-}
-
 /// Follows the branch from rest to its first loss of stability and pins it down.
 pub fn locate(
     model: &Model,
@@ -270,7 +253,11 @@ pub fn locate(
     model.check_resolution()?;
     let rest = rest_state(model, settings.newton)?;
     let omegabar_max = model.scales.omega_to_bar(omega_max);
-    let (branch, chart) = trace_in_chart(
+    let Traced {
+        branch,
+        charts,
+        chart,
+    } = trace_charted(
         model,
         &rest,
         omegabar_max,
@@ -339,46 +326,38 @@ pub fn locate(
             )));
         }
     };
-    // The stable points, searched for windows of instability inside their steps; a probe's
-    // twist is scaled from the event's (or the last point's), in the natural chart.
-    let stable: Vec<&Point> = branch
+    // The stable points, searched for windows of instability inside their steps.
+    let below = branch
         .points
         .iter()
-        .filter(|p| first.as_ref().is_none_or(|e| p.s < e.s))
-        .collect();
-    let (u_ref, p_ref) = match (&first, branch.points.last()) {
-        (Some(e), _) => (&e.u, e.p),
-        (None, Some(last)) => (&last.u, last.p),
-        (None, None) => return Ok((none, None)),
-    };
+        .take_while(|p| first.as_ref().is_none_or(|e| p.s < e.s))
+        .count();
+    let stable = &branch.points[..below];
     let problem = RodProblem::new(model, Parameter::Omega, omega_scale(omegabar_max));
-    let misses = probe_near_misses(
+    let mut misses = probe_near_misses(
         model,
         &problem,
-        &stable,
-        (u_ref, &chart, p_ref),
+        (stable, &charts[..below]),
         omegabar_max,
-        settings,
+        (settings.newton, settings.continuation),
+        Seek::FirstLoss,
     )?;
     let counted = Located {
         probes: misses.probes,
-        near_miss_unresolved: misses.unresolved.as_ref().map(|(p, why)| {
+        near_miss_unresolved: misses.unresolved.first().map(|(p, why)| {
             let omega = model.scales.omega_from_bar(*p);
             format!("near omega = {omega:.6e} rad/s: {why}")
         }),
         ..none
     };
     // A window the continuation stepped over comes first: its state is in the natural chart.
-    let (event, chart, lead, window) = match (misses.window, first) {
+    let window = (!misses.windows.is_empty()).then(|| misses.windows.remove(0));
+    let (event, chart, lead, window) = match (window, first) {
         (Some(window), _) => {
-            let near = &window.crossing.near;
+            let step = NearMisses::step(stable, &window);
+            let near = &window.loss.near;
             let lead = (near.u.clone(), near.p);
-            (
-                window.crossing.event,
-                problem.chart(),
-                lead,
-                Some(window.step),
-            )
+            (window.loss.event, problem.chart(), lead, Some(step))
         }
         (None, Some(event)) => {
             let before = branch.point_before(&event);

@@ -6,6 +6,7 @@ pub mod boundary;
 pub mod branch;
 pub mod dynamics;
 pub mod locate;
+pub mod near_miss;
 pub mod orbits;
 pub mod refine;
 pub mod solve;

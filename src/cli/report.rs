@@ -166,6 +166,32 @@ impl Section for BranchReport {
                 e.kind, e.omega, e.omegabar, e.re, e.im
             )?;
         }
+        for [a, b] in &self.windows_between {
+            write!(
+                f,
+                "\n  window        the continuation stepped over a window of instability inside \
+                 its step from omega = {a:.6e} to {b:.6e} rad/s; probes of that near miss found \
+                 it, and its loss and regain are among the events"
+            )?;
+        }
+        for why in &self.near_miss_unresolved {
+            write!(
+                f,
+                "\n  WARNING       a near miss was not resolved, {why}: a window of instability \
+                 there may have been stepped over"
+            )?;
+        }
+        if self.probes > 0
+            && self.windows_between.is_empty()
+            && self.near_miss_unresolved.is_empty()
+        {
+            write!(
+                f,
+                "\n  near miss     where a mode came near the axis between points, {} probes \
+                 found every state stable",
+                self.probes
+            )?;
+        }
         Ok(())
     }
 }

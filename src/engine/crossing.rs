@@ -13,7 +13,8 @@
 //! prediction `s0`: each evaluation of `h` is a Newton solve at fixed `p` from the last solution,
 //! and the leading spectrum there. Which side of the crossing a sample lies on comes from its
 //! unstable count (certified, [`crate::engine::stability`]), as for the events of a branch
-//! ([`crate::engine::events`]): from `p0` the secant method on `h` steps until the count changes,
+//! ([`crate::engine::events`]), and the side the stable one is on is given
+//! ([`CrossingSettings::regain`]): from `p0` the secant method on `h` steps until the count changes,
 //! then Brent's method ([`Zeroin`]) narrows the bracket `[p_near, p_beyond]` until it is
 //! narrower than `event_tol |p|`, or until the secant through its ends puts the zero within
 //! half of `event_tol |p|` of the near end, the secant's own error included: estimated by the
@@ -23,9 +24,11 @@
 //! twice the distance plus that error. Brent's samples are moved by a quarter of the tolerance
 //! towards the near end (unless that would put them within Brent's smallest step of it), so
 //! that where the interpolation is that accurate the sample lands on the stable side and ends
-//! the search there. The near end is a state on the stable side whose unstable count is the
-//! count before the crossing, and the event's eigenvalue is the one that crossed between the
-//! ends ([`crossing_eigenvalue`]).
+//! the search there. The near end is a state on the stable side, whose unstable count is
+//! [`CrossingSettings::unstable_stable_side`], and the event's eigenvalue is the one that crossed
+//! between the ends ([`crossing_eigenvalue`]). The event's counts before and after it are those
+//! of the two ends in the direction the branch is travelled in ([`CrossingSettings::travel`]).
+//! A non-finite or zero `travel` is taken as `+1`.
 
 use faer::{Mat, c64};
 
@@ -52,7 +55,7 @@ pub struct State {
 pub struct Crossing {
     /// The event at the crossing (the end of the final bracket nearer the zero of `h`).
     pub event: Event,
-    /// The state on the stable side of the final bracket, just below the crossing.
+    /// The end of the final bracket on the stable side, next to the crossing.
     pub near: State,
     /// The first evaluation, at the predicted `p0`: its tracked eigenvalue against the
     /// prediction says how far the spectrum moved from where the prediction was made.
@@ -72,8 +75,23 @@ pub struct CrossingSettings {
     pub slope: Option<f64>,
     /// Evaluations allowed (the search is refused beyond).
     pub max_evaluations: usize,
-    /// The unstable count before the crossing (0 for a first loss of stability).
-    pub unstable_before: usize,
+    /// The unstable count on the crossing's stable side (0 where a stable branch loses or
+    /// regains its stability).
+    pub unstable_stable_side: usize,
+    /// The direction in `p` the branch is travelled in (`-1` where negative, `+1` otherwise):
+    /// the event's counts before and after the crossing are in that order.
+    pub travel: f64,
+    /// Whether the stable side comes after the crossing along `travel` (stability regained, the
+    /// end of a window of instability); before it otherwise (stability lost).
+    pub regain: bool,
+}
+
+impl CrossingSettings {
+    /// The direction in `p` from the crossing towards its stable side.
+    fn stable_direction(&self) -> f64 {
+        let travel = if self.travel < 0.0 { -1.0 } else { 1.0 };
+        if self.regain { travel } else { -travel }
+    }
 }
 
 /// The Jacobian at the solution of the sample before, and its `p`.
@@ -245,7 +263,8 @@ pub fn eigenvalue_slope<P: Problem>(
 
 /// Locates where the eigenvalue tracked from `track` crosses the imaginary axis, from the
 /// solution guess `u0` at `p0` near it (1). The crossing must change the unstable count from
-/// `settings.unstable_before`; the state `u0` is corrected at `p0` first.
+/// `search.unstable_stable_side`, on the side `search` says is the stable one; the state `u0`
+/// is corrected at `p0` first.
 pub fn locate_crossing<P: Problem>(
     problem: &P,
     u0: &[f64],
@@ -256,7 +275,7 @@ pub fn locate_crossing<P: Problem>(
 ) -> Result<Crossing> {
     let mut sampler = Sampler::new(problem, continuation);
     let tol = continuation.event_tol;
-    let beyond = |s: &State| s.spectrum.unstable > search.unstable_before;
+    let beyond = |s: &State| s.spectrum.unstable > search.unstable_stable_side;
     let first = sampler.evaluate(u0, p0, track, None)?;
     let mut evaluations = 1;
     let refuse = |why: &str, evaluations: usize| {
@@ -268,7 +287,12 @@ pub fn locate_crossing<P: Problem>(
     // The secant on h until the side changes: `last` and `before` are the two latest samples.
     // The first step: Newton's with the slope given, else a fixed fraction towards the side
     // not yet seen; at most a tenth of |p0|.
-    let towards_other = if beyond(&first) { -1.0 } else { 1.0 } * p0.signum();
+    let to_stable = search.stable_direction();
+    let towards_other = if beyond(&first) {
+        to_stable
+    } else {
+        -to_stable
+    };
     let limit = 0.1 * p0.abs();
     let first_step = match search.slope.filter(|g| g.is_finite() && *g != 0.0) {
         Some(g) => (-first.tracked.re / g).clamp(-limit, limit),
@@ -293,11 +317,7 @@ pub fn locate_crossing<P: Problem>(
         let secant = last.p - last.tracked.re / slope;
         // Towards the other side, at least as far as the last step and at most four times it.
         let step = last.p - before.p;
-        let towards = if beyond(&last) {
-            -p0.signum()
-        } else {
-            p0.signum()
-        };
+        let towards = if beyond(&last) { to_stable } else { -to_stable };
         let proposed = secant - last.p;
         let length = if proposed.is_finite() && proposed * towards > 0.0 {
             proposed.abs().clamp(step.abs(), 4.0 * step.abs())
@@ -376,6 +396,11 @@ pub fn locate_crossing<P: Problem>(
         &far
     };
     let crossed = far.spectrum.unstable - near.spectrum.unstable;
+    let (before, after) = if search.regain {
+        (&far, &near)
+    } else {
+        (&near, &far)
+    };
     // The event's eigenvalue at its own state (the bracket's far end may lie a first step away,
     // where the frequency differs in the fifth digit), as for the events of a branch.
     let critical = at.spectrum.nearest(eigenvalue);
@@ -397,8 +422,8 @@ pub fn locate_crossing<P: Problem>(
             crossed
         }
         .max(1),
-        unstable_before: near.spectrum.unstable,
-        unstable_after: far.spectrum.unstable,
+        unstable_before: before.spectrum.unstable,
+        unstable_after: after.spectrum.unstable,
         spectrum: at.spectrum.clone(),
     };
     Ok(Crossing {

@@ -64,12 +64,14 @@ pub struct Probe<S> {
 pub enum Peak<S> {
     /// The peak stays below the axis: no window.
     Below { probes: usize, highest: Sample },
-    /// A probe found an unstable eigenvalue: the window, with the stable sample nearest below it
-    /// (towards the branch's start) and the number of probes.
+    /// A probe found an unstable eigenvalue: the window, with the stable samples nearest it on
+    /// either side (`before` towards the branch's start, `after` towards its end) and the
+    /// number of probes.
     Window {
         probes: usize,
         unstable: Probe<S>,
-        stable: Sample,
+        before: Sample,
+        after: Sample,
     },
     /// The probes were spent, a probe could not be solved or gave no finite real part, or the
     /// peak was pinned within the tolerance with the parabola still reaching the axis: no window
@@ -227,7 +229,8 @@ pub fn search<S>(
         if found.unstable {
             return Peak::Window {
                 probes,
-                stable: samples[at - 1],
+                before: samples[at - 1],
+                after: samples[at],
                 unstable: found,
             };
         }
@@ -272,7 +275,8 @@ mod tests {
                 let Peak::Window {
                     probes,
                     unstable,
-                    stable,
+                    before,
+                    after,
                 } = run(&f, ps)
                 else {
                     panic!("w = {w}, {ps:?}: the window was not found");
@@ -282,10 +286,16 @@ mod tests {
                     (p - 99.4).abs() < half,
                     "w = {w}: probe {p} outside the window"
                 );
-                // The stable sample returned is the one before the probe along the samples.
+                // The stable samples returned are either side of the probe along the samples, the
+                // nearest ones: the window's exact edges lie between them.
                 assert!(
-                    (stable.p - p) * (ps[2] - ps[0]) < 0.0,
-                    "{ps:?}: {stable:?} after {p}"
+                    (before.p - p) * (ps[2] - ps[0]) < 0.0 && (after.p - p) * (ps[2] - ps[0]) > 0.0,
+                    "{ps:?}: {before:?} and {after:?} around {p}"
+                );
+                let (lo, hi) = (before.p.min(after.p), before.p.max(after.p));
+                assert!(
+                    lo < 99.4 - half && 99.4 + half < hi,
+                    "w = {w}, {ps:?}: the window is not between {before:?} and {after:?}"
                 );
                 assert!(probes <= 4, "w = {w}, {ps:?}: {probes} probes");
             }

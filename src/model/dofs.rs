@@ -50,6 +50,24 @@ impl Layout {
         3 * (self.nodes - Self::CLAMPED_NODES)
     }
 
+    /// The largest distance between corresponding free nodes of two vectors of free unknowns
+    /// (their positions; the twist is not compared): how far one state of the rod lies from
+    /// another.
+    pub fn node_distance(&self, a: &[f64], b: &[f64]) -> f64 {
+        let nx = self.free_positions();
+        a[..nx]
+            .chunks_exact(3)
+            .zip(b[..nx].chunks_exact(3))
+            .map(|(p, q)| {
+                p.iter()
+                    .zip(q)
+                    .map(|(x, y)| (x - y) * (x - y))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// Number of free unknowns, `4 N - 8`.
     pub(crate) fn free_len(&self) -> usize {
         self.free_positions() + self.nodes - 2

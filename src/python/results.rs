@@ -252,9 +252,10 @@ result_class! {
 result_class! {
     /// The branch from rest of `Study.branch()`: the columns of `branch.csv` as numpy arrays
     /// (`omega` rad/s, `omegabar`, `Fp` N, `Fpbar`, `Fpbar_rigid`, `Tp` N m, `eta`, `h` m,
-    /// `hbar`, `max_re` 1/s, `n_unstable`, `stable`, `s`), the `events` (a list of dicts, the
-    /// rows of `events.csv`) and the report (`points`, `omega_reached`, `stop`, `stalled`,
-    /// `out`, ...). `to_dict()` is `helixbif branch --json`.
+    /// `hbar`, `max_re` 1/s, `n_unstable`, `stable`, `probe`, `s`), the `events` (a list of
+    /// dicts, the rows of `events.csv`) and the report (`points`, `omega_reached`, `stop`,
+    /// `stalled`, `probes`, `windows_between`, `near_miss_unresolved`, `out`, ...). `to_dict()`
+    /// is `helixbif branch --json`.
     Branch
 }
 

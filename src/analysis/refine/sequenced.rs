@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::{RungObserver, Solved, at_nodes};
-use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located, node_distance};
+use crate::analysis::locate::{BranchState, Critical, LocateSettings, Located};
 use crate::analysis::solve::{ramp, rest_state};
 use crate::engine::arclength::{AtParameter, stability};
 use crate::engine::crossing::{CrossingSettings, eigenvalue_slope, locate_crossing};
@@ -124,7 +124,10 @@ pub(super) fn sequenced_rung(
         first_step: 5e-3,
         slope: coarse_slope,
         max_evaluations: 40,
-        unstable_before: 0,
+        unstable_stable_side: 0,
+        // The first loss of stability from rest, met moving away from rest.
+        travel: predicted.signum(),
+        regain: false,
     };
     let crossing = locate_crossing(
         &problem,
@@ -179,7 +182,7 @@ pub(super) fn sequenced_rung(
         _ => None,
     };
     let branch_mesh = branch_mesh.as_ref().unwrap_or(&coarse.model);
-    let nx = fine.rod.layout.free_positions();
+    let layout = fine.rod.layout;
     let mut checked = Vec::new();
     let mut ramped = Vec::new();
     // This mesh's own states, the starts of its ramps (below): at rest, at the crossing's stable
@@ -202,7 +205,7 @@ pub(super) fn sequenced_rung(
     };
     // How far Newton's method moved the carried Hopf point's nodes on this mesh (its first
     // sample): the size of a carried state's error, against which a ramp's end is measured.
-    let correction = node_distance(&u0[..nx], &crossing.first.u[..nx]);
+    let correction = layout.node_distance(&u0, &crossing.first.u);
     for state in close.iter().rev() {
         let omega = scales.omega_from_bar(state.omegabar);
         // The state at rest is this mesh's own. The others: the positions carried, the twist
@@ -262,7 +265,7 @@ pub(super) fn sequenced_rung(
                 let (u, report) = newton::solve(&at, guess, settings.newton, &context)
                     .map_err(|e| ramp_failed(e.to_string()))?;
                 if let Some(c) = &carried {
-                    let apart = node_distance(&u[..nx], &c[..nx]);
+                    let apart = layout.node_distance(&u, c);
                     if apart > RAMP_REACH * correction {
                         return Err(ramp_failed(format!(
                             "its nodes lie {apart:.3e} from the carried state's, more than \
