@@ -329,6 +329,48 @@ fn a_turning_point_passed_inside_a_step_is_located_in_that_step_wherever_it_land
     }
 }
 
+/// A range that ends just past a turning point (the unit circle followed from `q = 0.9` up to
+/// its top `q = 1`, the range ending at `q = 1.0002` to `1.002`, whose units of `q`, the range's
+/// width, differ by 2%): the step onto the end finds no point there, and the curve is followed
+/// through the turning point at the same step and back down to `q = 0.9`, in as many points
+/// wherever the range ends (within two), the turning point located to `1e-9` and the curve
+/// ended at the range's lower end.
+#[test]
+fn a_range_ending_just_past_a_turning_point_costs_no_extra_steps() {
+    let mut counts = Vec::new();
+    for q_max in [1.0002, 1.0005, 1.001, 1.002] {
+        let q0 = 0.9;
+        let first = start(&hopf_circle(q0), vec![0.0; 2], 0.0, 2.0, q0);
+        let settings_curve = CurveSettings {
+            ds: 0.05,
+            ..CurveSettings::new(0.9, q_max)
+        };
+        let (curve, _) = follow_curve(
+            &Members(hopf_circle),
+            first,
+            Rc::new(hopf_circle(q0)),
+            1.0,
+            &settings_curve,
+            &settings(),
+            &mut Silent,
+        )
+        .unwrap();
+        let turning = of_kind(&curve, SpecialKind::Turning);
+        assert_eq!(turning.len(), 1, "q_max = {q_max}: {:?}", curve.special);
+        assert!((turning[0].point.q - 1.0).abs() <= 1e-9, "q_max = {q_max}");
+        assert_eq!(curve.stop, Stop::ParameterLimit, "q_max = {q_max}");
+        let last = curve.points.last().unwrap();
+        assert!(
+            (last.q - 0.9).abs() < 1e-9 && last.p < 0.0,
+            "q_max = {q_max}: ends at {last:?}"
+        );
+        counts.push(curve.points.len());
+    }
+    println!("points {counts:?}");
+    let (fewest, most) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
+    assert!(most - fewest <= 2, "points {counts:?}");
+}
+
 #[test]
 fn a_hopf_curve_ends_at_its_bogdanov_takens_point() {
     // From q = -1 (Hopf at p = 0, frequency 1) towards q > 0: the pair meets at zero at q = 0.

@@ -30,7 +30,9 @@
 //! accepted when the next secant correction would move `p` by less than `event_tol |p|` (`|p|`
 //! at least the member's parameter scale) and `q` by less than `event_tol Q`. Turning points of the curve in `q` (where the crossing speed
 //! `dh/dp` vanishes) are passed as folds are in one-parameter continuation. The last step lands
-//! exactly on the end of the range (corrector at fixed `q`).
+//! exactly on the end of the range (corrector at fixed `q`); where it fails (the curve turns
+//! back just short of the end, and no point lies there), the step is taken along the tangent
+//! instead, at the same length.
 //!
 //! The state at a predicted point starts from the last point's, carried to the new member
 //! ([`Family::carry`]: a rod moves its free nodes with its natural shape) plus the change it

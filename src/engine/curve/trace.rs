@@ -99,6 +99,11 @@ struct Trace<'a, F: Family> {
     /// The last resolved verdict of the Lyapunov coefficient along the curve, and the
     /// arclength of its point.
     resolved: Option<(Verdict, f64)>,
+    /// A step onto the end of the range failed since the last point: the next step is taken
+    /// along the tangent instead, at the same length. Where the curve turns back in `q` just
+    /// short of the end, no point at that `q` exists, and halving the step there would only
+    /// walk the curve up to its turning point in ever shorter steps.
+    ending_failed: bool,
     /// The zero of `l1` located in the latest step where its value changed sign, while no
     /// resolved verdict has followed: a generalized Hopf point once the next resolved verdict
     /// differs from `resolved` ([`Trace::generalized_hopf`]).
@@ -178,6 +183,7 @@ impl<'a, F: Family> Trace<'a, F> {
             w2_rate: None,
             step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
             resolved,
+            ending_failed: false,
             candidate: None,
         }
     }
@@ -195,10 +201,15 @@ impl<'a, F: Family> Trace<'a, F> {
         let next = self.next_step();
         let corrected = match self.correct(&next) {
             Ok(c) => c,
+            Err(_) if next.ending && !self.ending_failed => {
+                self.ending_failed = true;
+                return ControlFlow::Continue(());
+            }
             Err(e) => return self.failed(e, &next, observer),
         };
         // A point the corrector carried past the end of the range (the normal of a step has a
-        // part along `q`): the step again, shortened to land on the end.
+        // part along `q`): the step again, shortened to land on the end (or halved, where a
+        // step onto the end has failed from this point already).
         let settings = self.tracer.settings;
         let q_end = if next.line.t.1 > 0.0 {
             settings.q_max
@@ -206,6 +217,13 @@ impl<'a, F: Family> Trace<'a, F> {
             settings.q_min
         };
         if !next.ending && (corrected.at.q - q_end) * next.line.t.1 > 0.0 {
+            if self.ending_failed {
+                return self.ran_out(|| {
+                    Stop::StepTooSmall(format!(
+                        "no point on the end of the range, q = {q_end}, could be solved"
+                    ))
+                });
+            }
             let to_end = (q_end - self.last.q) / (next.line.t.1 * self.tracer.q_unit);
             self.step.set(to_end);
             return ControlFlow::Continue(());
@@ -252,6 +270,7 @@ impl<'a, F: Family> Trace<'a, F> {
         let told = observer.point(&point);
         self.curve.points.push(point);
         self.heading = heading;
+        self.ending_failed = false;
         self.take(
             new,
             &next,
@@ -271,8 +290,9 @@ impl<'a, F: Family> Trace<'a, F> {
     }
 
     /// The next step: along the tangent by the step, or onto the end of the range where that is
-    /// nearer (the line then at fixed `q`); the tracked eigenvalue predicted along its rate of
-    /// change over the last step (on a rod it moves with the rate).
+    /// nearer (the line then at fixed `q`) and no step onto it has failed from the last point;
+    /// the tracked eigenvalue predicted along its rate of change over the last step (on a rod it
+    /// moves with the rate).
     fn next_step(&self) -> Next {
         let (last, t, settings) = (&self.last, self.t, self.tracer.settings);
         let p_unit = last.p.abs().max(last.member.scales().1);
@@ -283,7 +303,7 @@ impl<'a, F: Family> Trace<'a, F> {
         };
         let to_end = (q_end - last.q) / (t.1 * self.tracer.q_unit);
         let ds = self.step.ds();
-        let ending = t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
+        let ending = !self.ending_failed && t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
         let sigma = if ending { to_end } else { ds };
         Next {
             line: Step {
