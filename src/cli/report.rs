@@ -203,6 +203,15 @@ impl Section for SweepSummary {
             "sweep `{study}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
             self.points, self.already_done, self.computed, self.failed, self.seconds, self.file
         )?;
+        if self.warned > 0 {
+            write!(
+                f,
+                "\n  WARNING: {} points have a near miss their probes neither resolved nor \
+                 excluded (a window of instability below omega_b may have been stepped over; \
+                 column status): left out of the figures",
+                self.warned
+            )?;
+        }
         if let Some(reach) = &self.reach {
             reached(reach, f)?;
         }

@@ -185,11 +185,36 @@ pub fn header(vary: &[Vary], refined: bool) -> Vec<String> {
 /// The prefix of the status of a point that failed (it runs again on a re-run).
 const ERROR: &str = "error: ";
 
-/// True for the status of a finished point: `ok`, or the whole `unstable_at_rest (...)` of
-/// [`crate::analysis::locate::Located::status`]. Anything else (an error, or a status cut short by a
-/// kill) runs again.
+/// The prefix of the status of a point located with a warning: a near miss of one of its
+/// branches from rest that the probes neither resolved nor excluded (docs/model.md section 5),
+/// where a window of instability below its `omega_b` may have been stepped over. A result (a
+/// re-run would find the same), left out of fits and figures with that reason.
+const WARNING: &str = "ok; WARNING: ";
+
+/// How a [`WARNING`] status ends (one cut short by a kill does not, and its point runs again).
+const WARNING_END: &str = "may have been stepped over";
+
+/// True for the status of a finished point: `ok`, `ok; WARNING: ...` ([`WARNING`]), or the whole
+/// `unstable_at_rest (...)` of [`crate::analysis::locate::Located::status`]. Anything else (an
+/// error, or a status cut short by a kill) runs again.
 fn finished(status: &str) -> bool {
-    status == "ok" || (status.starts_with("unstable_at_rest (") && status.ends_with(')'))
+    status == "ok"
+        || (status.starts_with(WARNING) && status.ends_with(WARNING_END))
+        || (status.starts_with("unstable_at_rest (") && status.ends_with(')'))
+}
+
+/// The status of a located point: `located`'s ([`crate::analysis::locate::Located::status`]), or
+/// where that is `ok` and a rung (`N`, why) left a near miss unresolved, the warning that says so
+/// (on one line, without commas).
+fn point_status(located: String, unresolved: Option<(usize, &str)>) -> String {
+    match unresolved {
+        Some((nodes, why)) if located == "ok" => format!(
+            "{WARNING}a near miss at N = {nodes} was not resolved ({why}): a window of \
+             instability there {WARNING_END}"
+        )
+        .replace(['\n', ','], " "),
+        _ => located,
+    }
 }
 
 fn number(v: Option<f64>) -> String {
@@ -279,7 +304,13 @@ fn run_point(
                 number(located.hbar),
                 located.nodes.to_string(),
                 format!("{:.3}", start.elapsed().as_secs_f64()),
-                located.status(),
+                point_status(
+                    located.status(),
+                    refined
+                        .rungs
+                        .iter()
+                        .find_map(|r| r.near_miss_unresolved.as_deref().map(|why| (r.nodes, why))),
+                ),
             ]);
         }
         Err(e) => {
@@ -415,6 +446,8 @@ pub struct SweepSummary {
     pub already_done: usize,
     pub computed: usize,
     pub failed: usize,
+    /// Points finished with a warning in their status ([`WARNING`]), left out of the figures.
+    pub warned: usize,
     /// The accuracy the points were carried to and how many reached it (absent without one).
     #[serde(flatten)]
     pub reach: Option<Reach>,
@@ -570,6 +603,10 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         already_done: done.len(),
         computed: todo.len(),
         failed: failures.into_inner().expect("no panic while counting"),
+        warned: rows
+            .values()
+            .filter(|row| row.last().is_some_and(|s| s.starts_with(WARNING)))
+            .count(),
         reach: Reach::of(accuracy, &header, &rows),
         seconds: start.elapsed().as_secs_f64(),
     })
@@ -682,4 +719,27 @@ pub fn merge(study: &Study, dir: &Path) -> Result<Merged> {
             .collect(),
         reach: Reach::of(accuracy, &header, &rows),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point whose near miss was left unresolved is finished (a re-run would find the same) with
+    /// a status other than `ok` (fits leave it out, saying why), on one line without commas; cut
+    /// short by a kill it runs again. Without a near miss, or unstable at rest, the status is
+    /// `located`'s own.
+    #[test]
+    fn a_near_miss_left_unresolved_is_a_finished_status_with_its_warning() {
+        let why = "near omega = 1.5e-2 rad/s: 8 probes spent,\nand more";
+        let warned = point_status("ok".into(), Some((61, why)));
+        assert!(finished(&warned), "{warned}");
+        assert_ne!(warned, "ok");
+        assert!(warned.contains("N = 61") && warned.contains("8 probes spent"));
+        assert!(!warned.contains(',') && !warned.contains('\n'), "{warned}");
+        assert!(!finished(&warned[..warned.len() - 3]));
+        assert_eq!(point_status("ok".into(), None), "ok");
+        let rest = "unstable_at_rest (2 unstable eigenvalues at omega = 0)";
+        assert_eq!(point_status(rest.into(), Some((61, why))), rest);
+    }
 }
