@@ -329,32 +329,45 @@ fn a_turning_point_passed_inside_a_step_is_located_in_that_step_wherever_it_land
     }
 }
 
+/// The step of [`circle_from_below`], and its largest.
+const CIRCLE_STEP: f64 = 0.05;
+
+/// The unit circle's Hopf curve followed from `q = 0.9` (`p > 0`) towards larger `q`, the range
+/// `[0.9, q_max]`, at steps of [`CIRCLE_STEP`].
+fn circle_from_below(q_max: f64) -> Curve {
+    let q0 = 0.9;
+    let first = start(&hopf_circle(q0), vec![0.0; 2], 0.0, 2.0, q0);
+    let settings_curve = CurveSettings {
+        ds: CIRCLE_STEP,
+        ds_max: CIRCLE_STEP,
+        ..CurveSettings::new(q0, q_max)
+    };
+    follow_curve(
+        &Members(hopf_circle),
+        first,
+        Rc::new(hopf_circle(q0)),
+        1.0,
+        &settings_curve,
+        &settings(),
+        &mut Silent,
+    )
+    .unwrap()
+    .0
+}
+
 /// A range that ends just past a turning point (the unit circle followed from `q = 0.9` up to
 /// its top `q = 1`, the range ending at `q = 1.0002` to `1.002`, whose units of `q`, the range's
 /// width, differ by 2%): the step onto the end finds no point there, and the curve is followed
 /// through the turning point at the same step and back down to `q = 0.9`, in as many points
-/// wherever the range ends (within two), the turning point located to `1e-9` and the curve
-/// ended at the range's lower end.
+/// wherever the range ends (within two) and at most 30% more than the curve's arclength in
+/// largest steps, the turning point located to `1e-9` and the curve ended at the range's lower
+/// end. A range ending just short of the top (`0.998` to `0.9998`) ends there, on the circle,
+/// with no turning point.
 #[test]
 fn a_range_ending_just_past_a_turning_point_costs_no_extra_steps() {
     let mut counts = Vec::new();
     for q_max in [1.0002, 1.0005, 1.001, 1.002] {
-        let q0 = 0.9;
-        let first = start(&hopf_circle(q0), vec![0.0; 2], 0.0, 2.0, q0);
-        let settings_curve = CurveSettings {
-            ds: 0.05,
-            ..CurveSettings::new(0.9, q_max)
-        };
-        let (curve, _) = follow_curve(
-            &Members(hopf_circle),
-            first,
-            Rc::new(hopf_circle(q0)),
-            1.0,
-            &settings_curve,
-            &settings(),
-            &mut Silent,
-        )
-        .unwrap();
+        let curve = circle_from_below(q_max);
         let turning = of_kind(&curve, SpecialKind::Turning);
         assert_eq!(turning.len(), 1, "q_max = {q_max}: {:?}", curve.special);
         assert!((turning[0].point.q - 1.0).abs() <= 1e-9, "q_max = {q_max}");
@@ -364,11 +377,35 @@ fn a_range_ending_just_past_a_turning_point_costs_no_extra_steps() {
             (last.q - 0.9).abs() < 1e-9 && last.p < 0.0,
             "q_max = {q_max}: ends at {last:?}"
         );
+        // Most steps at the largest step: no more than 30% over the curve's arclength in
+        // steps of `ds_max` (56 points over an arclength of 2.25 in steps of 0.05).
+        let steps = last.s / CIRCLE_STEP;
+        assert!(
+            (curve.points.len() as f64) < 1.3 * steps + 2.0,
+            "q_max = {q_max}: {} points over {steps:.1} largest steps",
+            curve.points.len()
+        );
         counts.push(curve.points.len());
     }
     println!("points {counts:?}");
     let (fewest, most) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
     assert!(most - fewest <= 2, "points {counts:?}");
+    // A range ending just short of the top: the curve reaches its end and stops there, before
+    // the turning point.
+    for q_max in [0.998, 0.9995, 0.9998] {
+        let curve = circle_from_below(q_max);
+        assert_eq!(curve.stop, Stop::ParameterLimit, "q_max = {q_max}");
+        assert!(
+            of_kind(&curve, SpecialKind::Turning).is_empty(),
+            "q_max = {q_max}"
+        );
+        let last = curve.points.last().unwrap();
+        let p_end = (1.0 - q_max * q_max).sqrt();
+        assert!(
+            (last.q - q_max).abs() < 1e-9 && (last.p - p_end).abs() < 1e-6,
+            "q_max = {q_max}: ends at {last:?}"
+        );
+    }
 }
 
 #[test]

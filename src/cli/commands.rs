@@ -396,6 +396,7 @@ pub fn merge(m: &MergeArgs) -> Outcome {
             points: merged.points,
             shards: merged.shards,
             file,
+            warned: merged.warned,
             reach: merged.reach,
         }),
         shortfall,

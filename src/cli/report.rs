@@ -203,20 +203,25 @@ impl Section for SweepSummary {
             "sweep `{study}`: {} points ({} already done, {} computed, {} failed) in {:.1} s -> {}",
             self.points, self.already_done, self.computed, self.failed, self.seconds, self.file
         )?;
-        if self.warned > 0 {
-            write!(
-                f,
-                "\n  WARNING: {} points have a near miss their probes neither resolved nor \
-                 excluded (a window of instability below omega_b may have been stepped over; \
-                 column status): left out of the figures",
-                self.warned
-            )?;
-        }
+        warned(self.warned, f)?;
         if let Some(reach) = &self.reach {
             reached(reach, f)?;
         }
         Ok(())
     }
+}
+
+/// How many points of a sweep file finished with a near miss left unresolved, where any did.
+fn warned(count: usize, f: &mut Formatter<'_>) -> fmt::Result {
+    if count == 0 {
+        return Ok(());
+    }
+    write!(
+        f,
+        "\n  WARNING: {count} points have a near miss their probes neither resolved nor excluded \
+         (a window of instability below omega_b may have been stepped over; column status): \
+         fits and figures leave them out"
+    )
 }
 
 /// How many points of a sweep file reached its accuracy.
@@ -412,6 +417,13 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
             "\n  lambda/l = {:.4}, R/lambda = {:.4}: {loss}; {} branch points",
             c.lambda_over_l, c.r_over_lambda, c.points
         )?;
+        if let Some(why) = &c.near_miss_unresolved {
+            write!(
+                f,
+                "\n    WARNING: a near miss was not resolved {why}: a window of instability below \
+                 omegabar_b may have been stepped over"
+            )?;
+        }
     }
     match &p.boundary_curve {
         CurveOutcome::Written { out, shortfall } => {
@@ -544,6 +556,8 @@ pub struct MergeReport {
     pub points: usize,
     pub shards: usize,
     pub file: String,
+    /// Points finished with a near miss left unresolved (status `ok; WARNING: ...`).
+    pub warned: usize,
     #[serde(flatten)]
     pub reach: Option<Reach>,
 }
@@ -555,6 +569,7 @@ impl Display for MergeReport {
             "merged {} shards of `{}`: {} points into {}",
             self.shards, self.study, self.points, self.file
         )?;
+        warned(self.warned, f)?;
         if let Some(reach) = &self.reach {
             reached(reach, f)?;
         }

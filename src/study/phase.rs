@@ -121,6 +121,10 @@ pub struct ColumnSummary {
     pub nodes: Option<usize>,
     /// Whether `omegabar_b` reached the study's accuracy (absent without one).
     pub reached: Option<bool>,
+    /// A near miss of a rung's branch from rest that its probes neither resolved nor excluded
+    /// (docs/model.md section 5; a window of instability below `omegabar_b` may have been
+    /// stepped over): the rung's `N` and why.
+    pub near_miss_unresolved: Option<String>,
     pub points: usize,
 }
 
@@ -166,6 +170,8 @@ struct ColumnLoss {
     kind: Loss,
     nodes: usize,
     reached: Option<bool>,
+    /// The first rung's near miss left unresolved ([`ColumnSummary::near_miss_unresolved`]).
+    near_miss_unresolved: Option<String>,
 }
 
 /// The study of the column `lambda/l` (with `R/lambda` held where the plan holds it).
@@ -247,6 +253,11 @@ fn column_loss(
     };
     let refined = located_point(&s.physical(), &settings, accuracy)?;
     let answer = &refined.finest;
+    let near_miss_unresolved = refined.rungs.iter().find_map(|r| {
+        r.near_miss_unresolved
+            .as_ref()
+            .map(|why| format!("at N = {}, {why}", r.nodes))
+    });
     if let (Some(omegabar_b), Some(omega_b)) = (answer.omegabar_b, answer.omega_b) {
         let why = || {
             refined
@@ -263,6 +274,7 @@ fn column_loss(
             kind: answer.kind,
             nodes: answer.nodes,
             reached: accuracy.map(|_| refined.reached),
+            near_miss_unresolved,
         }));
     }
     Ok(branch
@@ -278,6 +290,7 @@ fn column_loss(
             kind: Loss::Event(e.kind),
             nodes: s.discretization.nodes,
             reached: accuracy.map(|_| false),
+            near_miss_unresolved,
         }))
 }
 
@@ -590,6 +603,10 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 kind: c.boundary.as_ref().map(|b| b.kind),
                 nodes: c.boundary.as_ref().map(|b| b.nodes),
                 reached: c.boundary.as_ref().and_then(|b| b.reached),
+                near_miss_unresolved: c
+                    .boundary
+                    .as_ref()
+                    .and_then(|b| b.near_miss_unresolved.clone()),
                 points: c.points.len(),
             })
             .collect(),

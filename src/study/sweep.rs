@@ -203,9 +203,18 @@ fn finished(status: &str) -> bool {
         || (status.starts_with("unstable_at_rest (") && status.ends_with(')'))
 }
 
+/// How many of `rows` finished with a warning ([`WARNING`]).
+fn warned(rows: &BTreeMap<usize, Vec<String>>) -> usize {
+    rows.values()
+        .filter(|row| row.last().is_some_and(|s| s.starts_with(WARNING)))
+        .count()
+}
+
 /// The status of a located point: `located`'s ([`crate::analysis::locate::Located::status`]), or
 /// where that is `ok` and a rung (`N`, why) left a near miss unresolved, the warning that says so
-/// (on one line, without commas).
+/// (on one line, without commas). Any rung's counts, not only the finest's: the finer rungs are
+/// carried from the coarsest rung's point, and a window its branch may have stepped over lies
+/// below theirs too.
 fn point_status(located: String, unresolved: Option<(usize, &str)>) -> String {
     match unresolved {
         Some((nodes, why)) if located == "ok" => format!(
@@ -446,7 +455,8 @@ pub struct SweepSummary {
     pub already_done: usize,
     pub computed: usize,
     pub failed: usize,
-    /// Points finished with a warning in their status ([`WARNING`]), left out of the figures.
+    /// Points of the file finished with a warning in their status ([`WARNING`]): fits and
+    /// figures leave them out.
     pub warned: usize,
     /// The accuracy the points were carried to and how many reached it (absent without one).
     #[serde(flatten)]
@@ -603,10 +613,7 @@ pub fn run_sweep(study: &Study, dir: &Path, shard: Option<(usize, usize)>) -> Re
         already_done: done.len(),
         computed: todo.len(),
         failed: failures.into_inner().expect("no panic while counting"),
-        warned: rows
-            .values()
-            .filter(|row| row.last().is_some_and(|s| s.starts_with(WARNING)))
-            .count(),
+        warned: warned(&rows),
         reach: Reach::of(accuracy, &header, &rows),
         seconds: start.elapsed().as_secs_f64(),
     })
@@ -642,6 +649,8 @@ pub struct Merged {
     /// was not run again), each with its shard `K` (of `shards`): kept in `sweep.csv` as they
     /// are, for the merge to fail on after writing.
     pub failed: Vec<(usize, usize)>,
+    /// Points finished with a warning in their status ([`WARNING`]).
+    pub warned: usize,
     /// With an accuracy, how many points reached it (the shards do not fail for it: the merge
     /// does).
     pub reach: Option<Reach>,
@@ -717,6 +726,7 @@ pub fn merge(study: &Study, dir: &Path) -> Result<Merged> {
             .filter(|(_, r)| r.last().is_some_and(|s| !finished(s)))
             .map(|(&i, _)| (i, shard_of(i, n)))
             .collect(),
+        warned: warned(&rows),
         reach: Reach::of(accuracy, &header, &rows),
     })
 }

@@ -99,11 +99,12 @@ struct Trace<'a, F: Family> {
     /// The last resolved verdict of the Lyapunov coefficient along the curve, and the
     /// arclength of its point.
     resolved: Option<(Verdict, f64)>,
-    /// A step onto the end of the range failed since the last point: the next step is taken
+    /// Why a step onto the end of the range failed since the last point: the next step is taken
     /// along the tangent instead, at the same length. Where the curve turns back in `q` just
     /// short of the end, no point at that `q` exists, and halving the step there would only
-    /// walk the curve up to its turning point in ever shorter steps.
-    ending_failed: bool,
+    /// walk the curve up to its turning point in ever shorter steps. A tangent step that passes
+    /// the end, or turns back beyond it, is halved as before.
+    ending_failed: Option<String>,
     /// The zero of `l1` located in the latest step where its value changed sign, while no
     /// resolved verdict has followed: a generalized Hopf point once the next resolved verdict
     /// differs from `resolved` ([`Trace::generalized_hopf`]).
@@ -126,6 +127,14 @@ struct Next {
     ending: bool,
     /// The tracked eigenvalue predicted at the new point.
     predicted: c64,
+}
+
+/// The end of a curve whose landing on the end of the range `q_end` failed (why), its tangent step
+/// halved down to the smallest step.
+fn landing_failed<E>(q_end: f64, why: String) -> Stop<E> {
+    Stop::StepTooSmall(format!(
+        "landing on the end of the range, q = {q_end}: {why}"
+    ))
 }
 
 impl<'a, F: Family> Trace<'a, F> {
@@ -183,7 +192,7 @@ impl<'a, F: Family> Trace<'a, F> {
             w2_rate: None,
             step: StepControl::new(settings.ds, settings.ds_min, settings.ds_max),
             resolved,
-            ending_failed: false,
+            ending_failed: None,
             candidate: None,
         }
     }
@@ -201,8 +210,18 @@ impl<'a, F: Family> Trace<'a, F> {
         let next = self.next_step();
         let corrected = match self.correct(&next) {
             Ok(c) => c,
-            Err(_) if next.ending && !self.ending_failed => {
-                self.ending_failed = true;
+            // Not where the member or the pair itself gave out: that is the curve's end.
+            Err(e)
+                if next.ending
+                    && self.ending_failed.is_none()
+                    && !matches!(
+                        e,
+                        Error::Engine(
+                            EngineError::PairBecameReal { .. } | EngineError::NoMember(_)
+                        )
+                    ) =>
+            {
+                self.ending_failed = Some(e.to_string());
                 return ControlFlow::Continue(());
             }
             Err(e) => return self.failed(e, &next, observer),
@@ -217,12 +236,8 @@ impl<'a, F: Family> Trace<'a, F> {
             settings.q_min
         };
         if !next.ending && (corrected.at.q - q_end) * next.line.t.1 > 0.0 {
-            if self.ending_failed {
-                return self.ran_out(|| {
-                    Stop::StepTooSmall(format!(
-                        "no point on the end of the range, q = {q_end}, could be solved"
-                    ))
-                });
+            if let Some(why) = self.ending_failed.clone() {
+                return self.ran_out(|| landing_failed(q_end, why));
             }
             let to_end = (q_end - self.last.q) / (next.line.t.1 * self.tracer.q_unit);
             self.step.set(to_end);
@@ -235,9 +250,17 @@ impl<'a, F: Family> Trace<'a, F> {
         );
         let length = dp.hypot(dq);
         let t_new = (dp / length, dq / length);
+        let turned = self.turning(&new, &next, t_new);
+        // After a failed landing, a tangent step that turned back in `q` beyond the end of the
+        // range left it and came back: halved instead, to land on the end.
+        if let (Some(why), Ok((_, Some((turning, _))))) = (&self.ending_failed, &turned)
+            && (turning.point.q - q_end) * next.line.t.1 > 0.0
+        {
+            let why = why.clone();
+            return self.ran_out(|| landing_failed(q_end, why));
+        }
         // A special point that cannot be pinned down is retried from a shorter step.
-        let in_step = self
-            .turning(&new, &next, t_new)
+        let in_step = turned
             .and_then(|(heading, turning)| Ok((heading, self.specials(&new, &next, turning)?)));
         let (heading, (mut specials, sign_change)) = match in_step {
             Ok(found) => found,
@@ -270,7 +293,7 @@ impl<'a, F: Family> Trace<'a, F> {
         let told = observer.point(&point);
         self.curve.points.push(point);
         self.heading = heading;
-        self.ending_failed = false;
+        self.ending_failed = None;
         self.take(
             new,
             &next,
@@ -303,7 +326,7 @@ impl<'a, F: Family> Trace<'a, F> {
         };
         let to_end = (q_end - last.q) / (t.1 * self.tracer.q_unit);
         let ds = self.step.ds();
-        let ending = !self.ending_failed && t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
+        let ending = self.ending_failed.is_none() && t.1 != 0.0 && to_end > 0.0 && to_end <= ds;
         let sigma = if ending { to_end } else { ds };
         Next {
             line: Step {
