@@ -351,8 +351,7 @@ pub fn locate(
         ..none
     };
     // A window the continuation stepped over comes first: its state is in the natural chart.
-    let window = (!misses.windows.is_empty()).then(|| misses.windows.remove(0));
-    let (event, chart, lead, window) = match (window, first) {
+    let (event, chart, lead, window) = match (misses.windows.drain(..).next(), first) {
         (Some(window), _) => {
             let step = NearMisses::step(stable, &window);
             let near = &window.loss.near;

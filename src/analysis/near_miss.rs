@@ -156,7 +156,7 @@ pub fn probe_near_misses(
             let unstable = spectrum.unstable > 0;
             if !unstable {
                 found.stable.push(Probed {
-                    after: k + usize::from(!before_middle(run, p)),
+                    after: step_start(k, run, p),
                     p,
                     u: u.clone(),
                     spectrum: spectrum.clone(),
@@ -238,7 +238,7 @@ pub fn probe_near_misses(
             })
         };
         let probe = Probed {
-            after: k + usize::from(!before_middle(run, p)),
+            after: step_start(k, run, p),
             p,
             u: u.clone(),
             spectrum: spectrum.clone(),
@@ -277,7 +277,10 @@ pub fn probe_near_misses(
     Ok(found)
 }
 
-/// Whether `p` lies before the middle point of `run` along the branch.
-fn before_middle(run: &[Point], p: f64) -> bool {
-    (p - run[1].p) * (run[1].p - run[0].p) < 0.0
+/// The index of the point that starts the step holding `p` among the three points `run`, the
+/// first of which has the index `k`: `k` where `p` lies before the middle point along the
+/// branch, `k + 1` after it.
+fn step_start(k: usize, run: &[Point], p: f64) -> usize {
+    let before_middle = (p - run[1].p) * (run[1].p - run[0].p) < 0.0;
+    k + usize::from(!before_middle)
 }
