@@ -469,6 +469,31 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
     assert_eq!(located.kind.name(), "hopf");
     assert!(critical.unwrap().event.eigenvalue.re.abs() < 1e-6);
 
+    // Cut short after the step that holds the window (14 points, to 0.01678 rad/s, below the
+    // next loss), the branch has no event and `locate` answers the window all the same; cut
+    // short before that step (12 points, to 0.01192 rad/s) it fails, saying why.
+    let cut = |points: usize| {
+        let continuation = ContinuationSettings {
+            max_points: points,
+            ..study.continuation.clone()
+        };
+        let settings = LocateSettings {
+            continuation: &continuation,
+            ..settings(30.0)
+        };
+        locate(&model, &settings, &mut Silent).map(|(l, _)| l)
+    };
+    let short = cut(14).unwrap();
+    assert_eq!(short.points, 14);
+    assert!(
+        (short.omega_b.unwrap() - omega_b).abs() < 1e-9 * omega_b,
+        "{:?} against {omega_b}",
+        short.omega_b
+    );
+    assert_eq!(short.window_between, located.window_between);
+    let error = cut(12).unwrap_err().to_string();
+    assert!(error.contains("continuation.max_points"), "{error}");
+
     // The same branch with short steps sees the window's loss and regain, then the next loss.
     let rest = rest_state(&model, &study.newton).unwrap();
     let omegabar_max = model.scales.omega_to_bar(0.03);

@@ -273,7 +273,11 @@ pub fn locate(
     };
     let reached = branch.points.last().map_or(0.0, |p| p.p);
     let reached_omega = model.scales.omega_from_bar(reached);
-    let first = match branch.stop {
+    // A branch cut short (out of points, or stalled) before any event may still hold a window
+    // of instability its steps stepped over: its probes come first, and the failure is the
+    // answer only where they find none.
+    let mut cut_short = None;
+    let first = match &branch.stop {
         Stop::Own(BranchStop::FirstInstability) => Some(
             branch
                 .first_loss_of_stability()
@@ -295,10 +299,11 @@ pub fn locate(
         }
         Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => None,
         Stop::StepTooSmall(reason) => {
-            return Err(crate::Error::Numerical(format!(
+            cut_short = Some(crate::Error::Numerical(format!(
                 "continuation stalled at omega = {reached_omega:.6e} rad/s before any \
                  instability: {reason}"
             )));
+            None
         }
         Stop::ParameterLimit => {
             return Err(crate::Error::Numerical(format!(
@@ -319,11 +324,12 @@ pub fn locate(
             )));
         }
         Stop::MaxPoints => {
-            return Err(crate::Error::Numerical(format!(
+            cut_short = Some(crate::Error::Numerical(format!(
                 "the continuation used all {points} points (continuation.max_points) by omega = \
                  {reached_omega:.6e} rad/s, before omega_max = {omega_max} rad/s, with no \
                  instability found: raise continuation.max_points (or continuation.ds_max)"
             )));
+            None
         }
     };
     // The stable points, searched for windows of instability inside their steps.
@@ -363,7 +369,7 @@ pub fn locate(
             let lead = (before.u.clone(), before.p);
             (event, chart, lead, None)
         }
-        (None, None) => return Ok((counted, None)),
+        (None, None) => return cut_short.map_or(Ok((counted, None)), Err),
     };
     let mut located = Located {
         window_between: window.map(|(a, b)| {

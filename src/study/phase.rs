@@ -18,10 +18,10 @@ use super::plan::{
 use super::sweep::{located_point, variant};
 use super::{LAMBDA_OVER_L, Study};
 use crate::analysis::boundary::{BoundaryPoint, PointAccuracy};
-use crate::analysis::branch::{observables_at, trace};
+use crate::analysis::branch::{observables_at, probe_windows, trace_charted};
 use crate::analysis::locate::{LocateSettings, Loss};
 use crate::analysis::solve::rest_state;
-use crate::engine::arclength::Branch;
+use crate::engine::events::Event;
 use crate::engine::stop::Silent;
 use crate::model::Model;
 use crate::model::params::Field;
@@ -153,10 +153,14 @@ struct ExponentFile {
 struct Column {
     lambda_over_l: f64,
     r_over_lambda: f64,
-    /// `(omegabar, Fpbar, stable)` from rest up to the first fold (or the end).
+    /// `(omegabar, Fpbar, stable)` from rest up to the first fold (or the end), with the probes
+    /// of its near misses among them.
     points: Vec<(f64, f64, bool)>,
     /// First loss of stability at the column's `N`.
     boundary: Option<ColumnLoss>,
+    /// The first near miss of the column's branch that its probes neither resolved nor excluded
+    /// (a window there may be missing from the map), and why.
+    near_miss_unresolved: Option<String>,
 }
 
 /// A column's first loss of stability ([`located_point`]): at its `N` with the estimated
@@ -207,46 +211,70 @@ fn column(
     };
     let model = Model::new(&s.physical())?;
     let rest = rest_state(&model, &s.newton)?;
-    let branch = trace(
+    let omegabar_max = model.scales.omega_to_bar(s.branch.omega_max);
+    let traced = trace_charted(
         &model,
         &rest,
-        model.scales.omega_to_bar(s.branch.omega_max),
+        omegabar_max,
         &s.continuation,
         false,
         &mut Silent,
     )?;
+    // A window of instability inside one step changes no unstable count between the points:
+    // the probes of the near misses find it (as `branch` does, docs/model.md section 5), and
+    // take their place among the points.
+    let misses = probe_windows(&model, &traced, omegabar_max, &s.newton, &s.continuation)?;
+    let branch = &traced.branch;
+    let rising = branch
+        .points
+        .iter()
+        .take_while(|p| p.tangent_p > 0.0)
+        .count();
     let mut points = Vec::new();
-    for p in branch.points.iter().take_while(|p| p.tangent_p > 0.0) {
+    for p in &branch.points[..rising] {
         let o = observables_at(&model, &rest, &p.u, p.p)?;
         points.push((p.p, o.fpbar, p.spectrum.unstable == 0));
     }
+    let probed = (misses.stable.iter())
+        .chain(misses.windows.iter().map(|w| &w.probe))
+        .filter(|q| q.after + 1 < rising);
+    for q in probed {
+        let o = observables_at(&model, &rest, &q.u, q.p)?;
+        points.push((q.p, o.fpbar, q.spectrum.unstable == 0));
+    }
+    // Below the first fold `omegabar` rises along the branch, and orders it.
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
     // The first loss of stability again with a coarser rung beside it, for its error (the
     // branch above keeps every point for the map; its Lyapunov coefficient is not drawn).
-    let lost = branch
-        .events
-        .iter()
-        .any(|e| e.unstable_before == 0 && e.unstable_after > 0);
-    let boundary = lost
-        .then(|| column_loss(&s, &branch, accuracy))
-        .transpose()?
-        .flatten();
+    // The branch's own first loss: an event, or a window's loss if that lies in an earlier step.
+    let event = (branch.events.iter()).find(|e| e.unstable_before == 0 && e.unstable_after > 0);
+    let window = misses
+        .windows
+        .first()
+        .filter(|w| event.is_none_or(|e| branch.points[w.probe.after].s < e.s));
+    let first = window.map(|w| &w.loss.event).or(event);
+    let boundary = first.map(|e| column_loss(&s, e, accuracy)).transpose()?;
+    let near_miss_unresolved = misses.unresolved.first().map(|(p, why)| {
+        format!(
+            "at N = {}, near omega = {:.6e} rad/s: {why}",
+            model.nodes(),
+            model.scales.omega_from_bar(*p)
+        )
+    });
     Ok(Column {
         lambda_over_l,
         r_over_lambda: radius / lambda,
         points,
         boundary,
+        near_miss_unresolved,
     })
 }
 
-/// The first loss of stability of the column study `s` whose branch is `branch`, with its
-/// error: the answer of [`located_point`] (two rungs at the column's `N`, or with `accuracy`
-/// refined from it, as a sweep point's), or where that finds no `omega_b`, the branch's own
-/// event without an error.
-fn column_loss(
-    s: &Study,
-    branch: &Branch,
-    accuracy: Option<PointAccuracy>,
-) -> Result<Option<ColumnLoss>> {
+/// The first loss of stability of the column study `s` whose branch loses its stability first at
+/// `first` (an event of the branch or a window's loss), with its error: the answer of
+/// [`located_point`] (two rungs at the column's `N`, or with `accuracy` refined from it, as a
+/// sweep point's), or where that finds no `omega_b`, `first` without an error.
+fn column_loss(s: &Study, first: &Event, accuracy: Option<PointAccuracy>) -> Result<ColumnLoss> {
     let settings = LocateSettings {
         criticality: false,
         ..s.locate_settings()
@@ -265,7 +293,7 @@ fn column_loss(
                 .clone()
                 .unwrap_or_else(|| "no coarser rung to compare".into())
         };
-        return Ok(Some(ColumnLoss {
+        return Ok(ColumnLoss {
             omegabar_b,
             error: refined
                 .omega_b_error
@@ -275,23 +303,19 @@ fn column_loss(
             nodes: answer.nodes,
             reached: accuracy.map(|_| refined.reached),
             near_miss_unresolved,
-        }));
+        });
     }
-    Ok(branch
-        .events
-        .iter()
-        .find(|e| e.unstable_before == 0 && e.unstable_after > 0)
-        .map(|e| ColumnLoss {
-            omegabar_b: e.p,
-            error: Err(format!(
-                "locate at the column's N found no omega_b ({}) to estimate its error from",
-                answer.kind
-            )),
-            kind: Loss::Event(e.kind),
-            nodes: s.discretization.nodes,
-            reached: accuracy.map(|_| false),
-            near_miss_unresolved,
-        }))
+    Ok(ColumnLoss {
+        omegabar_b: first.p,
+        error: Err(format!(
+            "locate at the column's N found no omega_b ({}) to estimate its error from",
+            answer.kind
+        )),
+        kind: Loss::Event(first.kind),
+        nodes: s.discretization.nodes,
+        reached: accuracy.map(|_| false),
+        near_miss_unresolved,
+    })
 }
 
 /// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
@@ -603,10 +627,9 @@ pub(crate) fn run_phase(study: &Study, dir: &Path, provenance: &Provenance) -> R
                 kind: c.boundary.as_ref().map(|b| b.kind),
                 nodes: c.boundary.as_ref().map(|b| b.nodes),
                 reached: c.boundary.as_ref().and_then(|b| b.reached),
-                near_miss_unresolved: c
-                    .boundary
-                    .as_ref()
-                    .and_then(|b| b.near_miss_unresolved.clone()),
+                near_miss_unresolved: (c.boundary.as_ref())
+                    .and_then(|b| b.near_miss_unresolved.clone())
+                    .or_else(|| c.near_miss_unresolved.clone()),
                 points: c.points.len(),
             })
             .collect(),
@@ -680,7 +703,72 @@ fn boundary_curve(
 
 #[cfg(test)]
 mod tests {
-    use super::interpolate;
+    use super::{Study, column, interpolate};
+    use crate::analysis::branch::trace;
+    use crate::analysis::solve::rest_state;
+    use crate::engine::ContinuationSettings;
+    use crate::engine::events::EventKind;
+    use crate::engine::stop::Silent;
+    use crate::model::Model;
+
+    /// A column whose only loss of stability is a window inside one step of its branch:
+    /// `exponent_m.toml`'s `lambda/l = 0.25` rod on the RPY line (15 nodes per turn, `N = 61`)
+    /// at `R/lambda = 0.3725`, followed towards 30 rad/s for 14 points, to 0.01678 rad/s: a mode
+    /// rises through the axis at 0.01452 rad/s and falls back at 0.01528, inside the step from
+    /// 0.01192 to 0.01570 (the next loss, 0.01732, lies past the last point). The column's first
+    /// loss must be that window's, as an independent continuation with short steps (up to 0.03
+    /// rad/s, steps of at most 0.0005 rad/s) finds it as its first Hopf point, to `1e-7`
+    /// relative; its map must mark a rate inside the window unstable, and those below it stable.
+    /// Without the probes the column had no loss and its map no unstable row.
+    #[test]
+    fn a_column_whose_only_loss_is_a_window_inside_one_step_has_that_loss() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/fig4d_phase.toml");
+        let overrides: Vec<String> = [
+            "fluid.model=\"rpy\"",
+            "discretization.per_turn=15",
+            "branch.omega_max=30",
+            "continuation.max_points=14",
+            "study.m=2.5",
+        ]
+        .map(String::from)
+        .to_vec();
+        let study = Study::from_path(Some(path.as_ref()), &overrides).unwrap();
+        let c = column(&study, 0.25, Some(0.3725), None).unwrap();
+        let loss = c
+            .boundary
+            .expect("the window's loss is the column's first loss");
+        assert_eq!(loss.nodes, 61);
+
+        // The independent reference: the same rod followed with short steps.
+        let s = super::column_study(&study, 0.25, Some(0.3725)).unwrap();
+        let model = Model::new(&s.physical()).unwrap();
+        let rest = rest_state(&model, &s.newton).unwrap();
+        let omegabar_max = model.scales.omega_to_bar(0.03);
+        let short = ContinuationSettings {
+            max_points: ContinuationSettings::default().max_points,
+            ..s.continuation.clone()
+        };
+        let branch = trace(&model, &rest, omegabar_max, &short, false, &mut Silent);
+        let hopf: Vec<_> = (branch.unwrap().events.into_iter())
+            .filter(|e| e.kind == EventKind::Hopf)
+            .collect();
+        assert!(hopf.len() >= 2 && hopf[0].loses_stability() && !hopf[1].loses_stability());
+        let (first, regained) = (hopf[0].p, hopf[1].p);
+        assert!(
+            (loss.omegabar_b - first).abs() < 1e-7 * first,
+            "column {}, short steps {first}",
+            loss.omegabar_b
+        );
+        // The map: stable below the window, an unstable probe inside it.
+        assert!((c.points.iter()).filter(|p| p.0 < first).all(|p| p.2));
+        assert!(
+            (c.points.iter()).any(|p| p.0 > first && p.0 < regained && !p.2),
+            "{:?}",
+            c.points
+        );
+        assert!(c.points.windows(2).all(|w| w[0].0 < w[1].0));
+        assert!(c.near_miss_unresolved.is_none());
+    }
 
     #[test]
     fn a_rate_within_rounding_of_a_branch_end_lies_on_the_branch() {
