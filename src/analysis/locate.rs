@@ -299,10 +299,10 @@ pub fn locate(
         }
         Stop::ParameterLimit if reached.abs() > omegabar_max.abs() => None,
         Stop::StepTooSmall(reason) => {
-            cut_short = Some(crate::Error::Numerical(format!(
+            cut_short = Some(format!(
                 "continuation stalled at omega = {reached_omega:.6e} rad/s before any \
                  instability: {reason}"
-            )));
+            ));
             None
         }
         Stop::ParameterLimit => {
@@ -324,11 +324,11 @@ pub fn locate(
             )));
         }
         Stop::MaxPoints => {
-            cut_short = Some(crate::Error::Numerical(format!(
+            cut_short = Some(format!(
                 "the continuation used all {points} points (continuation.max_points) by omega = \
                  {reached_omega:.6e} rad/s, before omega_max = {omega_max} rad/s, with no \
                  instability found: raise continuation.max_points (or continuation.ds_max)"
-            )));
+            ));
             None
         }
     };
@@ -369,7 +369,20 @@ pub fn locate(
             let lead = (before.u.clone(), before.p);
             (event, chart, lead, None)
         }
-        (None, None) => return cut_short.map_or(Ok((counted, None)), Err),
+        (None, None) => {
+            return match cut_short {
+                None => Ok((counted, None)),
+                // What the probes of the points it has did, beside why it was cut short.
+                Some(why) => Err(crate::Error::Numerical(format!(
+                    "{why}; {} probes of its near misses found no window of instability{}",
+                    counted.probes,
+                    counted
+                        .near_miss_unresolved
+                        .as_ref()
+                        .map_or(String::new(), |why| format!(" (unresolved {why})"))
+                ))),
+            };
+        }
     };
     let mut located = Located {
         window_between: window.map(|(a, b)| {

@@ -414,14 +414,14 @@ fn phase(p: &PhaseResult, f: &mut Formatter<'_>) -> fmt::Result {
         };
         write!(
             f,
-            "\n  lambda/l = {:.4}, R/lambda = {:.4}: {loss}; {} branch points",
+            "\n  lambda/l = {:.4}, R/lambda = {:.4}: {loss}; {} points (probes included)",
             c.lambda_over_l, c.r_over_lambda, c.points
         )?;
         if let Some(why) = &c.near_miss_unresolved {
             write!(
                 f,
-                "\n    WARNING: a near miss was not resolved {why}: a window of instability below \
-                 omegabar_b may have been stepped over"
+                "\n    WARNING: a near miss was not resolved {why}: a window of instability there \
+                 may have been stepped over (below omegabar_b, or missing from the map)"
             )?;
         }
     }

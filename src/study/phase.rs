@@ -121,10 +121,13 @@ pub struct ColumnSummary {
     pub nodes: Option<usize>,
     /// Whether `omegabar_b` reached the study's accuracy (absent without one).
     pub reached: Option<bool>,
-    /// A near miss of a rung's branch from rest that its probes neither resolved nor excluded
-    /// (docs/model.md section 5; a window of instability below `omegabar_b` may have been
-    /// stepped over): the rung's `N` and why.
+    /// A near miss that its probes neither resolved nor excluded (docs/model.md section 5), of
+    /// a rung's branch from rest (a window of instability below `omegabar_b` may have been
+    /// stepped over) or else of the column's own branch (a window may be missing from the
+    /// map): the `N` and why.
     pub near_miss_unresolved: Option<String>,
+    /// The column's rows of `phase.csv`: the branch's points from rest up to its first fold and
+    /// the probes of its near misses among them.
     pub points: usize,
 }
 
@@ -273,13 +276,27 @@ fn column(
 /// The first loss of stability of the column study `s` whose branch loses its stability first at
 /// `first` (an event of the branch or a window's loss), with its error: the answer of
 /// [`located_point`] (two rungs at the column's `N`, or with `accuracy` refined from it, as a
-/// sweep point's), or where that finds no `omega_b`, `first` without an error.
+/// sweep point's), or where that finds no `omega_b` or fails (a numerical failure; bad input
+/// stays an error), `first` without an error, saying why.
 fn column_loss(s: &Study, first: &Event, accuracy: Option<PointAccuracy>) -> Result<ColumnLoss> {
     let settings = LocateSettings {
         criticality: false,
         ..s.locate_settings()
     };
-    let refined = located_point(&s.physical(), &settings, accuracy)?;
+    let refined = match located_point(&s.physical(), &settings, accuracy) {
+        Ok(r) => r,
+        Err(e) if !e.is_input() => {
+            return Ok(ColumnLoss {
+                omegabar_b: first.p,
+                error: Err(format!("locate at the column's N failed: {e}")),
+                kind: Loss::Event(first.kind),
+                nodes: s.discretization.nodes,
+                reached: accuracy.map(|_| false),
+                near_miss_unresolved: None,
+            });
+        }
+        Err(e) => return Err(e),
+    };
     let answer = &refined.finest;
     let near_miss_unresolved = refined.rungs.iter().find_map(|r| {
         r.near_miss_unresolved
