@@ -283,17 +283,22 @@ fn column_loss(s: &Study, first: &Event, accuracy: Option<PointAccuracy>) -> Res
         criticality: false,
         ..s.locate_settings()
     };
+    // The branch's own loss, without an error (`why`).
+    let unestimated = |why: String, near_miss_unresolved: Option<String>| ColumnLoss {
+        omegabar_b: first.p,
+        error: Err(why),
+        kind: Loss::Event(first.kind),
+        nodes: s.discretization.nodes,
+        reached: accuracy.map(|_| false),
+        near_miss_unresolved,
+    };
     let refined = match located_point(&s.physical(), &settings, accuracy) {
         Ok(r) => r,
         Err(e) if !e.is_input() => {
-            return Ok(ColumnLoss {
-                omegabar_b: first.p,
-                error: Err(format!("locate at the column's N failed: {e}")),
-                kind: Loss::Event(first.kind),
-                nodes: s.discretization.nodes,
-                reached: accuracy.map(|_| false),
-                near_miss_unresolved: None,
-            });
+            return Ok(unestimated(
+                format!("locate at the column's N failed: {e}"),
+                None,
+            ));
         }
         Err(e) => return Err(e),
     };
@@ -322,17 +327,13 @@ fn column_loss(s: &Study, first: &Event, accuracy: Option<PointAccuracy>) -> Res
             near_miss_unresolved,
         });
     }
-    Ok(ColumnLoss {
-        omegabar_b: first.p,
-        error: Err(format!(
+    Ok(unestimated(
+        format!(
             "locate at the column's N found no omega_b ({}) to estimate its error from",
             answer.kind
-        )),
-        kind: Loss::Event(first.kind),
-        nodes: s.discretization.nodes,
-        reached: accuracy.map(|_| false),
+        ),
         near_miss_unresolved,
-    })
+    ))
 }
 
 /// Linear interpolation of `Fpbar` at `omegabar` along a column (NaN outside it).
