@@ -350,10 +350,7 @@ pub fn locate(
     )?;
     let counted = Located {
         probes: misses.probes,
-        near_miss_unresolved: misses.unresolved.first().map(|(p, why)| {
-            let omega = model.scales.omega_from_bar(*p);
-            format!("near omega = {omega:.6e} rad/s: {why}")
-        }),
+        near_miss_unresolved: misses.unresolved_described(model).next(),
         ..none
     };
     // A window the continuation stepped over comes first: its state is in the natural chart.

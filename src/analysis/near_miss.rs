@@ -76,6 +76,17 @@ impl NearMisses {
         let a = window.probe.after;
         (points[a].p, points[a + 1].p)
     }
+
+    /// Each unresolved near miss as reports state it: where, in rad/s of `model`, and why.
+    pub fn unresolved_described<'a>(
+        &'a self,
+        model: &'a Model,
+    ) -> impl Iterator<Item = String> + 'a {
+        self.unresolved.iter().map(|(p, why)| {
+            let omega = model.scales.omega_from_bar(*p);
+            format!("near omega = {omega:.6e} rad/s: {why}")
+        })
+    }
 }
 
 /// The near misses among the points of a branch of `problem` (in order along it, `charts` the

@@ -407,11 +407,7 @@ pub(crate) fn run_branch(
                 [omega(a), omega(b)]
             })
             .collect(),
-        near_miss_unresolved: misses
-            .unresolved
-            .iter()
-            .map(|(p, why)| format!("near omega = {:.6e} rad/s: {why}", omega(*p)))
-            .collect(),
+        near_miss_unresolved: misses.unresolved_described(model).collect(),
         stop,
         seconds: start.elapsed().as_secs_f64(),
         omega_max,

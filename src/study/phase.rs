@@ -257,13 +257,8 @@ fn column(
         .filter(|w| event.is_none_or(|e| branch.points[w.probe.after].s < e.s));
     let first = window.map(|w| &w.loss.event).or(event);
     let boundary = first.map(|e| column_loss(&s, e, accuracy)).transpose()?;
-    let near_miss_unresolved = misses.unresolved.first().map(|(p, why)| {
-        format!(
-            "at N = {}, near omega = {:.6e} rad/s: {why}",
-            model.nodes(),
-            model.scales.omega_from_bar(*p)
-        )
-    });
+    let near_miss_unresolved = (misses.unresolved_described(&model).next())
+        .map(|why| format!("at N = {}, {why}", model.nodes()));
     Ok(Column {
         lambda_over_l,
         r_over_lambda: radius / lambda,
