@@ -5,7 +5,7 @@ mod common;
 
 use common::straight_rod;
 use helixbif::analysis::branch::{observables_at, trace};
-use helixbif::analysis::locate::{LocateSettings, locate};
+use helixbif::analysis::locate::{LocateSettings, hopf_criticality, hopf_criticality_from, locate};
 use helixbif::analysis::solve::rest_state;
 use helixbif::analysis::solve::solve_at;
 use helixbif::engine::ContinuationSettings;
@@ -427,6 +427,24 @@ fn follow_the_tight_arc(overrides: &[&str], omega_max: f64, every: usize) {
     assert!(checked >= 2, "{overrides:?}: {checked}");
 }
 
+/// `studies/exponent_m.toml` on the RPY line at 15 nodes per turn, at `lambda/l` and
+/// `R/lambda`, with the `extra` overrides.
+fn exponent_m_rod(
+    lambda_over_l: f64,
+    r_over_lambda: f64,
+    extra: &[&str],
+) -> helixbif::study::Study {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/exponent_m.toml");
+    let mut overrides = vec![
+        "fluid.model=rpy".to_string(),
+        "discretization.per_turn=15".to_string(),
+        format!("shape.lambda_over_l={lambda_over_l}"),
+        format!("shape.R_over_lambda={r_over_lambda}"),
+    ];
+    overrides.extend(extra.iter().map(|s| s.to_string()));
+    helixbif::study::Study::from_path(Some(path.as_ref()), &overrides).unwrap()
+}
+
 /// `exponent_m.toml`'s `lambda/l = 0.25` rod on the RPY line (15 nodes per turn, `N = 61`) at
 /// `R/lambda = 0.3725`, followed from rest up to 30 rad/s: a mode rises through the axis at
 /// 0.01452 rad/s and falls back at 0.01528, a window of instability about 5% wide that lies
@@ -438,16 +456,7 @@ fn follow_the_tight_arc(overrides: &[&str], omega_max: f64, every: usize) {
 /// steps' regain of stability must lie inside that step too.
 #[test]
 fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/studies/exponent_m.toml");
-    let overrides: Vec<String> = [
-        "fluid.model=rpy",
-        "discretization.per_turn=15",
-        "shape.lambda_over_l=0.25",
-        "shape.R_over_lambda=0.3725",
-    ]
-    .map(String::from)
-    .to_vec();
-    let study = helixbif::study::Study::from_path(Some(path.as_ref()), &overrides).unwrap();
+    let study = exponent_m_rod(0.25, 0.3725, &[]);
     let model = Model::new(&study.physical()).unwrap();
     assert_eq!(model.nodes(), 61);
     let settings = |omega_max: f64| LocateSettings {
@@ -533,11 +542,7 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
 
     // `branch` with the long steps (its first 20 points, to 0.037 rad/s) probes the same near
     // miss and lists the window's loss and regain before the next loss, as the short steps do.
-    let long = helixbif::study::Study::from_path(
-        Some(path.as_ref()),
-        &[overrides, vec!["continuation.max_points=20".into()]].concat(),
-    )
-    .unwrap();
+    let long = exponent_m_rod(0.25, 0.3725, &["continuation.max_points=20"]);
     let dir = common::temp_dir("branch_window");
     let report = branch_report(&long, &model, 30.0, &dir, &Provenance::default()).unwrap();
     assert_eq!(
@@ -593,4 +598,43 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
             .iter()
             .any(|r| r.1 == 2 && first < r.0 && r.0 < regained)
     );
+}
+
+/// On a stiff rod the first difference tableau of `l1` stops at its round-off floor before it has
+/// converged, and the wider one settles the sign (src/engine/criticality.rs, `STARTS`): the RPY
+/// rod of `exponent_m` at `lambda/l = 0.125`, `R/lambda = 0.4`, `N = 121`, whose terms of `l1`
+/// cancel to a millionth. Each tableau alone is measured; their values agree within the sum of
+/// their stated precisions (two extrapolations from different steps), and `locate`'s coefficient
+/// is the wider one's. The coverage of each start's precision is checked against closed forms in
+/// tests/criticality.rs.
+#[test]
+fn the_wider_tableau_settles_l1_on_a_rod_whose_terms_cancel_to_a_millionth() {
+    let study = exponent_m_rod(0.125, 0.4, &[]);
+    let model = Model::new(&study.physical()).unwrap();
+    assert_eq!(model.nodes(), 121);
+    let settings = LocateSettings {
+        omega_max: 1.0,
+        newton: &study.newton,
+        continuation: &study.continuation,
+        criticality: false,
+    };
+    let (located, critical) = locate(&model, &settings, &mut Silent).unwrap();
+    assert_eq!(located.kind.name(), "hopf");
+    let critical = critical.unwrap();
+    let (event, chart) = (&critical.event, &critical.chart);
+    let first = hopf_criticality_from(&model, event, chart, &[1.0]).unwrap();
+    let wider = hopf_criticality_from(&model, event, chart, &[4.0]).unwrap();
+    let both = hopf_criticality(&model, event, chart).unwrap();
+    println!(
+        "l1: first tableau {:e} +- {:e}, wider {:e} +- {:e}",
+        first.l1, first.precision, wider.l1, wider.precision
+    );
+    assert_eq!(first.verdict, Verdict::Undetermined);
+    assert_ne!(wider.verdict, Verdict::Undetermined);
+    assert!(wider.precision < 0.5 * first.precision);
+    assert!(
+        (first.l1 - wider.l1).abs() <= first.precision + wider.precision,
+        "the two tableaus disagree beyond their precisions"
+    );
+    assert_eq!((both.l1, both.verdict), (wider.l1, wider.verdict));
 }

@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use crate::Result;
 use crate::engine::arclength::{BranchStop, Point};
-use crate::engine::criticality::{Lyapunov, Verdict, first_lyapunov};
+use crate::engine::criticality::{Lyapunov, STARTS, Verdict, first_lyapunov_from};
 use crate::engine::events::{Event, EventKind};
 use crate::engine::newton::NewtonSettings;
 use crate::engine::stability::Spectrum;
@@ -119,10 +119,21 @@ pub struct Located {
 /// whose state is measured in `chart` (critical mode scaled by [`RodProblem`]'s mode size: a
 /// largest node displacement of `ell`).
 pub fn hopf_criticality(model: &Model, event: &Event, chart: &Chart) -> Result<Lyapunov> {
+    hopf_criticality_from(model, event, chart, &STARTS)
+}
+
+/// [`hopf_criticality`] with the difference tableau started at each of `starts` in turn
+/// ([`first_lyapunov_from`]; one start alone measures that start's coefficient).
+pub fn hopf_criticality_from(
+    model: &Model,
+    event: &Event,
+    chart: &Chart,
+    starts: &[f64],
+) -> Result<Lyapunov> {
     let problem = RodProblem::new(model, Parameter::Omega, OMEGA_SCALE);
     problem.set_chart(chart.clone());
     let lin = problem.linearize(&event.u, event.p)?;
-    first_lyapunov(&problem, &event.u, event.p, &lin, event.eigenvalue)?
+    first_lyapunov_from(&problem, &event.u, event.p, &lin, event.eigenvalue, starts)?
         .ok_or_else(|| crate::Error::Numerical("the rod defines its dynamics".into()))
 }
 

@@ -42,9 +42,12 @@
 //! ([`extrapolated`]); the reported precision is [`SAFETY`] times the tableau's error estimate
 //! (at least the distance to a neighbouring row's extrapolation) plus a round-off
 //! allowance of `2e-8` times the sum of the moduli of the three terms of (1) (they cancel to a
-//! large extent on a stiff problem). The verdict is `supercritical` or `subcritical` only when
-//! `|l1|` exceeds that precision; otherwise it is `undetermined`: a degenerate (generalized)
-//! Hopf point, or one the differences cannot resolve.
+//! large extent on a stiff problem). Where `|l1|` does not exceed that precision, a second
+//! tableau starts four times wider ([`STARTS`]: where the terms cancel to a millionth, the
+//! first stops at the round-off floor before it has converged) and the one of least precision
+//! is kept. The verdict is `supercritical` or `subcritical` only when `|l1|` exceeds the
+//! precision; otherwise it is `undetermined`: a degenerate (generalized) Hopf point, or one the
+//! differences cannot resolve.
 //!
 //! **Cost.** One step needs `f` at 36 to 44 points (the stencils share `f(0)`, `f(+-h a)` and,
 //! from the second step on, `f(+-2 h a)`), in two batches whose points are known in advance:
@@ -65,8 +68,19 @@ use crate::numerics::lu::Lu;
 use crate::{Error, Result};
 
 /// The step `h` of the differences, relative to the typical size of a unit vector of the
-/// problem (`sqrt(n)` times its per-unknown scale).
+/// problem (`sqrt(n)` times its per-unknown scale): the first tableau's start ([`STARTS`]).
 const STEP: f64 = 5e-3;
+
+/// The starts of the tableaus [`first_lyapunov`] tries, in units of [`STEP`]: the second,
+/// four times wider, only where the first leaves the sign undetermined. On a stiff problem the
+/// terms of (1) cancel to a millionth (the RPY rod of `exponent_m`, `lambda/l = 0.125`,
+/// `R/lambda = 0.4`, `N = 121`: terms of size 81, `l1` about `1e-4` before scaling), so that the
+/// truncation error at the first step is thirty times `l1` while round-off takes over after three
+/// halvings: the first tableau stops before it has converged (`l1 = 1.9e-3 +- 6.8e-3` there,
+/// undetermined). Started four times wider it has two more rows above the same round-off
+/// floor and resolves it (`2.8e-3 +- 1.5e-3`, subcritical). Its rows from the third on are the
+/// first tableau's (the same points of the field, looked up).
+pub const STARTS: [f64; 2] = [1.0, 4.0];
 
 /// Round-off of the differences, relative to the moduli of the terms of (1): about
 /// `1e-16 |f| / h^3` with `h ~ 1e-2`, where `|f|` is the size of the field's terms before they
@@ -130,13 +144,29 @@ pub struct Lyapunov {
 
 /// The first Lyapunov coefficient at the Hopf point `(u, p)` of `problem` (linearization `lin`,
 /// critical eigenvalue `s`, `Im s > 0`), or `None` when the problem does not define its
-/// dynamics ([`Problem::dynamics`]).
+/// dynamics ([`Problem::dynamics`]). The tableau starts at [`STEP`], and four times wider where
+/// that leaves the sign undetermined ([`STARTS`]).
 pub fn first_lyapunov(
     problem: &impl Problem,
     u: &[f64],
     p: f64,
     lin: &Linearization,
     s: c64,
+) -> Result<Option<Lyapunov>> {
+    first_lyapunov_from(problem, u, p, lin, s, &STARTS)
+}
+
+/// [`first_lyapunov`] with the tableau started at each of `starts` (in units of [`STEP`]) in
+/// turn until one settles the sign of `l1`; the one of least precision where none does. One
+/// start alone measures what that start's tableau gives (tests/criticality.rs checks each
+/// start's precision against closed forms).
+pub fn first_lyapunov_from(
+    problem: &impl Problem,
+    u: &[f64],
+    p: f64,
+    lin: &Linearization,
+    s: c64,
+    starts: &[f64],
 ) -> Result<Option<Lyapunov>> {
     let w = s.im.abs();
     if w <= 0.0 {
@@ -165,7 +195,20 @@ pub fn first_lyapunov(
         w,
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
-    let (l1, precision) = extrapolated(|h| critical.coefficient(&forms, h), h0)?;
+    // The first resolved tableau, else the one of least precision.
+    let mut best: Option<(f64, f64)> = None;
+    for start in starts {
+        let (l1, precision) = extrapolated(|h| critical.coefficient(&forms, h), start * h0)?;
+        if best.is_none_or(|(_, least)| precision < least) {
+            best = Some((l1, precision));
+        }
+        if l1.abs() > precision {
+            break;
+        }
+    }
+    let (l1, precision) = best.ok_or_else(|| {
+        Error::Internal("the Lyapunov coefficient needs at least one start of its tableau".into())
+    })?;
     // Scaled to the problem's mode size: q -> q / size divides l1 by size^2.
     let (re, im) = parts(&critical.q);
     let size = problem.mode_size(&re, &im);
