@@ -79,7 +79,8 @@ const STEP: f64 = 5e-3;
 /// halvings: the first tableau stops before it has converged (`l1 = 1.9e-3 +- 6.8e-3` there,
 /// undetermined). Started four times wider it has two more rows above the same round-off
 /// floor and resolves it (`2.8e-3 +- 1.5e-3`, subcritical). Its rows from the third on are the
-/// first tableau's (the same points of the field, looked up).
+/// first tableau's (the same points of the field, looked up: there 72 new evaluations of the
+/// field beside the first tableau's 153).
 pub const STARTS: [f64; 2] = [1.0, 4.0];
 
 /// Round-off of the differences, relative to the moduli of the terms of (1): about
@@ -195,10 +196,15 @@ pub fn first_lyapunov_from(
         w,
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
-    // The first resolved tableau, else the one of least precision.
+    // The first resolved tableau, else the one of least precision; a later start that fails
+    // leaves the earlier ones' answer.
     let mut best: Option<(f64, f64)> = None;
     for start in starts {
-        let (l1, precision) = extrapolated(|h| critical.coefficient(&forms, h), start * h0)?;
+        let (l1, precision) = match extrapolated(|h| critical.coefficient(&forms, h), start * h0) {
+            Ok(found) => found,
+            Err(e) if best.is_none() => return Err(e),
+            Err(_) => break,
+        };
         if best.is_none_or(|(_, least)| precision < least) {
             best = Some((l1, precision));
         }
