@@ -603,10 +603,11 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
 /// On a stiff rod the first difference tableau of `l1` stops at its round-off floor before it has
 /// converged, and the wider one settles the sign (src/engine/criticality.rs, `STARTS`): the RPY
 /// rod of `exponent_m` at `lambda/l = 0.125`, `R/lambda = 0.4`, `N = 121`, whose terms of `l1`
-/// cancel to a millionth. Each tableau alone is measured; their values agree within the sum of
-/// their stated precisions (two extrapolations from different steps), and `locate`'s coefficient
-/// is the wider one's. The coverage of each start's precision is checked against closed forms in
-/// tests/criticality.rs.
+/// cancel to a millionth (the first tableau undetermined there is this test's premise). Each
+/// tableau alone is measured; their values agree within the sum of their stated precisions (a
+/// consistency check: the two extrapolations share the rows from the first step down), and
+/// `locate`'s coefficient is the wider one's. The coverage of each start's precision is checked
+/// against closed forms in tests/criticality.rs.
 #[test]
 fn the_wider_tableau_settles_l1_on_a_rod_whose_terms_cancel_to_a_millionth() {
     let study = exponent_m_rod(0.125, 0.4, &[]);

@@ -264,7 +264,7 @@ fn the_brusselator_orbit_grows_as_the_square_root_the_coefficient_predicts() {
 #[test]
 fn the_stated_precision_of_l1_covers_its_error_along_the_brusselator_hopf_curve() {
     // The Hopf curve b = 1 + a^2 over a in [0.2, 6] with every point's coefficient (steps of
-    // at most 0.005 in the curve's units: about 300 points), and the coefficient at 400 points
+    // at most 0.005 in the curve's units: about 750 points), and the coefficient at 400 points
     // b = 1 + a^2 spaced evenly in a over the same range, against the closed form
     // [`brusselator_l1`]: the error exceeds the stated precision nowhere.
     let family = Members(brusselator);

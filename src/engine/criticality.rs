@@ -71,7 +71,7 @@ use crate::{Error, Result};
 /// problem (`sqrt(n)` times its per-unknown scale): the first tableau's start ([`STARTS`]).
 const STEP: f64 = 5e-3;
 
-/// The starts of the tableaus [`first_lyapunov`] tries, in units of [`STEP`]: the second,
+/// The starts of the tableaus [`first_lyapunov`] tries, in units of the first (`STEP`): the second,
 /// four times wider, only where the first leaves the sign undetermined. On a stiff problem the
 /// terms of (1) cancel to a millionth (the RPY rod of `exponent_m`, `lambda/l = 0.125`,
 /// `R/lambda = 0.4`, `N = 121`: terms of size 81, `l1` about `1e-4` before scaling), so that the
@@ -145,8 +145,9 @@ pub struct Lyapunov {
 
 /// The first Lyapunov coefficient at the Hopf point `(u, p)` of `problem` (linearization `lin`,
 /// critical eigenvalue `s`, `Im s > 0`), or `None` when the problem does not define its
-/// dynamics ([`Problem::dynamics`]). The tableau starts at [`STEP`], and four times wider where
-/// that leaves the sign undetermined ([`STARTS`]).
+/// dynamics ([`Problem::dynamics`]). The tableau starts at `5e-3 sqrt(n)` times the problem's
+/// per-unknown scale, and four times wider where that leaves the sign undetermined
+/// ([`STARTS`]; the one of least precision is kept).
 pub fn first_lyapunov(
     problem: &impl Problem,
     u: &[f64],
@@ -157,10 +158,12 @@ pub fn first_lyapunov(
     first_lyapunov_from(problem, u, p, lin, s, &STARTS)
 }
 
-/// [`first_lyapunov`] with the tableau started at each of `starts` (in units of [`STEP`]) in
-/// turn until one settles the sign of `l1`; the one of least precision where none does. One
-/// start alone measures what that start's tableau gives (tests/criticality.rs checks each
-/// start's precision against closed forms).
+/// [`first_lyapunov`] with the tableau started at each of `starts` in turn (in units of the
+/// first start, `5e-3 sqrt(n)` times the problem's per-unknown scale), stopping once a tableau
+/// settles the sign of `l1`; of the tableaus tried, the one of least precision is kept (so a
+/// later tableau that settles the sign with a larger precision than an earlier one's leaves
+/// the earlier, undetermined answer). One start alone measures what that start's tableau gives
+/// (tests/criticality.rs checks each start's precision against closed forms).
 pub fn first_lyapunov_from(
     problem: &impl Problem,
     u: &[f64],
@@ -196,8 +199,8 @@ pub fn first_lyapunov_from(
         w,
     };
     let h0 = STEP * problem.scales().0 * (n as f64).sqrt();
-    // The first resolved tableau, else the one of least precision; a later start that fails
-    // leaves the earlier ones' answer.
+    // Tableaus until one settles the sign; of those tried, the one of least precision. A later
+    // start that fails leaves the earlier ones' answer.
     let mut best: Option<(f64, f64)> = None;
     for start in starts {
         let (l1, precision) = match extrapolated(|h| critical.coefficient(&forms, h), start * h0) {
