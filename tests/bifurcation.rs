@@ -1,7 +1,7 @@
 //! Continuation of the rod: Greenhill's column, agreement with `solve`, convergence of `omega_b`
 //! for the representative helix, and a branch followed around two folds.
 
-mod common;
+use crate::common;
 
 use common::straight_rod;
 use helixbif::analysis::branch::{observables_at, trace};
@@ -451,8 +451,8 @@ fn exponent_m_rod(
 /// inside one step of the continuation (which stops at the next mode's loss, 0.01732). The probe
 /// of that step's near miss must find the window inside the step it names, and its loss must be
 /// the first loss of stability that an independent continuation finds with short steps (up to
-/// 0.03 rad/s: steps of at most a sixtieth of that, 0.0005 rad/s, against the 0.0038 rad/s of the
-/// step that holds the window), to `1e-7` relative, with the same critical frequency; the short
+/// 0.018 rad/s in steps of at most 0.0005 rad/s, against the 0.0038 rad/s of the step that holds
+/// the window), to `1e-7` relative, with the same critical frequency; the short
 /// steps' regain of stability must lie inside that step too.
 #[test]
 fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
@@ -505,16 +505,12 @@ fn a_window_of_instability_inside_one_step_is_found_by_probing_its_near_miss() {
 
     // The same branch with short steps sees the window's loss and regain, then the next loss.
     let rest = rest_state(&model, &study.newton).unwrap();
-    let omegabar_max = model.scales.omega_to_bar(0.03);
-    let branch = trace(
-        &model,
-        &rest,
-        omegabar_max,
-        &study.continuation,
-        false,
-        &mut Silent,
-    )
-    .unwrap();
+    let omegabar_max = model.scales.omega_to_bar(0.018);
+    let short = ContinuationSettings {
+        max_parameter_step: Some(0.0005 / 0.018),
+        ..study.continuation.clone()
+    };
+    let branch = trace(&model, &rest, omegabar_max, &short, false, &mut Silent).unwrap();
     let hopf: Vec<_> = branch
         .events
         .iter()

@@ -5,7 +5,7 @@
 //! `w = q L^3 / EI`): `theta'' = -w (1 - s) cos(theta)`, `theta(0) = 0`, `theta'(1) = 0`
 //! (no moment at the free end). Tip drop `int_0^1 sin(theta) ds`, reach `int_0^1 cos(theta) ds`.
 
-mod common;
+use crate::common;
 
 use common::straight_rod;
 use helixbif::engine::newton::NewtonSettings;

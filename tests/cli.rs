@@ -1,6 +1,6 @@
 //! The command line: JSON output, exit codes and one-line errors naming the field.
 
-mod common;
+use crate::common;
 
 use common::helixbif;
 

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-mod common;
+use crate::common;
 
 use common::{helixbif, run_into, temp_dir};
 
@@ -922,14 +922,18 @@ fn simulate_from_an_orbit_checks_the_file_and_takes_the_orbits_rate() {
 }
 
 /// `run` in text mode prints the report of the command its study's kind runs: for a branch
-/// study, the same events, line for line, as `branch` on the same study (not a JSON dump).
+/// study, the same events, line for line, as `branch` on the same study (not a JSON dump). The
+/// representative helix at `N = 20` on Lighthill's operator (a branch in a second, where the RPY
+/// line's takes twenty).
 #[test]
 fn run_prints_the_text_report_of_the_command_it_runs() {
     let dir = temp_dir("cli-run-text");
     let study = dir.join("branch.toml");
     let base = std::fs::read_to_string("studies/representative.toml")
         .unwrap()
-        .replace("nodes = 60", "nodes = 20");
+        .replace("nodes = 60", "nodes = 20")
+        .replace("model = \"rpy\"", "model = \"lighthill\"");
+    assert!(base.contains("model = \"lighthill\""));
     std::fs::write(
         &study,
         format!("{base}\n[branch]\nomega_max = 2.0\n\n[study]\nkind = \"branch\"\n"),
@@ -1189,6 +1193,50 @@ fn the_kernel_copy_is_chosen_by_the_environment_and_changes_no_bit() {
     assert!(stdout.is_empty(), "{stdout}");
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     for word in ["HELIXBIF_KERNELS", "avx3", "baseline, avx2 or avx512"] {
+        assert!(stderr.contains(word), "{word}: {stderr}");
+    }
+}
+
+/// Where stderr is not a terminal (a pipe here, a batch job's log on a cluster), a run's
+/// progress bar is a plain line every `HELIXBIF_PROGRESS_SECONDS` (0: at every update): `locate`
+/// writes its bar's lines, with no terminal control characters; by default (10 s) a run of a second writes none; a value that is no number of
+/// seconds in range is bad input, named in one line with the range.
+#[test]
+fn progress_in_a_log_is_a_plain_line_every_interval() {
+    let locate = |seconds: Option<&str>| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_helixbif"));
+        command.args([
+            "locate",
+            "--single",
+            "--set",
+            "fluid.model=lighthill",
+            "--set",
+            "discretization.nodes=20",
+        ]);
+        if let Some(seconds) = seconds {
+            command.env("HELIXBIF_PROGRESS_SECONDS", seconds);
+        }
+        let out = command.output().unwrap();
+        (out.status.code(), String::from_utf8(out.stderr).unwrap())
+    };
+    let (code, stderr) = locate(Some("0"));
+    assert_eq!(code, Some(0), "{stderr}");
+    let bar: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("locate N = 20 ["))
+        .collect();
+    assert!(bar.len() >= 3, "{stderr}");
+    assert!(
+        stderr.chars().all(|c| c == '\n' || !c.is_control()),
+        "{stderr:?}"
+    );
+    let (code, stderr) = locate(None);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!stderr.contains("locate N = 20 ["), "{stderr}");
+    let (code, stderr) = locate(Some("-3"));
+    assert_eq!(code, Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    for word in ["HELIXBIF_PROGRESS_SECONDS", "-3", "from 0 to 86400"] {
         assert!(stderr.contains(word), "{word}: {stderr}");
     }
 }

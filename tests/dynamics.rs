@@ -9,7 +9,7 @@
 //! 4. BDF2 converges at second order with fixed steps, the clamp staying exact;
 //! 5. `bisect` brackets the Hopf point found by `locate`.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 use std::ops::ControlFlow;

@@ -1,7 +1,7 @@
 //! The edges of the command line: bad numbers, unusable folders, runs that cannot fit in memory
 //! or cannot reach their rate, and tables that stay empty.
 
-mod common;
+use crate::common;
 
 use common::{helixbif, temp_dir};
 

@@ -1,6 +1,6 @@
 //! Tests of the Lighthill slender-body mobility (`helixbif::model::fluid`).
 //!
-//! Run with `cargo test --release --test fluid -- --nocapture` to see the measured numbers.
+//! Run with `cargo test --release --test integration fluid:: -- --nocapture` to see the measured numbers.
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
@@ -12,7 +12,7 @@ use helixbif::model::fluid::{
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 
 use common::SplitMix64;
 

@@ -2,7 +2,7 @@
 //! solver: on pencils built with a known spectrum, along the representative branch, and through
 //! `locate`.
 
-mod common;
+use crate::common;
 
 use common::SplitMix64;
 use faer::{Mat, Side, c64};
@@ -214,16 +214,22 @@ impl Problem for Recording<'_> {
     }
 }
 
-/// Follows the branch from rest to `omega_max` (rad/s) with the dense solver and checks, on
-/// every stability pair met, that the Krylov path (shifted from the previous pair's spectrum)
+/// Follows the branch from rest to `omega_max` (rad/s) with the dense solver, in steps of at most
+/// `step` of the range where given (else the default), and checks, on every stability pair met, that the Krylov path (shifted from the previous pair's spectrum)
 /// gives the same unstable count and the same leading eigenvalues to 1e-8; returns the number
 /// of pairs and of unstable ones.
-fn branch_agrees(label: &str, physical: &Physical, omega_max: f64) -> (usize, usize) {
+fn branch_agrees(
+    label: &str,
+    physical: &Physical,
+    omega_max: f64,
+    step: Option<f64>,
+) -> (usize, usize) {
     let model = Model::new(physical).unwrap();
     let rest = rest_state(&model, &NewtonSettings::default()).unwrap();
     let omegabar_max = model.scales.omega_to_bar(omega_max);
     let settings = ContinuationSettings {
         eigen: EigenMethod::Dense,
+        max_parameter_step: step,
         ..ContinuationSettings::default()
     };
     let problem = Recording {
@@ -279,7 +285,7 @@ fn branch_agrees(label: &str, physical: &Physical, omega_max: f64) -> (usize, us
 fn helix_branch_agrees(nodes: usize) {
     let mut physical = Physical::representative_lighthill();
     physical.discretization.nodes = nodes;
-    let (_, unstable) = branch_agrees(&format!("helix, N = {nodes}"), &physical, 0.8);
+    let (_, unstable) = branch_agrees(&format!("helix, N = {nodes}"), &physical, 0.8, None);
     assert!(unstable > 0);
 }
 
@@ -301,11 +307,11 @@ fn krylov_and_dense_agree_along_the_representative_branch_at_85_nodes() {
 #[test]
 fn krylov_and_dense_agree_on_the_rpy_line_at_240_nodes() {
     // A few points of the branch from rest on the RPY-regularized fluid (docs/model.md section
-    // 9), where the pencil has 714 unknowns.
+    // 9), where the pencil has 714 unknowns: steps of at most an eighth of the range.
     let mut physical = Physical::representative_lighthill();
     physical.fluid.model = helixbif::model::fluid::FluidModel::Rpy;
     physical.discretization.nodes = 240;
-    let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15);
+    let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15, Some(0.125));
     assert!(points >= 4, "{points}");
 }
 
@@ -323,7 +329,7 @@ fn krylov_and_dense_agree_along_the_tight_arc_branch() {
         &["shape={kind=\"arc\", L=0.12, R=0.0348}".into()],
     )
     .unwrap();
-    let (points, _) = branch_agrees("arc, R/L = 0.29", &study.physical(), 2.0);
+    let (points, _) = branch_agrees("arc, R/L = 0.29", &study.physical(), 2.0, None);
     assert!(points > 10);
 }
 

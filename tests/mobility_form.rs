@@ -11,7 +11,7 @@
 //!   two derivatives agree.
 //! * The stability pair made from it against the pair of the force balance's Jacobian.
 
-mod common;
+use crate::common;
 
 use common::{perturbed_natural, relative_max_error};
 use faer::Mat;

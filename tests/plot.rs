@@ -5,7 +5,7 @@
 //! `<text>` elements holding the string verbatim, a solid curve is one `<polyline>` in the series
 //! colour, a dashed curve is one short `<polyline>` per dash (no `stroke-dasharray`).
 
-mod svg;
+use crate::svg;
 
 use helixbif::Error;
 use helixbif::plot::{

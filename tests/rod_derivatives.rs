@@ -1,7 +1,7 @@
 //! Discrete Elastic Rods: the exact gradient and Hessian against central finite differences,
 //! invariance of the energy under rigid motions, and a stress-free natural shape.
 
-mod common;
+use crate::common;
 
 use common::{Rng, helix, relative_max_error};
 use helixbif::model::rod::frame::Chart;

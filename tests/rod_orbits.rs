@@ -7,7 +7,7 @@
 
 use std::ops::ControlFlow;
 
-mod common;
+use crate::common;
 
 use helixbif::analysis::dynamics::{DynamicsSettings, Rate, integrate};
 use helixbif::analysis::locate::hopf_criticality;

@@ -1,6 +1,6 @@
 //! Tests of the RPY-regularised centreline (`helixbif::model::fluid::rpy`, docs/model.md section 9).
 //!
-//! Run with `cargo test --release --test rpy -- --nocapture` to see the measured numbers.
+//! Run with `cargo test --release --test integration rpy:: -- --nocapture` to see the measured numbers.
 
 use faer::{Mat, Side};
 use helixbif::Error;
@@ -16,7 +16,7 @@ use helixbif::study::Study;
 use nalgebra::Vector3;
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 
 use common::SplitMix64;
 

@@ -8,7 +8,7 @@ use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 use common::{helixbif, small_sweep, temp_dir};
 use helixbif::study::slurm::{ARRAY_VARIABLES, check_time, shard_from_env};

@@ -5,7 +5,7 @@
 //! is also checked on its own: `J(omega) - J(0)` against finite differences of
 //! `G(omega) - G(0)`, relative to its own largest entry.
 
-mod common;
+use crate::common;
 
 use common::{Rng, perturbed_natural, relative_max_error};
 use helixbif::engine::newton::System;

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 use common::{helixbif, run_into, small_sweep, temp_dir};
 use helixbif::study::Study;

@@ -480,10 +480,7 @@ pub fn simulate(s: &SimulateArgs) -> Outcome {
     opts.newton = study.newton.clone();
     opts.provenance = simulation_provenance(&study);
     let dir = output_dir(args, &study, out, Some("simulate"))?;
-    let bar = indicatif::ProgressBar::new(1000).with_style(
-        indicatif::ProgressStyle::with_template("simulate [{elapsed_precise}] {bar:30} {msg}")
-            .expect("a valid template"),
-    );
+    let bar = helixbif::study::progress::bar("simulate");
     let settings = study.integrator.settings(&model.scales);
     let report = run_simulate(
         &study,

@@ -35,9 +35,11 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     // A panic (a bug) ends the command with one line and exit code 1, like a numerical
     // failure; the panic hook has printed where it happened.
-    // The copy of the RPY kernels the environment asks for, checked like an option.
+    // The copy of the RPY kernels and the interval of progress lines the environment asks
+    // for, checked like options.
     let guarded = |run: &dyn Fn() -> commands::Outcome| -> commands::Outcome {
         helixbif::model::fluid::rpy::cap_from_environment()?;
+        helixbif::study::progress::interval_from_environment()?;
         helixbif::error::caught(|| Ok(run()))?
     };
     let (result, json) = match &cli.command {

@@ -23,13 +23,16 @@ use pyo3::prelude::*;
 
 /// The extension module: the classes, `fit_power_law` and `NumericalError`; the process is
 /// configured as the command line configures it ([`crate::numerics::process::configure`], and
-/// the copy of the RPY kernels capped by `HELIXBIF_KERNELS`, a `ValueError` on import where it
-/// names none) and the study layer's runs ask Python's signal handlers between steps.
+/// the copy of the RPY kernels capped by `HELIXBIF_KERNELS` and the interval of progress lines
+/// set by `HELIXBIF_PROGRESS_SECONDS`, a `ValueError` on import where either holds no such
+/// value) and the study layer's runs ask Python's signal handlers between steps.
 #[pymodule]
 #[pyo3(name = "_helixbif")]
 fn helixbif_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     crate::numerics::process::configure();
     crate::model::fluid::rpy::cap_from_environment()
+        .map_err(|e| run::to_python(m.py(), e, None))?;
+    crate::study::progress::interval_from_environment()
         .map_err(|e| run::to_python(m.py(), e, None))?;
     crate::study::interrupt::set_check(run::interrupted);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

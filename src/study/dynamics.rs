@@ -62,7 +62,7 @@ pub(crate) fn run_dynamics(
     let model = Model::new(&study.physical())?;
     model.check_resolution()?;
     let settings = study.integrator.settings(&model.scales);
-    let bars = indicatif::MultiProgress::new();
+    let bars = progress::multi();
     let rows: Vec<AverageRow> = omegas
         .par_iter()
         .map(|&omega| {

@@ -729,7 +729,7 @@ mod tests {
     /// at `R/lambda = 0.3725`, followed towards 30 rad/s for 14 points, to 0.01678 rad/s: a mode
     /// rises through the axis at 0.01452 rad/s and falls back at 0.01528, inside the step from
     /// 0.01192 to 0.01570 (the next loss, 0.01732, lies past the last point). The column's first
-    /// loss must be that window's, as an independent continuation with short steps (up to 0.03
+    /// loss must be that window's, as an independent continuation with short steps (up to 0.018
     /// rad/s, steps of at most 0.0005 rad/s) finds it as its first Hopf point, to `1e-7`
     /// relative; its map must mark a rate inside the window unstable, and those below it stable.
     /// Without the probes the column had no loss and its map no unstable row.
@@ -756,9 +756,10 @@ mod tests {
         let s = super::column_study(&study, 0.25, Some(0.3725)).unwrap();
         let model = Model::new(&s.physical()).unwrap();
         let rest = rest_state(&model, &s.newton).unwrap();
-        let omegabar_max = model.scales.omega_to_bar(0.03);
+        let omegabar_max = model.scales.omega_to_bar(0.018);
         let short = ContinuationSettings {
             max_points: ContinuationSettings::default().max_points,
+            max_parameter_step: Some(0.0005 / 0.018),
             ..s.continuation.clone()
         };
         let branch = trace(&model, &rest, omegabar_max, &short, false, &mut Silent);
