@@ -163,8 +163,8 @@ fn a_boundary_that_leaves_the_admissible_range_stops_there_and_keeps_its_points(
         .count();
     assert_eq!(on_disk, rows.len(), "the points found are on disk");
     let end = rows.last().unwrap().q;
-    // The model at the last point is admissible at the study's N, and one that lies a
-    // thousandth of the range further is not.
+    // The model at the last point is admissible at the study's N, and one that lies 4e-5
+    // further (a five-hundredth of the range) is not.
     let nodes = study.discretization.nodes;
     let admissible = |q: f64| {
         let at = Study::from_path(

@@ -4,7 +4,7 @@
 //! table honoured by every command.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
 use crate::common;
 
@@ -234,7 +234,7 @@ fn a_thin_tight_helix_buckling_at_a_high_rate_is_located_within_the_default_budg
 #[test]
 fn set_overrides_write_to_their_own_folder_never_over_the_study_results() {
     let dir = temp_dir("cli-set-folder");
-    let status = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+    let status = common::command()
         .current_dir(&dir)
         .args([
             "branch",
@@ -378,7 +378,7 @@ fn negative_rates_are_accepted_and_turn_the_motor_the_other_way() {
 
 #[test]
 fn a_closed_pipe_ends_the_output_quietly() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+    let mut child = common::command()
         .args([
             "solve",
             "--omega",
@@ -736,7 +736,7 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
         .chain([out.display().to_string()])
         .collect()
     };
-    let status = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+    let status = common::command()
         .args(args(&whole))
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -744,7 +744,7 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
         .unwrap();
     assert!(status.success());
     // The same run, killed once its checkpoint counts 2000 samples (of about 10000).
-    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+    let mut child = common::command()
         .args(args(&part))
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -781,10 +781,7 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     );
     let mut resumed = args(&part);
     resumed.push("--resume".into());
-    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
-        .args(&resumed)
-        .output()
-        .unwrap();
+    let out = common::command().args(&resumed).output().unwrap();
     assert!(
         out.status.success(),
         "{}",
@@ -800,10 +797,7 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     let rate = other.iter().position(|a| a == "--omega").unwrap() + 1;
     other[rate] = "1.1".into();
     other.push("--resume".into());
-    let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
-        .args(&other)
-        .output()
-        .unwrap();
+    let out = common::command().args(&other).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("--resume"), "{stderr}");
@@ -1161,7 +1155,7 @@ fn a_phase_study_refuses_a_carry_spacing_it_cannot_use() {
 #[test]
 fn the_kernel_copy_is_chosen_by_the_environment_and_changes_no_bit() {
     let solve = |copy: &str| {
-        let out = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+        let out = common::command()
             .args([
                 "solve",
                 "--omega",
@@ -1204,7 +1198,7 @@ fn the_kernel_copy_is_chosen_by_the_environment_and_changes_no_bit() {
 #[test]
 fn progress_in_a_log_is_a_plain_line_every_interval() {
     let locate = |seconds: Option<&str>| {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_helixbif"));
+        let mut command = common::command();
         command.args([
             "locate",
             "--single",
@@ -1213,9 +1207,10 @@ fn progress_in_a_log_is_a_plain_line_every_interval() {
             "--set",
             "discretization.nodes=20",
         ]);
-        if let Some(seconds) = seconds {
-            command.env("HELIXBIF_PROGRESS_SECONDS", seconds);
-        }
+        match seconds {
+            Some(seconds) => command.env("HELIXBIF_PROGRESS_SECONDS", seconds),
+            None => command.env_remove("HELIXBIF_PROGRESS_SECONDS"),
+        };
         let out = command.output().unwrap();
         (out.status.code(), String::from_utf8(out.stderr).unwrap())
     };

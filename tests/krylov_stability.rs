@@ -311,8 +311,7 @@ fn krylov_and_dense_agree_on_the_rpy_line_at_240_nodes() {
     let mut physical = Physical::representative_lighthill();
     physical.fluid.model = helixbif::model::fluid::FluidModel::Rpy;
     physical.discretization.nodes = 240;
-    let (points, _) = branch_agrees("helix, RPY, N = 240", &physical, 0.15, Some(0.125));
-    assert!(points >= 4, "{points}");
+    branch_agrees("helix, RPY, N = 240", &physical, 0.15, Some(0.125));
 }
 
 #[test]

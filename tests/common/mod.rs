@@ -4,12 +4,18 @@
 use helixbif::model::params::{Discretization, FluidParams, Physical, RodParams, ShapeParams};
 use nalgebra::Vector3;
 
+/// The `helixbif` binary as a command, its progress lines in a log (stderr is no terminal here)
+/// held back for a day (`HELIXBIF_PROGRESS_SECONDS`): a run slowed down by the tests beside it
+/// writes no line on stderr that its test does not expect.
+pub fn command() -> std::process::Command {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_helixbif"));
+    command.env("HELIXBIF_PROGRESS_SECONDS", "86400");
+    command
+}
+
 /// Runs the `helixbif` binary: exit code, stdout, stderr.
 pub fn helixbif(args: &[&str]) -> (i32, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_helixbif"))
-        .args(args)
-        .output()
-        .unwrap();
+    let out = command().args(args).output().unwrap();
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8(out.stdout).unwrap(),
