@@ -1193,8 +1193,9 @@ fn the_kernel_copy_is_chosen_by_the_environment_and_changes_no_bit() {
 
 /// Where stderr is not a terminal (a pipe here, a batch job's log on a cluster), a run's
 /// progress bar is a plain line every `HELIXBIF_PROGRESS_SECONDS` (0: at every update): `locate`
-/// writes its bar's lines, with no terminal control characters; by default (10 s) a run of a second writes none; a value that is no number of
-/// seconds in range is bad input, named in one line with the range.
+/// writes its bar's lines, with no terminal control characters; by default (10 s) a run of a
+/// second writes none; a value that is no number of seconds in range is bad input, named in one
+/// line with the range.
 #[test]
 fn progress_in_a_log_is_a_plain_line_every_interval() {
     let locate = |seconds: Option<&str>| {

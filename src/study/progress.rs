@@ -278,14 +278,19 @@ mod tests {
         ProgressStyle::with_template(&format!("{what} {{pos}}/{{len}} {{msg}}")).unwrap()
     }
 
+    /// A bar of 8 steps named `what` drawing into [`logged`] at `interval`.
+    fn logged_bar(what: &str, interval: Duration) -> (ProgressBar, Shared) {
+        let (log, out) = logged(interval);
+        let target = ProgressDrawTarget::term_like(Box::new(log));
+        let bar = ProgressBar::with_draw_target(Some(8), target).with_style(counted(what));
+        (bar, out)
+    }
+
     /// At a zero interval every update of a bar is one plain line, in order, without the
     /// terminal's carriage returns or padding.
     #[test]
     fn a_bar_in_a_log_writes_a_plain_line_per_update() {
-        let (log, out) = logged(Duration::ZERO);
-        let bar =
-            ProgressBar::with_draw_target(Some(8), ProgressDrawTarget::term_like(Box::new(log)))
-                .with_style(counted("sweep"));
+        let (bar, out) = logged_bar("sweep", Duration::ZERO);
         for done in 1..=3 {
             bar.set_message(format!("point {done}"));
             bar.set_position(done);
@@ -305,10 +310,7 @@ mod tests {
     #[test]
     fn a_bar_that_does_not_move_still_writes_a_line_each_interval() {
         let interval = Duration::from_secs(1);
-        let (log, out) = logged(interval);
-        let bar =
-            ProgressBar::with_draw_target(Some(8), ProgressDrawTarget::term_like(Box::new(log)))
-                .with_style(counted("simulate"));
+        let (bar, out) = logged_bar("simulate", interval);
         bar.set_position(1);
         bar.enable_steady_tick(interval);
         std::thread::sleep(2 * interval + interval / 2);
@@ -321,10 +323,7 @@ mod tests {
     #[test]
     fn a_bar_in_a_log_writes_at_most_once_per_interval() {
         let interval = Duration::from_millis(500);
-        let (log, out) = logged(interval);
-        let bar =
-            ProgressBar::with_draw_target(Some(8), ProgressDrawTarget::term_like(Box::new(log)))
-                .with_style(counted("boundary"));
+        let (bar, out) = logged_bar("boundary", interval);
         bar.set_position(1);
         bar.set_position(2);
         assert!(out.lines().is_empty(), "{:?}", out.lines());
