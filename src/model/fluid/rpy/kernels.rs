@@ -3,7 +3,8 @@
 //! [`LANES`] edges, in a baseline copy and copies compiled for AVX2 and FMA and for AVX-512.
 
 use super::super::lanes::{LANES, Lanes};
-use super::{Discretisation, EdgeRows, Rpy};
+use super::quadrature::FAR_RATIO;
+use super::{Discretisation, EdgeRows, PointSet, Rpy};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -154,6 +155,27 @@ fn components(f: impl Fn(usize) -> Lanes) -> [Lanes; 3] {
     [f(0), f(1), f(2)]
 }
 
+/// The points of the rule (`xi`, `pw`) on the edges of `x`, `y_p = (1 - xi_q) x_k + xi_q x_{k+1}`.
+fn point_set<'a>(x: &[Vector3<f64>], xi: &'a [f64], pw: &'a [[f64; 2]]) -> PointSet<'a> {
+    let (edges, q) = (x.len() - 1, xi.len());
+    let pos: Vec<Vector3<f64>> = x
+        .windows(2)
+        .flat_map(|e| xi.iter().map(|xi| e[0] * (1.0 - xi) + e[1] * *xi))
+        .collect();
+    let (stride, [px, py, pz]) = PointLanes::transpose(edges, q, |p| pos[p].into());
+    let (_, weights) = PointLanes::transpose(edges, q, |p| pw[p]);
+    PointSet {
+        xi,
+        pw,
+        pos,
+        lanes: PointLanes {
+            stride,
+            pos: [px, py, pz],
+            pw: weights,
+        },
+    }
+}
+
 /// The quadrature points transposed for the kernels: entry `q * stride + k` belongs to point `q`
 /// of edge `k`, so that one point of `LANES` consecutive edges is one contiguous read. The rows
 /// are padded with `LANES - 1` weightless, forceless points at the origin, so any `LANES`
@@ -228,7 +250,9 @@ impl Rpy {
         }
     }
 
-    pub(super) fn discretise(&self, x: &[Vector3<f64>]) -> Discretisation {
+    /// The quadrature points of the configuration `x`: the near rule's, the far rule's where
+    /// the model has one, and the edges' midpoints and lengths.
+    pub(super) fn discretise(&self, x: &[Vector3<f64>]) -> Discretisation<'_> {
         let n = x.len();
         assert_eq!(
             n,
@@ -236,21 +260,45 @@ impl Rpy {
             "RPY mobility built for {} nodes, given {n}",
             self.nodes()
         );
-        let q = self.points_per_edge();
-        let pos: Vec<Vector3<f64>> = x
-            .windows(2)
-            .flat_map(|e| self.rule.xi.iter().map(|xi| e[0] * (1.0 - xi) + e[1] * *xi))
-            .collect();
-        let (stride, [x, y, z]) = PointLanes::transpose(n - 1, q, |p| pos[p].into());
-        let (_, weights) = PointLanes::transpose(n - 1, q, |p| self.basis.pw[p]);
         Discretisation {
-            pos,
-            lanes: PointLanes {
-                stride,
-                pos: [x, y, z],
-                pw: weights,
-            },
+            near: point_set(x, &self.rule.xi, &self.basis.pw),
+            far: (self.far.as_ref()).map(|far| point_set(x, &far.rule.xi, &far.pw)),
+            midpoint: x.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect(),
+            length: x.windows(2).map(|e| (e[1] - e[0]).norm()).collect(),
         }
+    }
+
+    /// Whether the edges `k` and `j` of `d` are far apart: their midpoints at least
+    /// [`FAR_RATIO`] times the longer edge apart and their points at least `2a` (so that
+    /// `M` is analytic over the pair; its only singularity, `r = 0`, is then at least
+    /// `FAR_RATIO - 1` edge lengths away).
+    pub(super) fn far_apart(&self, d: &Discretisation, k: usize, j: usize) -> bool {
+        let longer = d.length[k].max(d.length[j]);
+        let distance = (d.midpoint[k] - d.midpoint[j]).norm();
+        distance >= FAR_RATIO * longer && distance - longer >= 2.0 * self.blob_radius
+    }
+
+    /// Which of the [`LANES`] source edges from `k2` a pass over the edge `k` takes: 1 in the
+    /// lanes of the edges it takes, 0 elsewhere (and in the padding past the last edge); `None`
+    /// where it takes none. The near pass (`near`) takes the pairs that are not far apart
+    /// ([`Rpy::far_apart`]), the far pass the others; without a far rule the near pass takes
+    /// every pair.
+    pub(super) fn pass_mask(
+        &self,
+        d: &Discretisation,
+        k: usize,
+        k2: usize,
+        near: bool,
+    ) -> Option<Lanes> {
+        let edges = d.length.len();
+        if d.far.is_none() {
+            return near.then_some(Lanes::splat(1.0));
+        }
+        let mask = Lanes(std::array::from_fn(|l| {
+            let j = k2 + l;
+            f64::from(u8::from(j < edges && self.far_apart(d, k, j) != near))
+        }));
+        (mask.sum() > 0.0).then_some(mask)
     }
 
     /// `M(r)` at one separation, from [`Rpy::radial`]: the rows and columns of the point forces
@@ -276,28 +324,39 @@ impl Rpy {
     }
 
     wide_copies!(edge_pairs, edge_pairs_kernel, edge_pairs_avx2, edge_pairs_avx512,
-        (d: &Discretisation, k: usize) -> Vec<[[Matrix3<f64>; 2]; 2]>);
+        (d: &Discretisation, set: &PointSet, near: bool, k: usize)
+            -> Vec<[[Matrix3<f64>; 2]; 2]>);
 
     /// For edge `k` and every `k2 >= k`: `s[a][b] = sum_{p on k, p2 on k2} pw_a(p) M(y_p - y_p2)
-    /// pw_b(p2)`, the contribution to the node blocks `(k + a, k2 + b)` before `1/(w w)`.
-    /// [`LANES`] edges `k2` at a time, the sums kept per lane as a scalar times `I` plus a
-    /// symmetric matrix (`[alpha sum, xx, xy, xz, yy, yz, zz]`), the form of
+    /// pw_b(p2)` over the points of `set`, the contribution to the node blocks `(k + a, k2 + b)`
+    /// before `1/(w w)`, for the pairs of edges the pass takes ([`Rpy::pass_mask`]; zero for
+    /// the others). [`LANES`] edges `k2` at a time, the sums kept per lane as a scalar times `I`
+    /// plus a symmetric matrix (`[alpha sum, xx, xy, xz, yy, yz, zz]`), the form of
     /// `M = alpha I + (beta/r^2) r r^T`.
     #[inline(always)]
     pub(super) fn edge_pairs_kernel(
         &self,
         d: &Discretisation,
+        set: &PointSet,
+        near: bool,
         k: usize,
     ) -> Vec<[[Matrix3<f64>; 2]; 2]> {
-        let q = self.points_per_edge();
+        let q = set.per_edge();
         let edges = self.nodes() - 1;
-        let lanes = &d.lanes;
+        let lanes = &set.lanes;
         let mut out = Vec::with_capacity(edges - k);
         for k2 in (k..edges).step_by(LANES) {
+            let Some(mask) = self.pass_mask(d, k, k2, near) else {
+                out.extend(std::iter::repeat_n(
+                    [[Matrix3::zeros(); 2]; 2],
+                    LANES.min(edges - k2),
+                ));
+                continue;
+            };
             // s[a][b] per lane, in the same seven-number form.
             let mut s = [[[Lanes::ZERO; 7]; 2]; 2];
             for p in k * q..(k + 1) * q {
-                let y = d.pos[p];
+                let y = set.pos[p];
                 let y = components(|c| Lanes::splat(y[c]));
                 let mut sums = [[Lanes::ZERO; 7]; 2];
                 for i in 0..q {
@@ -322,7 +381,7 @@ impl Rpy {
                         }
                     }
                 }
-                for (sa, weight) in s.iter_mut().zip(self.basis.pw[p]) {
+                for (sa, weight) in s.iter_mut().zip(set.pw[p]) {
                     let weight = Lanes::splat(weight);
                     for (sab, sum) in sa.iter_mut().zip(&sums) {
                         for (t, v) in sab.iter_mut().zip(sum) {
@@ -331,7 +390,7 @@ impl Rpy {
                     }
                 }
             }
-            let s = s.map(|sa| sa.map(|sab| sab.map(|t| t.0)));
+            let s = s.map(|sa| sa.map(|sab| sab.map(|t| (t * mask).0)));
             for l in 0..LANES.min(edges - k2) {
                 out.push(s.map(|sa| {
                     sa.map(|t| {
@@ -353,21 +412,24 @@ impl Rpy {
         out
     }
 
-    /// The contributions of the points on edge `k` to the rows `k, k + 1` of `B_e` (see
-    /// [`Rpy::mobility_derivative`]), with `forces` the point forces `G` by component in the
+    /// The contributions of the points of `set` on edge `k` to the rows `k, k + 1` of `B_e`
+    /// (see [`Rpy::mobility_derivative`]) from the pairs of edges the pass takes
+    /// ([`Rpy::pass_mask`]), with `forces` the point forces `G` of `set` by component in the
     /// layout of [`PointLanes`]. [`LANES`] edges `k2` at a time: per lane, the sums over the
     /// points `p2` of edge `k2` of `D(y_p - y_p2, G_p2)`, plain and weighted by `xi_q2`.
     #[inline(always)]
     pub(super) fn edge_rows_kernel(
         &self,
         d: &Discretisation,
+        set: &PointSet,
+        near: bool,
         forces: &[Vec<f64>; 3],
         k: usize,
     ) -> EdgeRows {
-        let q = self.points_per_edge();
+        let q = set.per_edge();
         let n = self.nodes();
         let edges = n - 1;
-        let lanes = &d.lanes;
+        let lanes = &set.lanes;
         let w = &self.basis.w;
         let mut out = EdgeRows {
             b: [vec![Matrix3::zeros(); n], vec![Matrix3::zeros(); n]],
@@ -376,17 +438,20 @@ impl Rpy {
         // P_pi of each point p of edge k for its rows i = k, k + 1.
         let p_nodes: Vec<[f64; 2]> = points
             .clone()
-            .map(|p| [self.basis.pw[p][0] / w[k], self.basis.pw[p][1] / w[k + 1]])
+            .map(|p| [set.pw[p][0] / w[k], set.pw[p][1] / w[k + 1]])
             .collect();
         // Per point p, across all edges k2: the sum of D, per lane.
         let mut own = vec![[Lanes::ZERO; 9]; q];
         for k2 in (0..edges).step_by(LANES) {
+            let Some(mask) = self.pass_mask(d, k, k2, near) else {
+                continue;
+            };
             // Per row i = k + ia, across the points p: P_pi [D - xi D, xi D].
             let mut rows = [[Lanes::ZERO; 18]; 2];
             for (ip, p) in points.clone().enumerate() {
-                let y = components(|c| Lanes::splat(d.pos[p][c]));
+                let y = components(|c| Lanes::splat(set.pos[p][c]));
                 let mut acc = [Lanes::ZERO; 18];
-                for (i, &xi2) in self.rule.xi.iter().enumerate() {
+                for (i, &xi2) in set.xi.iter().enumerate() {
                     let at = i * lanes.stride + k2;
                     let r = components(|j| y[j] - Lanes::load(&lanes.pos[j], at));
                     let c = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
@@ -410,6 +475,9 @@ impl Rpy {
                         }
                     }
                 }
+                for a in &mut acc {
+                    *a = *a * mask;
+                }
                 for j in 0..9 {
                     own[ip][j] += acc[j];
                 }
@@ -431,7 +499,7 @@ impl Rpy {
                 }
             }
         }
-        for (p_node, (&xi, own)) in p_nodes.iter().zip(self.rule.xi.iter().zip(&own)) {
+        for (p_node, (&xi, own)) in p_nodes.iter().zip(set.xi.iter().zip(&own)) {
             let own = Matrix3::from_fn(|a, b| own[3 * a + b].sum());
             let phi = [1.0 - xi, xi];
             for (ia, &pi) in p_node.iter().enumerate() {
@@ -444,41 +512,56 @@ impl Rpy {
     }
 
     wide_copies!(edge_rows, edge_rows_kernel, edge_rows_avx2, edge_rows_avx512,
-        (d: &Discretisation, forces: &[Vec<f64>; 3], k: usize) -> EdgeRows);
+        (d: &Discretisation, set: &PointSet, near: bool, forces: &[Vec<f64>; 3], k: usize)
+            -> EdgeRows);
 
-    /// The velocities `u_p = sum_p2 M(y_p - y_p2) G_p2` that the point forces of the edges'
-    /// points induce at the points `p` of edge `k` (the point forces at the ends aside), for
-    /// each set `forces[v]` (by component, in the layout of [`PointLanes`]): `q` points times
-    /// the sets, point by point. Only the groups of [`LANES`] source edges whose first edge is
-    /// in `sources` are visited (the others carry no force in any set). Each pair costs one
-    /// kernel evaluation and, per set, `M G = alpha G + (beta/r^2) (r.G) r`.
+    /// The velocities `u_p = sum_p2 M(y_p - y_p2) G_p2` that the point forces of the points of
+    /// `set` induce at its points `p` on edge `k` (the point forces at the ends aside), over the
+    /// pairs of edges the pass takes ([`Rpy::pass_mask`]), for each set `forces[v]` (the point
+    /// forces of `set` by component, in the layout of [`PointLanes`]): `q` points times the
+    /// sets, point by point. Only the groups of [`LANES`] source edges whose first edge is in
+    /// `sources` are visited (the others carry no force in any set). Each pair costs one kernel
+    /// evaluation and, per set, `M G = alpha G + (beta/r^2) (r.G) r`.
     #[inline(always)]
     pub(super) fn edge_velocities_kernel(
         &self,
         d: &Discretisation,
+        set: &PointSet,
+        near: bool,
         forces: &[[Vec<f64>; 3]],
         sources: &[usize],
         k: usize,
     ) -> Vec<Vector3<f64>> {
-        let q = self.points_per_edge();
-        let lanes = &d.lanes;
+        let q = set.per_edge();
+        let lanes = &set.lanes;
+        let masks: Vec<(usize, Lanes)> = sources
+            .iter()
+            .filter_map(|&k2| Some((k2, self.pass_mask(d, k, k2, near)?)))
+            .collect();
         let mut out = Vec::with_capacity(q * forces.len());
         let mut sums = vec![[Lanes::ZERO; 3]; forces.len()];
+        let mut group = vec![[Lanes::ZERO; 3]; forces.len()];
         for p in k * q..(k + 1) * q {
-            let y = components(|c| Lanes::splat(d.pos[p][c]));
+            let y = components(|c| Lanes::splat(set.pos[p][c]));
             sums.fill([Lanes::ZERO; 3]);
-            for &k2 in sources {
+            for &(k2, mask) in &masks {
+                group.fill([Lanes::ZERO; 3]);
                 for i in 0..q {
                     let at = i * lanes.stride + k2;
                     let r = components(|c| y[c] - Lanes::load(&lanes.pos[c], at));
                     let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
                     let c = radial.beta_over_r * radial.inv;
-                    for (sum, g) in sums.iter_mut().zip(forces) {
+                    for (sum, g) in group.iter_mut().zip(forces) {
                         let g = components(|j| Lanes::load(&g[j], at));
                         let along = c * (r[0] * g[0] + r[1] * g[1] + r[2] * g[2]);
                         for j in 0..3 {
                             sum[j] += radial.alpha * g[j] + along * r[j];
                         }
+                    }
+                }
+                for (sum, g) in sums.iter_mut().zip(&group) {
+                    for j in 0..3 {
+                        sum[j] += g[j] * mask;
                     }
                 }
             }
@@ -492,15 +575,15 @@ impl Rpy {
 
     wide_copies!(edge_velocities, edge_velocities_kernel, edge_velocities_avx2,
         edge_velocities_avx512,
-        (d: &Discretisation, forces: &[[Vec<f64>; 3]], sources: &[usize], k: usize)
-            -> Vec<Vector3<f64>>);
+        (d: &Discretisation, set: &PointSet, near: bool, forces: &[[Vec<f64>; 3]],
+            sources: &[usize], k: usize) -> Vec<Vector3<f64>>);
 
-    /// The point forces `G_p = sum_j P_pj z_j` of the edges' points, by component, in the
+    /// The point forces `G_p = sum_j P_pj z_j` of the points of `set`, by component, in the
     /// layout of [`PointLanes`].
-    pub(super) fn point_forces(&self, z: &[Vector3<f64>]) -> [Vec<f64>; 3] {
-        let (q, w) = (self.points_per_edge(), &self.basis.w);
+    pub(super) fn point_forces(&self, set: &PointSet, z: &[Vector3<f64>]) -> [Vec<f64>; 3] {
+        let (q, w) = (set.per_edge(), &self.basis.w);
         let (_, forces) = PointLanes::transpose(self.nodes() - 1, q, |p| {
-            let (k, pw) = (p / q, self.basis.pw[p]);
+            let (k, pw) = (p / q, set.pw[p]);
             (z[k] * (pw[0] / w[k]) + z[k + 1] * (pw[1] / w[k + 1])).into()
         });
         forces
@@ -510,8 +593,9 @@ impl Rpy {
 #[cfg(test)]
 mod tests {
     /// The kernels compiled for wider registers give the same bits as the baseline ones (each
-    /// copy the processor has), on a configuration with near and far pairs (a helix turned in
-    /// on itself) and a number of edges that is no multiple of the lanes.
+    /// copy the processor has), in the near and the far pass, on a configuration with near and
+    /// far pairs (a helix turned in on itself) and a number of edges that is no multiple of the
+    /// lanes.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn every_kernel_copy_gives_the_same_bits() {
@@ -533,30 +617,36 @@ mod tests {
             .collect();
         let rpy = super::Rpy::for_polygon(1.0, 0.012, 8.0, &x);
         let d = rpy.discretise(&x);
-        let forces = rpy.point_forces(&y);
-        let sets = [forces.clone()];
+        let far = d.far.as_ref().expect("8 points per edge take a far rule");
         let sources: Vec<usize> = (0..x.len() - 1).step_by(super::LANES).collect();
-        for k in 0..x.len() - 1 {
-            let pairs = rpy.edge_pairs_kernel(&d, k);
-            let rows = rpy.edge_rows_kernel(&d, &forces, k).b;
-            let velocities = rpy.edge_velocities_kernel(&d, &sets, &sources, k);
-            if widest != KernelCopy::Baseline {
-                // SAFETY: the processor has AVX2 and FMA (AVX-512 implies them here).
-                unsafe {
-                    assert_eq!(rpy.edge_pairs_avx2(&d, k), pairs, "edge {k}");
-                    assert_eq!(rpy.edge_rows_avx2(&d, &forces, k).b, rows);
-                    assert_eq!(rpy.edge_velocities_avx2(&d, &sets, &sources, k), velocities);
+        for (set, near) in [(&d.near, true), (far, false)] {
+            let forces = rpy.point_forces(set, &y);
+            let sets = [forces.clone()];
+            for k in 0..x.len() - 1 {
+                let pairs = rpy.edge_pairs_kernel(&d, set, near, k);
+                let rows = rpy.edge_rows_kernel(&d, set, near, &forces, k).b;
+                let velocities = rpy.edge_velocities_kernel(&d, set, near, &sets, &sources, k);
+                if widest != KernelCopy::Baseline {
+                    // SAFETY: the processor has AVX2 and FMA (AVX-512 implies them here).
+                    unsafe {
+                        assert_eq!(rpy.edge_pairs_avx2(&d, set, near, k), pairs, "edge {k}");
+                        assert_eq!(rpy.edge_rows_avx2(&d, set, near, &forces, k).b, rows);
+                        assert_eq!(
+                            rpy.edge_velocities_avx2(&d, set, near, &sets, &sources, k),
+                            velocities
+                        );
+                    }
                 }
-            }
-            if widest == KernelCopy::Avx512 {
-                // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA.
-                unsafe {
-                    assert_eq!(rpy.edge_pairs_avx512(&d, k), pairs, "edge {k}");
-                    assert_eq!(rpy.edge_rows_avx512(&d, &forces, k).b, rows);
-                    assert_eq!(
-                        rpy.edge_velocities_avx512(&d, &sets, &sources, k),
-                        velocities
-                    );
+                if widest == KernelCopy::Avx512 {
+                    // SAFETY: the processor has AVX-512 (F, VL, DQ), AVX2 and FMA.
+                    unsafe {
+                        assert_eq!(rpy.edge_pairs_avx512(&d, set, near, k), pairs, "edge {k}");
+                        assert_eq!(rpy.edge_rows_avx512(&d, set, near, &forces, k).b, rows);
+                        assert_eq!(
+                            rpy.edge_velocities_avx512(&d, set, near, &sets, &sources, k),
+                            velocities
+                        );
+                    }
                 }
             }
         }

@@ -97,7 +97,8 @@
 //! `A_e` is assembled edge pair by edge pair, `O((N Q)^2)` kernel evaluations, without forming
 //! `M_pts`, and the rows and columns of the point forces, `O(N Q)`, beside.
 //!
-//! **Why `A` is symmetric positive definite for every `N` and configuration.** `F^T A_e F =
+//! **Why `A` is symmetric positive definite for every `N` and configuration** (with one rule for
+//! every pair, as where `Q <= 4`; the far field above perturbs it by its error). `F^T A_e F =
 //! G^T M_pts G` with the point forces `G = P F`. (i) `P` has full column rank: a point force is a
 //! point of its own; on an interior edge `k`, `G_p = c_p [(1 - xi_q) F_k / w_k + xi_q F_{k+1} /
 //! w_{k+1}]` (`c_p > 0`) vanishes at two distinct `xi_q` only if `F_k = F_{k+1} = 0`, and on an
@@ -111,6 +112,29 @@
 //! common Gauss point keep `A` definite (each keeps other points of its own, whose forces must
 //! vanish), two identical edges (a rod folded exactly onto itself) make `A` singular, as they
 //! should. `A` is made exactly symmetric by averaging with its transpose.
+//!
+//! **Far field.** Between two edges far apart `M` is analytic over the pair, and the composite
+//! rule's `Q` points per edge buy nothing there. The pairs of edges whose midpoints are at least
+//! `FAR_RATIO = 3` times the longer edge apart, and whose points are at least
+//! `2a` apart (so that every pair of points is on the analytic far branch of `M`), are summed by
+//! the `FAR_POINTS = 4`-point Gauss rule on each edge instead, wherever the
+//! composite rule has more points than that (`Q >= 8`): `A_e = P^T M_pts P` over the near pairs
+//! plus `P_far^T M_far P_far` over the far ones, with `P_far` the same basis at the far rule's
+//! points. On such a pair `r = 0` is at least two edge lengths from either edge, and the far
+//! rule's error is of the order `rho^(-8) = 1.1e-8` of the pair's sum, `rho = 5 + sqrt(24)` the
+//! ellipse with foci at the edge's ends that reaches it (measured: at most `2.6e-8`, below
+//! 1.5e-2 of the error of the composite rule of 8 points it replaces there;
+//! `tests::the_far_rule_is_more_accurate_than_the_composite_rule_it_replaces`). The kernel
+//! passes take the near pairs by the near rule and the far pairs by the far rule, per pair of
+//! edges, in the mobility, its product and its shape derivative alike, so the three stay the
+//! same operator and its exact derivative. What it gives up: positive definiteness is no longer
+//! by construction (`A` differs from a congruence by the far rule's error on the far pairs; the
+//! Cholesky factorization of the resistance checks it, and `tests/rpy.rs` measures the smallest
+//! eigenvalue with the far field in use), and the pairs are sorted on the current
+//! configuration, so `A(X)` steps by that error where a pair crosses the threshold. The cost of
+//! one `A` or `B` falls from `(N Q)^2` kernel evaluations to about `(4 N)^2` plus the near pairs'
+//! `O(N Q^2)` (the kernels take a few groups of eight source edges around each edge by the near
+//! rule).
 //!
 //! **Choice of `m`: the same points at every rung.** The product rule's error is second order in
 //! the point spacing, and for *any* positive-weight rule it is of one sign: the point sum sees
@@ -163,7 +187,7 @@ use basis::Basis;
 use faer::{Mat, MatRef};
 use kernels::PointLanes;
 use nalgebra::{Matrix3, Vector3};
-use quadrature::{GaussRule, cells_per_edge};
+use quadrature::{FAR_POINTS, GaussRule, cells_per_edge};
 use rayon::prelude::*;
 
 /// Quadrature points per blob radius, about: an edge of natural length `lbar` is cut into `m`
@@ -195,17 +219,47 @@ pub struct Rpy {
     /// The basis in the material measure of the natural polygon (constant; boxed, so that
     /// [`super::Fluid`] stays small).
     basis: Box<Basis>,
+    /// The far field's rule, where the edges hold more points than it (boxed, as `basis`).
+    far: Option<Box<FarRule>>,
     /// The clamped edge is centred on the clamp point ([`ClampEdge::Centred`]): the line starts
     /// at the clamp point, the midpoint of `x_0` and `x_1`.
     centred_clamp: bool,
 }
 
-/// Geometry of one configuration: the quadrature points.
-struct Discretisation {
-    /// Point positions `y_p`, `p = k Q + q`.
+/// The rule of the far field: [`FAR_POINTS`] Gauss points on every edge, and the weights
+/// `[c_p psi_k(y_p), c_p psi_{k+1}(y_p)]` of its points in the basis (as [`Basis::pw`]).
+#[derive(Clone, Debug, PartialEq)]
+struct FarRule {
+    rule: GaussRule,
+    pw: Vec<[f64; 2]>,
+}
+
+/// One rule's quadrature points on the edges of one configuration.
+struct PointSet<'a> {
+    /// The points' parameters `xi_q` along their edge (`Q` of them, the same on every edge).
+    xi: &'a [f64],
+    /// The points' weights in the basis, `[c_p psi_k(y_p), c_p psi_{k+1}(y_p)]`, `p = k Q + q`.
+    pw: &'a [[f64; 2]],
+    /// Point positions `y_p`.
     pos: Vec<Vector3<f64>>,
     /// The points and weights transposed for the kernels.
     lanes: PointLanes,
+}
+
+impl PointSet<'_> {
+    /// Points per edge `Q`.
+    fn per_edge(&self) -> usize {
+        self.xi.len()
+    }
+}
+
+/// Geometry of one configuration: the quadrature points of the near rule and of the far rule
+/// (where there is one), and the edges' midpoints and lengths, which say which pairs are far.
+struct Discretisation<'a> {
+    near: PointSet<'a>,
+    far: Option<PointSet<'a>>,
+    midpoint: Vec<Vector3<f64>>,
+    length: Vec<f64>,
 }
 
 /// Columns of [`Rpy::mobility_product`] whose point forces sit on the same groups of source
@@ -213,9 +267,11 @@ struct Discretisation {
 struct SourceGroup {
     /// The first edge of each group of [`LANES`] edges with a force in any of the columns.
     sources: Vec<usize>,
-    /// The columns, and their point forces by component ([`kernels::PointLanes`] layout).
+    /// The columns, and their point forces by component ([`kernels::PointLanes`] layout), of
+    /// the near rule and of the far rule (empty without one).
     columns: Vec<usize>,
     forces: Vec<[Vec<f64>; 3]>,
+    far_forces: Vec<[Vec<f64>; 3]>,
 }
 
 /// What the points of one edge `k` contribute in [`Rpy::mobility_derivative`]: for the rows
@@ -296,11 +352,17 @@ impl Rpy {
             "RPY mobility needs edges of positive length"
         );
         let rule = GaussRule::composite(cells);
+        let far = (rule.xi.len() > FAR_POINTS).then(|| {
+            let rule = GaussRule::new(FAR_POINTS);
+            let pw = Basis::new(&lbar, &rule).pw;
+            Box::new(FarRule { rule, pw })
+        });
         Self {
             mu,
             blob_radius,
             basis: Box::new(Basis::new(&lbar, &rule)),
             rule,
+            far,
             centred_clamp: false,
         }
     }
@@ -360,6 +422,14 @@ impl Rpy {
         )
     }
 
+    /// The same model with the composite rule on every pair of edges, far apart or not (see
+    /// *Far field* in the [module documentation](self)): the baseline the far field is measured
+    /// against (`benches/fluid.rs`, the module's tests).
+    pub fn without_far_field(mut self) -> Self {
+        self.far = None;
+        self
+    }
+
     /// Gauss points per edge `Q` (two per cell).
     pub fn points_per_edge(&self) -> usize {
         self.rule.xi.len()
@@ -403,7 +473,20 @@ impl Rpy {
         let mut a = Mat::zeros(3 * n, 3 * n);
         in_parallel_batches(
             edges,
-            |k| self.edge_pairs(&d, k),
+            |k| {
+                let mut pairs = self.edge_pairs(&d, &d.near, true, k);
+                if let Some(far) = &d.far {
+                    let far_pairs = self.edge_pairs(&d, far, false, k);
+                    for (s, f) in pairs.iter_mut().zip(far_pairs) {
+                        for (sa, fa) in s.iter_mut().zip(f) {
+                            for (sab, fab) in sa.iter_mut().zip(fa) {
+                                *sab += fab;
+                            }
+                        }
+                    }
+                }
+                pairs
+            },
             |k, pairs| {
                 for (k2, s) in (k..edges).zip(pairs) {
                     for (ia, sa) in s.iter().enumerate() {
@@ -420,7 +503,8 @@ impl Rpy {
                 }
             },
         );
-        // The point forces at the ends: with each other and with every point of the edges.
+        // The point forces at the ends: with each other and with every point of the edges (by
+        // the near rule).
         let q = self.points_per_edge();
         let ends = [0, n - 1];
         for (ie, &e) in ends.iter().enumerate() {
@@ -431,10 +515,10 @@ impl Rpy {
                     add_block(&mut a, e2, e, &m);
                 }
             }
-            for (p, y) in d.pos.iter().enumerate() {
+            for (p, y) in d.near.pos.iter().enumerate() {
                 let m = self.tensor(x[e] - y);
                 let k = p / q;
-                for (c, pw) in self.basis.pw[p].iter().enumerate() {
+                for (c, pw) in d.near.pw[p].iter().enumerate() {
                     if *pw != 0.0 {
                         let block = m * (pw / w[k + c]);
                         add_block(&mut a, e, k + c, &block);
@@ -527,12 +611,16 @@ impl Rpy {
             .iter()
             .map(|y| consistent.solve_vectors(y, true))
             .collect();
-        let forces: Vec<[Vec<f64>; 3]> = z.iter().map(|z| self.point_forces(z)).collect();
+        let forces: Vec<[Vec<f64>; 3]> = z.iter().map(|z| self.point_forces(&d.near, z)).collect();
+        let far_forces: Vec<[Vec<f64>; 3]> = match &d.far {
+            Some(far) => z.iter().map(|z| self.point_forces(far, z)).collect(),
+            None => Vec::new(),
+        };
         // The groups of LANES source edges that carry a force, per column.
         let active = |g: &[Vec<f64>; 3], k2: usize| {
             g.iter().any(|g| {
                 (0..q).any(|i| {
-                    let at = i * d.lanes.stride + k2;
+                    let at = i * d.near.lanes.stride + k2;
                     g[at..at + LANES].iter().any(|&v| v != 0.0)
                 })
             })
@@ -543,16 +631,24 @@ impl Rpy {
                 .step_by(LANES)
                 .filter(|&k2| active(g, k2))
                 .collect();
-            match together.iter_mut().find(|group| group.sources == sources) {
-                Some(group) => {
-                    group.columns.push(c);
-                    group.forces.push(g.clone());
+            let group = match together.iter().position(|group| group.sources == sources) {
+                Some(at) => &mut together[at],
+                None => {
+                    together.push(SourceGroup {
+                        sources,
+                        columns: Vec::new(),
+                        forces: Vec::new(),
+                        far_forces: Vec::new(),
+                    });
+                    together.last_mut().expect("just pushed")
                 }
-                None => together.push(SourceGroup {
-                    sources,
-                    columns: vec![c],
-                    forces: vec![g.clone()],
-                }),
+            };
+            group.columns.push(c);
+            group.forces.push(g.clone());
+            // (The far rule's forces vanish on the same edges: on either rule's points of an
+            // edge they are the same linear function of the edge's two coefficients.)
+            if let Some(g) = far_forces.get(c) {
+                group.far_forces.push(g.clone());
             }
         }
         let ends = [0, n - 1];
@@ -560,24 +656,41 @@ impl Rpy {
         let rows: Vec<Vec<[Vector3<f64>; 2]>> = (0..edges)
             .into_par_iter()
             .map(|k| {
-                let mut u = vec![Vector3::zeros(); q * z.len()];
-                for group in &together {
-                    let v = self.edge_velocities(&d, &group.forces, &group.sources, k);
-                    for (i, v) in v.chunks_exact(group.columns.len()).enumerate() {
-                        for (&c, v) in group.columns.iter().zip(v) {
-                            u[i * z.len() + c] = *v;
+                // The velocities at the points of `set` on edge k, point by point, a column
+                // each, from the pairs of edges its pass takes.
+                let velocities = |set: &PointSet, near: bool| {
+                    let mut u = vec![Vector3::zeros(); set.per_edge() * z.len()];
+                    for group in &together {
+                        let forces = if near {
+                            &group.forces
+                        } else {
+                            &group.far_forces
+                        };
+                        let v = self.edge_velocities(&d, set, near, forces, &group.sources, k);
+                        for (i, v) in v.chunks_exact(group.columns.len()).enumerate() {
+                            for (&c, v) in group.columns.iter().zip(v) {
+                                u[i * z.len() + c] = *v;
+                            }
                         }
                     }
-                }
+                    u
+                };
                 let mut rows = vec![[Vector3::zeros(); 2]; z.len()];
-                for (i, u) in u.chunks_exact(z.len()).enumerate() {
-                    let p = k * q + i;
-                    // The point forces at the ends.
-                    let m = ends.map(|e| self.tensor(d.pos[p] - x[e]));
-                    for ((row, u), z) in rows.iter_mut().zip(u).zip(&z) {
-                        let u = u + m[0] * z[ends[0]] + m[1] * z[ends[1]];
-                        for (c, pw) in self.basis.pw[p].iter().enumerate() {
-                            row[c] += u * (pw / w[k + c]);
+                let passes =
+                    std::iter::once((&d.near, true)).chain(d.far.as_ref().map(|far| (far, false)));
+                for (set, near) in passes {
+                    for (i, u) in velocities(set, near).chunks_exact(z.len()).enumerate() {
+                        let p = k * set.per_edge() + i;
+                        // The point forces at the ends, by the near rule.
+                        let m = near.then(|| ends.map(|e| self.tensor(set.pos[p] - x[e])));
+                        for ((row, u), z) in rows.iter_mut().zip(u).zip(&z) {
+                            let u = match m {
+                                Some(m) => u + m[0] * z[ends[0]] + m[1] * z[ends[1]],
+                                None => *u,
+                            };
+                            for (c, pw) in set.pw[p].iter().enumerate() {
+                                row[c] += u * (pw / w[k + c]);
+                            }
                         }
                     }
                 }
@@ -599,9 +712,9 @@ impl Rpy {
                     product[e] += m * z[e2];
                 }
             }
-            for (p, y) in d.pos.iter().enumerate() {
+            for (p, y) in d.near.pos.iter().enumerate() {
                 let m = self.tensor(x[e] - y);
-                let at = (p % q) * d.lanes.stride + p / q;
+                let at = (p % q) * d.near.lanes.stride + p / q;
                 for (product, g) in products.iter_mut().zip(&forces) {
                     product[e] += m * Vector3::new(g[0][at], g[1][at], g[2][at]);
                 }
@@ -657,11 +770,23 @@ impl Rpy {
         let edges = n - 1;
         let w = &self.basis.w;
         let z = self.basis.consistent.solve_vectors(y, true);
-        let forces = self.point_forces(&z);
+        let forces = self.point_forces(&d.near, &z);
+        let far_forces = d.far.as_ref().map(|far| self.point_forces(far, &z));
         let mut b = Mat::zeros(3 * n, 3 * n);
         in_parallel_batches(
             edges,
-            |k| self.edge_rows(&d, &forces, k),
+            |k| {
+                let mut rows = self.edge_rows(&d, &d.near, true, &forces, k);
+                if let (Some(far), Some(far_forces)) = (&d.far, &far_forces) {
+                    let far_rows = self.edge_rows(&d, far, false, far_forces, k);
+                    for (row, far_row) in rows.b.iter_mut().zip(&far_rows.b) {
+                        for (block, far_block) in row.iter_mut().zip(far_row) {
+                            *block += far_block;
+                        }
+                    }
+                }
+                rows
+            },
             |k, rows| {
                 for ia in 0..2 {
                     for (j, block) in rows.b[ia].iter().enumerate() {
@@ -681,15 +806,15 @@ impl Rpy {
                     add_block(&mut b, e, e2, &-dm);
                 }
             }
-            for (p, y) in d.pos.iter().enumerate() {
+            for (p, y) in d.near.pos.iter().enumerate() {
                 let (k, xi) = (p / q, self.rule.xi[p % q]);
-                let g = Vector3::from_fn(|c, _| forces[c][(p % q) * d.lanes.stride + k]);
+                let g = Vector3::from_fn(|c, _| forces[c][(p % q) * d.near.lanes.stride + k]);
                 let dm = self.tensor_derivative(x[e] - y, g);
                 add_block(&mut b, e, e, &dm);
                 add_block(&mut b, e, k, &(dm * -(1.0 - xi)));
                 add_block(&mut b, e, k + 1, &(dm * -xi));
                 let dm = self.tensor_derivative(y - x[e], z[e]);
-                for (c, pw) in self.basis.pw[p].iter().enumerate() {
+                for (c, pw) in d.near.pw[p].iter().enumerate() {
                     if *pw != 0.0 {
                         let pi = pw / w[k + c];
                         add_block(&mut b, k + c, k, &(dm * (pi * (1.0 - xi))));
@@ -725,5 +850,80 @@ impl Rpy {
             }
             other => other,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Rpy;
+    use nalgebra::Vector3;
+
+    /// `sqrt(sum |s_ab|^2)` over the four `3 x 3` blocks of an edge pair.
+    fn norm(s: &[[nalgebra::Matrix3<f64>; 2]; 2]) -> f64 {
+        s.iter()
+            .flatten()
+            .map(|m| m.norm_squared())
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    /// The far rule on every pair of edges far apart against the same pair summed by a
+    /// composite rule 16 times finer (128 points per edge; for a kernel analytic over the pair
+    /// its error falls as the fourth power of the cell, so it is the integral to about 1e-13
+    /// here): on a helix turned in on itself (pairs far apart across the turns and along the
+    /// line), the far rule's error is below `1e-7` of the pair's sum (measured `2.6e-8`; the
+    /// scale is `rho^(-2 Q_far)` of a Gauss rule on an integrand analytic inside the ellipse
+    /// with foci at the edge's ends that reaches the nearest singularity, `r = 0`, at least
+    /// `FAR_RATIO - 1` edge lengths away: `rho = 5 + sqrt(24)`, `rho^(-8) = 1.1e-8`), and below
+    /// the error of the composite rule of 8 points per edge that it replaces on each of those
+    /// pairs (measured: at most 1.5e-2 of it).
+    #[test]
+    fn the_far_rule_is_more_accurate_than_the_composite_rule_it_replaces() {
+        let x: Vec<Vector3<f64>> = (0..41)
+            .map(|i| {
+                let t = 0.4 * i as f64;
+                Vector3::new(0.1 * t.cos(), 0.1 * t.sin(), -0.006 * i as f64)
+            })
+            .collect();
+        let a = 0.004;
+        let with_far = Rpy::new(1.0, a, 4, &x);
+        let composite = Rpy::new(1.0, a, 4, &x).without_far_field();
+        let reference = Rpy::new(1.0, a, 64, &x).without_far_field();
+        let (d, dc, dr) = (
+            with_far.discretise(&x),
+            composite.discretise(&x),
+            reference.discretise(&x),
+        );
+        let far = d.far.as_ref().expect("8 points per edge take a far rule");
+        let (mut pairs, mut worst_far, mut worst_ratio) = (0, 0.0_f64, 0.0_f64);
+        for k in 0..x.len() - 1 {
+            let by_far = with_far.edge_pairs(&d, far, false, k);
+            let by_composite = composite.edge_pairs(&dc, &dc.near, true, k);
+            let exact = reference.edge_pairs(&dr, &dr.near, true, k);
+            for (j, ((f, c), e)) in (k..).zip(by_far.iter().zip(&by_composite).zip(&exact)) {
+                if !with_far.far_apart(&d, k, j) {
+                    assert_eq!(norm(f), 0.0, "pair ({k}, {j}) is near: no far sum");
+                    continue;
+                }
+                let difference = |s: &[[nalgebra::Matrix3<f64>; 2]; 2]| {
+                    let mut out = *s;
+                    for (o, e) in out.iter_mut().flatten().zip(e.iter().flatten()) {
+                        *o -= e;
+                    }
+                    norm(&out) / norm(e)
+                };
+                let (error_far, error_composite) = (difference(f), difference(c));
+                pairs += 1;
+                worst_far = worst_far.max(error_far);
+                worst_ratio = worst_ratio.max(error_far / error_composite);
+            }
+        }
+        println!(
+            "{pairs} pairs far apart: far rule's error at most {worst_far:.2e} of the pair's \
+             sum, at most {worst_ratio:.2e} of the composite rule's"
+        );
+        assert!(pairs > 500, "{pairs} pairs far apart");
+        assert!(worst_far < 1e-7, "{worst_far:e}");
+        assert!(worst_ratio < 1.0, "{worst_ratio:e}");
     }
 }

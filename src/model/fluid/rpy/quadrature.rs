@@ -64,6 +64,15 @@ impl GaussRule {
     }
 }
 
+/// Gauss points per edge of the far field's rule (see the [module documentation](super), *Far
+/// field*): the pairs of edges far apart take `FAR_POINTS` points on each edge instead of the
+/// composite rule's `Q`, where `Q` is larger.
+pub(super) const FAR_POINTS: usize = 4;
+
+/// Two edges are far apart where their midpoints are at least `FAR_RATIO` times the longer edge
+/// apart (see the [module documentation](super), *Far field*).
+pub(super) const FAR_RATIO: f64 = 3.0;
+
 /// The power of two nearest to `target` (in ratio), at least 1: the cells per edge.
 pub(super) fn cells_per_edge(target: f64) -> usize {
     if target <= 1.0 {
