@@ -475,8 +475,10 @@ impl Rpy {
                         }
                     }
                 }
-                for a in &mut acc {
-                    *a = *a * mask;
+                if mask != Lanes::splat(1.0) {
+                    for a in &mut acc {
+                        *a = *a * mask;
+                    }
                 }
                 for j in 0..9 {
                     own[ip][j] += acc[j];
@@ -545,13 +547,20 @@ impl Rpy {
             let y = components(|c| Lanes::splat(set.pos[p][c]));
             sums.fill([Lanes::ZERO; 3]);
             for &(k2, mask) in &masks {
-                group.fill([Lanes::ZERO; 3]);
+                // A group whose every lane the pass takes sums straight into `sums`.
+                let whole = mask == Lanes::splat(1.0);
+                let into = if whole {
+                    &mut sums
+                } else {
+                    group.fill([Lanes::ZERO; 3]);
+                    &mut group
+                };
                 for i in 0..q {
                     let at = i * lanes.stride + k2;
                     let r = components(|c| y[c] - Lanes::load(&lanes.pos[c], at));
                     let radial = self.radial((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt());
                     let c = radial.beta_over_r * radial.inv;
-                    for (sum, g) in group.iter_mut().zip(forces) {
+                    for (sum, g) in into.iter_mut().zip(forces) {
                         let g = components(|j| Lanes::load(&g[j], at));
                         let along = c * (r[0] * g[0] + r[1] * g[1] + r[2] * g[2]);
                         for j in 0..3 {
@@ -559,9 +568,11 @@ impl Rpy {
                         }
                     }
                 }
-                for (sum, g) in sums.iter_mut().zip(&group) {
-                    for j in 0..3 {
-                        sum[j] += g[j] * mask;
+                if !whole {
+                    for (sum, g) in sums.iter_mut().zip(&group) {
+                        for j in 0..3 {
+                            sum[j] += g[j] * mask;
+                        }
                     }
                 }
             }
