@@ -3,8 +3,8 @@
 //! [`LANES`] edges, in a baseline copy and copies compiled for AVX2 and FMA and for AVX-512.
 
 use super::super::lanes::{LANES, Lanes};
-use super::quadrature::FAR_RATIO;
-use super::{Discretisation, EdgeRows, PointSet, Rpy};
+use super::quadrature::{FAR_RATIO, FAR_RATIO_DEFORMED};
+use super::{Discretisation, EdgeRows, Edges, PointSet, Rpy};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -17,8 +17,8 @@ use std::sync::atomic::{AtomicU8, Ordering};
 /// copy gives the same bits, so the choice changes the time only. The sums are the same because
 /// no operation is fused (Rust contracts no `a * b + c` into an FMA by itself;
 /// `tests::every_kernel_copy_gives_the_same_bits`). `cargo bench --bench refine` ran the
-/// default refinement in 4.3, 5.1 and 7.1 s in the AVX-512, AVX2 and baseline copies on the
-/// 2-core Intel Xeon (`perf` put two thirds of that run in the kernels).
+/// default refinement in 3.9 and 4.8 s in the AVX2 and baseline copies on the 2-core AMD EPYC
+/// (on an Intel Xeon, without the far field, the AVX-512 copy took 0.84 of the AVX2 copy's time).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum KernelCopy {
     Baseline,
@@ -184,7 +184,7 @@ pub(super) struct PointLanes {
     pub(super) stride: usize,
     /// Positions `y_p`, by component.
     pub(super) pos: [Vec<f64>; 3],
-    /// `[c_p (1 - xi_q), c_p xi_q]`, as [`Discretisation::pw`].
+    /// The points' weights in the basis, as [`PointSet::pw`].
     pub(super) pw: [Vec<f64>; 2],
 }
 
@@ -263,19 +263,23 @@ impl Rpy {
         Discretisation {
             near: point_set(x, &self.rule.xi, &self.basis.pw),
             far: (self.far.as_ref()).map(|far| point_set(x, &far.rule.xi, &far.pw)),
-            midpoint: x.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect(),
-            length: x.windows(2).map(|e| (e[1] - e[0]).norm()).collect(),
+            edges: Edges::of(x),
         }
     }
 
-    /// Whether the edges `k` and `j` of `d` are far apart: their midpoints at least
-    /// [`FAR_RATIO`] times the longer edge apart and their points at least `2a` (so that
-    /// `M` is analytic over the pair; its only singularity, `r = 0`, is then at least
-    /// `FAR_RATIO - 1` edge lengths away).
+    /// Whether the far rule takes the edges `k` and `j` of the configuration `d`: in the natural
+    /// polygon their midpoints are at least [`FAR_RATIO`] times the longer edge apart, and in
+    /// `d` still at least [`FAR_RATIO_DEFORMED`] times, and their points at least `2a` apart in
+    /// both (so that `M` is analytic over the pair; its only singularity, `r = 0`, is at least
+    /// `FAR_RATIO_DEFORMED - 1` edge lengths away). The natural polygon decides, so that the
+    /// partition, and with it `A(X)`, does not change with the configuration; the configuration
+    /// only takes a pair back to the near rule where the rod has folded far from its natural
+    /// shape.
     pub(super) fn far_apart(&self, d: &Discretisation, k: usize, j: usize) -> bool {
-        let longer = d.length[k].max(d.length[j]);
-        let distance = (d.midpoint[k] - d.midpoint[j]).norm();
-        distance >= FAR_RATIO * longer && distance - longer >= 2.0 * self.blob_radius
+        let gap = 2.0 * self.blob_radius;
+        self.far.as_ref().is_some_and(|far| {
+            far.natural.apart(k, j, FAR_RATIO, gap) && d.edges.apart(k, j, FAR_RATIO_DEFORMED, gap)
+        })
     }
 
     /// Which of the [`LANES`] source edges from `k2` a pass over the edge `k` takes: 1 in the
@@ -290,7 +294,7 @@ impl Rpy {
         k2: usize,
         near: bool,
     ) -> Option<Lanes> {
-        let edges = d.length.len();
+        let edges = d.edges.length.len();
         if d.far.is_none() {
             return near.then_some(Lanes::splat(1.0));
         }
@@ -628,7 +632,10 @@ mod tests {
             .collect();
         let rpy = super::Rpy::for_polygon(1.0, 0.012, 8.0, &x);
         let d = rpy.discretise(&x);
-        let far = d.far.as_ref().expect("8 points per edge take a far rule");
+        let far = d
+            .far
+            .as_ref()
+            .expect("this rule's 32 points per edge take a far rule");
         let sources: Vec<usize> = (0..x.len() - 1).step_by(super::LANES).collect();
         for (set, near) in [(&d.near, true), (far, false)] {
             let forces = rpy.point_forces(set, &y);

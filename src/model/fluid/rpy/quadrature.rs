@@ -70,8 +70,11 @@ impl GaussRule {
 pub(super) const FAR_POINTS: usize = 4;
 
 /// Two edges are far apart where their midpoints are at least `FAR_RATIO` times the longer edge
-/// apart (see the [module documentation](super), *Far field*).
+/// apart in the natural polygon (see the [module documentation](super), *Far field*).
 pub(super) const FAR_RATIO: f64 = 3.0;
+
+/// ... and still at least `FAR_RATIO_DEFORMED` times in the configuration at hand.
+pub(super) const FAR_RATIO_DEFORMED: f64 = 2.0;
 
 /// The power of two nearest to `target` (in ratio), at least 1: the cells per edge.
 pub(super) fn cells_per_edge(target: f64) -> usize {
