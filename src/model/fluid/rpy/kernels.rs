@@ -3,8 +3,8 @@
 //! [`LANES`] edges, in a baseline copy and copies compiled for AVX2 and FMA and for AVX-512.
 
 use super::super::lanes::{LANES, Lanes};
-use super::quadrature::{FAR_RATIO, FAR_RATIO_DEFORMED};
-use super::{Discretisation, EdgeRows, Edges, PointSet, Rpy};
+use super::quadrature::{Edges, FAR_RATIO, FAR_RATIO_DEFORMED};
+use super::{Discretisation, EdgeRows, PointSet, Rpy};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -251,7 +251,8 @@ impl Rpy {
     }
 
     /// The quadrature points of the configuration `x`: the near rule's, the far rule's where
-    /// the model has one, and the edges' midpoints and lengths.
+    /// the model has one, and which pairs of edges the far rule takes (once for every kernel
+    /// pass over `x`).
     pub(super) fn discretise(&self, x: &[Vector3<f64>]) -> Discretisation<'_> {
         let n = x.len();
         assert_eq!(
@@ -260,32 +261,40 @@ impl Rpy {
             "RPY mobility built for {} nodes, given {n}",
             self.nodes()
         );
+        let edges = n - 1;
+        // The far rule takes the edges `k` and `j` where in the natural polygon their midpoints
+        // are at least FAR_RATIO times the longer edge apart, in `x` still at least
+        // FAR_RATIO_DEFORMED times, and their points at least `2a` apart in both (so that `M` is
+        // analytic over the pair; its only singularity, `r = 0`, is at least
+        // `FAR_RATIO_DEFORMED - 1` edge lengths away). The natural polygon decides, so that the
+        // partition, and with it `A(X)`, does not change with the configuration; the
+        // configuration only takes a pair back to the near rule where the rod has folded far
+        // from its natural shape.
+        let far_pairs = match &self.far {
+            Some(far) => {
+                let (current, gap) = (Edges::of(x), 2.0 * self.blob_radius);
+                (0..edges * edges)
+                    .map(|i| {
+                        let (k, j) = (i / edges, i % edges);
+                        far.natural.apart(k, j, FAR_RATIO, gap)
+                            && current.apart(k, j, FAR_RATIO_DEFORMED, gap)
+                    })
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         Discretisation {
             near: point_set(x, &self.rule.xi, &self.basis.pw),
             far: (self.far.as_ref()).map(|far| point_set(x, &far.rule.xi, &far.pw)),
-            edges: Edges::of(x),
+            edges,
+            far_pairs,
         }
-    }
-
-    /// Whether the far rule takes the edges `k` and `j` of the configuration `d`: in the natural
-    /// polygon their midpoints are at least [`FAR_RATIO`] times the longer edge apart, and in
-    /// `d` still at least [`FAR_RATIO_DEFORMED`] times, and their points at least `2a` apart in
-    /// both (so that `M` is analytic over the pair; its only singularity, `r = 0`, is at least
-    /// `FAR_RATIO_DEFORMED - 1` edge lengths away). The natural polygon decides, so that the
-    /// partition, and with it `A(X)`, does not change with the configuration; the configuration
-    /// only takes a pair back to the near rule where the rod has folded far from its natural
-    /// shape.
-    pub(super) fn far_apart(&self, d: &Discretisation, k: usize, j: usize) -> bool {
-        let gap = 2.0 * self.blob_radius;
-        self.far.as_ref().is_some_and(|far| {
-            far.natural.apart(k, j, FAR_RATIO, gap) && d.edges.apart(k, j, FAR_RATIO_DEFORMED, gap)
-        })
     }
 
     /// Which of the [`LANES`] source edges from `k2` a pass over the edge `k` takes: 1 in the
     /// lanes of the edges it takes, 0 elsewhere (and in the padding past the last edge); `None`
     /// where it takes none. The near pass (`near`) takes the pairs that are not far apart
-    /// ([`Rpy::far_apart`]), the far pass the others; without a far rule the near pass takes
+    /// ([`Discretisation::far_apart`]), the far pass the others; without a far rule the near pass takes
     /// every pair.
     pub(super) fn pass_mask(
         &self,
@@ -294,13 +303,13 @@ impl Rpy {
         k2: usize,
         near: bool,
     ) -> Option<Lanes> {
-        let edges = d.edges.length.len();
+        let edges = d.edges;
         if d.far.is_none() {
             return near.then_some(Lanes::splat(1.0));
         }
         let mask = Lanes(std::array::from_fn(|l| {
             let j = k2 + l;
-            f64::from(u8::from(j < edges && self.far_apart(d, k, j) != near))
+            f64::from(u8::from(j < edges && d.far_apart(k, j) != near))
         }));
         (mask.sum() > 0.0).then_some(mask)
     }

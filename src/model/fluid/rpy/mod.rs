@@ -197,7 +197,7 @@ use basis::Basis;
 use faer::{Mat, MatRef};
 use kernels::PointLanes;
 use nalgebra::{Matrix3, Vector3};
-use quadrature::{FAR_POINTS, GaussRule, cells_per_edge};
+use quadrature::{Edges, FAR_POINTS, GaussRule, cells_per_edge};
 use rayon::prelude::*;
 
 /// Quadrature points per blob radius, about: an edge of natural length `lbar` is cut into `m`
@@ -246,30 +246,6 @@ struct FarRule {
     natural: Edges,
 }
 
-/// The midpoints and lengths of a polygon's edges.
-#[derive(Clone, Debug, PartialEq)]
-struct Edges {
-    midpoint: Vec<Vector3<f64>>,
-    length: Vec<f64>,
-}
-
-impl Edges {
-    fn of(x: &[Vector3<f64>]) -> Self {
-        Self {
-            midpoint: x.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect(),
-            length: x.windows(2).map(|e| (e[1] - e[0]).norm()).collect(),
-        }
-    }
-
-    /// Whether the edges `k` and `j` are at least `ratio` times the longer one apart, midpoint to
-    /// midpoint, and their points at least `gap` apart.
-    fn apart(&self, k: usize, j: usize, ratio: f64, gap: f64) -> bool {
-        let longer = self.length[k].max(self.length[j]);
-        let distance = (self.midpoint[k] - self.midpoint[j]).norm();
-        distance >= ratio * longer && distance - longer >= gap
-    }
-}
-
 /// One rule's quadrature points on the edges of one configuration.
 struct PointSet<'a> {
     /// The points' parameters `xi_q` along their edge (`Q` of them, the same on every edge).
@@ -290,12 +266,25 @@ impl PointSet<'_> {
 }
 
 /// Geometry of one configuration: the quadrature points of the near rule and of the far rule
-/// (where there is one), and its edges, which say whether a pair far apart in the natural
-/// polygon is still far apart.
+/// (where there is one), and which pairs of edges the far rule takes ([`Rpy::discretise`]).
 struct Discretisation<'a> {
     near: PointSet<'a>,
     far: Option<PointSet<'a>>,
-    edges: Edges,
+    /// Number of edges.
+    edges: usize,
+    /// Whether the far rule takes the edges `k` and `j`, at `k * edges + j` (empty without a
+    /// far rule).
+    far_pairs: Vec<bool>,
+}
+
+impl Discretisation<'_> {
+    /// Whether the far rule takes the edges `k` and `j`.
+    fn far_apart(&self, k: usize, j: usize) -> bool {
+        self.far_pairs
+            .get(k * self.edges + j)
+            .copied()
+            .unwrap_or(false)
+    }
 }
 
 /// Columns of [`Rpy::mobility_product`] whose point forces sit on the same groups of source
@@ -653,10 +642,9 @@ impl Rpy {
             .map(|y| consistent.solve_vectors(y, true))
             .collect();
         let forces: Vec<[Vec<f64>; 3]> = z.iter().map(|z| self.point_forces(&d.near, z)).collect();
-        let far_forces: Vec<[Vec<f64>; 3]> = match &d.far {
-            Some(far) => z.iter().map(|z| self.point_forces(far, z)).collect(),
-            None => Vec::new(),
-        };
+        let mut far_forces = (d.far.as_ref())
+            .into_iter()
+            .flat_map(|far| z.iter().map(|z| self.point_forces(far, z)));
         // The groups of LANES source edges that carry a force, per column.
         let active = |g: &[Vec<f64>; 3], k2: usize| {
             g.iter().any(|g| {
@@ -688,8 +676,8 @@ impl Rpy {
             group.forces.push(g.clone());
             // (The far rule's forces vanish on the same edges: on either rule's points of an
             // edge they are the same linear function of the edge's two coefficients.)
-            if let Some(g) = far_forces.get(c) {
-                group.far_forces.push(g.clone());
+            if let Some(g) = far_forces.next() {
+                group.far_forces.push(g);
             }
         }
         let ends = [0, n - 1];
@@ -961,7 +949,7 @@ mod tests {
                 let exact = reference.edge_pairs(&dr, &dr.near, true, k);
                 let rows = by_far.iter().zip(&by_near).zip(&by_composite).zip(&exact);
                 for (j, (((f, near), c), e)) in (k..).zip(rows) {
-                    if !with_far.far_apart(&d, k, j) {
+                    if !d.far_apart(k, j) {
                         assert_eq!(norm(f), 0.0, "{name}: pair ({k}, {j}) is near: no far sum");
                         continue;
                     }

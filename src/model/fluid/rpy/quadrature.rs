@@ -2,6 +2,7 @@
 //! of `m`): the composite two-point Gauss rule on every edge, with a power of two of cells so
 //! that the points of the natural polygon stay where they are when the edges are halved.
 
+use nalgebra::Vector3;
 use std::f64::consts::PI;
 
 /// Gauss–Legendre rule on `[0, 1]`: nodes `xi_q` and weights `g_q`, `sum g_q = 1`.
@@ -75,6 +76,30 @@ pub(super) const FAR_RATIO: f64 = 3.0;
 
 /// ... and still at least `FAR_RATIO_DEFORMED` times in the configuration at hand.
 pub(super) const FAR_RATIO_DEFORMED: f64 = 2.0;
+
+/// The midpoints and lengths of a polygon's edges.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Edges {
+    midpoint: Vec<Vector3<f64>>,
+    length: Vec<f64>,
+}
+
+impl Edges {
+    pub(super) fn of(x: &[Vector3<f64>]) -> Self {
+        Self {
+            midpoint: x.windows(2).map(|e| 0.5 * (e[0] + e[1])).collect(),
+            length: x.windows(2).map(|e| (e[1] - e[0]).norm()).collect(),
+        }
+    }
+
+    /// Whether the edges `k` and `j` are at least `ratio` times the longer one apart, midpoint to
+    /// midpoint, and their points at least `gap` apart.
+    pub(super) fn apart(&self, k: usize, j: usize, ratio: f64, gap: f64) -> bool {
+        let longer = self.length[k].max(self.length[j]);
+        let distance = (self.midpoint[k] - self.midpoint[j]).norm();
+        distance >= ratio * longer && distance - longer >= gap
+    }
+}
 
 /// The power of two nearest to `target` (in ratio), at least 1: the cells per edge.
 pub(super) fn cells_per_edge(target: f64) -> usize {
