@@ -155,6 +155,75 @@ fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_th
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A boundary study resumed after an interruption reads back the curves the interrupted run
+/// finished (their folders keep that run's record) and follows the rest again: the same
+/// curves, local exponents and shared power law as the run that was not interrupted, to the
+/// last bit. A resume with other settings than the folder's is refused, naming `--resume`.
+#[test]
+fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("studies/exponent_m.toml");
+    let study = reduced(Study::from_path(Some(&path), &[]).unwrap());
+    let dir = temp_dir("boundary-resume");
+    let by = |name: &str| Provenance {
+        command_line: vec![name.to_string()],
+    };
+    let StudyResult::Boundary(whole) = run(&study, &dir, false, &by("whole")).unwrap() else {
+        panic!("a boundary study reports a boundary result")
+    };
+    assert_eq!(whole.curves.len(), 2);
+    let (first, second) = (dir.join("lambda_l_0_125"), dir.join("lambda_l_0_1875"));
+    let table = |folder: &Path| std::fs::read_to_string(folder.join("boundary.csv")).unwrap();
+    let recorded_by = |folder: &Path| {
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(folder.join("meta.json")).unwrap())
+                .unwrap();
+        meta["command_line"][0].as_str().unwrap().to_string()
+    };
+    let (first_table, second_table) = (table(&first), table(&second));
+    // The second curve interrupted after three points, as an interruption leaves its folder:
+    // the points so far, and the record of a run that stopped.
+    let kept: Vec<&str> = second_table.lines().take(4).collect();
+    assert!(second_table.lines().count() > 6, "{second_table}");
+    std::fs::write(second.join("boundary.csv"), kept.join("\n") + "\n").unwrap();
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(second.join("meta.json")).unwrap()).unwrap();
+    meta["run"] = serde_json::json!({ "error": "interrupted (Ctrl-C)" });
+    std::fs::write(second.join("meta.json"), meta.to_string()).unwrap();
+    std::fs::remove_file(dir.join("m_loc.svg")).unwrap();
+
+    let StudyResult::Boundary(resumed) = run(&study, &dir, true, &by("resumed")).unwrap() else {
+        panic!("a boundary study reports a boundary result")
+    };
+    // The finished curve was read back, the interrupted one followed again.
+    assert_eq!(recorded_by(&first), "whole");
+    assert_eq!(recorded_by(&second), "resumed");
+    assert_eq!(table(&first), first_table);
+    assert_eq!(table(&second), second_table);
+    assert!(dir.join("m_loc.svg").exists());
+    for (a, b) in whole.curves.iter().zip(&resumed.curves) {
+        assert_eq!(a.label, b.label);
+        assert_eq!(a.m_loc_smallest, b.m_loc_smallest);
+        assert_eq!(a.m_loc_limit, b.m_loc_limit);
+        assert_eq!(a.m_loc_limit_error, b.m_loc_limit_error);
+        let (ra, rb) = (a.report.as_ref().unwrap(), b.report.as_ref().unwrap());
+        assert_eq!((ra.points, ra.segments), (rb.points, rb.segments));
+        assert_eq!(ra.relative_error_max, rb.relative_error_max);
+    }
+    let (ca, cb) = (whole.common_fit.unwrap(), resumed.common_fit.unwrap());
+    assert_eq!((ca.p, ca.p_ci, ca.n), (cb.p, cb.p_ci, cb.n));
+
+    // The folder's curves were followed for other settings: refused, nothing followed.
+    let other = reduced(Study::from_path(Some(&path), &["rod.E=1.3e6".to_string()]).unwrap());
+    let Err(refused) = run(&other, &dir, true, &by("other")) else {
+        panic!("a resume with other settings runs")
+    };
+    assert!(refused.is_input(), "{refused}");
+    assert!(refused.to_string().contains("--resume"), "{refused}");
+    assert_eq!(recorded_by(&first), "whole");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The rows of a sweep CSV without the timing column, sorted by point.
 fn rows(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();

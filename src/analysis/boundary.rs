@@ -32,7 +32,7 @@ use std::ops::ControlFlow;
 use std::rc::Rc;
 use std::time::Instant;
 
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::locate::{Critical, LocateSettings, Loss, locate};
 
@@ -54,11 +54,12 @@ use crate::problem::rod::RodProblem;
 use crate::{Error, Result};
 
 mod carry;
+mod names;
 pub use carry::{Answer, PointAccuracy};
 use carry::{Carried, interpolate, refined_row};
 
-/// One point of the boundary (a row of `boundary.csv`).
-#[derive(Clone, Debug, Serialize)]
+/// One point of the boundary (a row of `boundary.csv`, read back by a resumed study).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BoundaryPoint {
     /// The index of the curve the point lies on (a switch or a jump starts a new one).
     pub segment: usize,
@@ -78,7 +79,10 @@ pub struct BoundaryPoint {
     /// at fold and branch points.
     pub reached: Option<bool>,
     pub omegabar_b: f64,
-    #[serde(serialize_with = "event_name")]
+    #[serde(
+        serialize_with = "names::event_name",
+        deserialize_with = "names::event_of_name"
+    )]
     pub kind: EventKind,
     /// Frequency of the critical mode, rad/s and normalized.
     pub w: f64,
@@ -122,9 +126,12 @@ pub struct BoundaryPoint {
 }
 
 /// A special point of the boundary (a row of `points.csv`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SpecialPoint {
-    #[serde(serialize_with = "special_name")]
+    #[serde(
+        serialize_with = "names::special_name",
+        deserialize_with = "names::special_of_name"
+    )]
     pub kind: BoundaryEvent,
     pub q: f64,
     pub omega: f64,
@@ -167,14 +174,6 @@ impl BoundaryEvent {
     }
 }
 
-fn event_name<S: Serializer>(kind: &EventKind, s: S) -> std::result::Result<S::Ok, S::Error> {
-    s.serialize_str(kind.name())
-}
-
-fn special_name<S: Serializer>(kind: &BoundaryEvent, s: S) -> std::result::Result<S::Ok, S::Error> {
-    s.serialize_str(kind.name())
-}
-
 /// The boundary found so far.
 #[derive(Clone, Debug, Default)]
 pub struct Boundary {
@@ -202,7 +201,7 @@ pub struct Boundary {
 
 /// Where the seconds of a boundary went: what the run reports of its cost, so that the part
 /// worth saving (a carry spacing, a shorter range) can be seen.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct TimeSpent {
     /// The rest: following the curve (the `locate` at its start and after each jump, the
     /// corrector's steady solves and spectra, the first Lyapunov coefficient at every point, the
@@ -265,7 +264,7 @@ impl Boundary {
 }
 
 /// The verdicts on the criticality of the Hopf points of a boundary.
-#[derive(Debug, Default, Serialize)]
+#[derive(Debug, Default, Serialize, Deserialize)]
 pub struct Criticality {
     pub supercritical: usize,
     pub subcritical: usize,

@@ -256,7 +256,8 @@ pub struct BoundaryArgs {
     /// With --accuracy: refine only points at least this far apart in ln of the varied value
     /// (0 to 1; default 0, every point), the first and last of each curve included, and give
     /// the points between the refined correction interpolated in ln q, with the interpolation's
-    /// error added to theirs (docs/model.md section 11).
+    /// error added to theirs; where that error is above the accuracy, more points are refined
+    /// (docs/model.md section 11).
     #[arg(long, allow_negative_numbers = true)]
     pub carry_spacing: Option<f64>,
     /// Output folder; default `output/<study name>.boundary-<KEY>/`.

@@ -61,7 +61,7 @@ use std::collections::{HashMap, HashSet};
 
 use faer::{Mat, c64};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{Linearization, Problem};
 use crate::numerics::lu::Lu;
@@ -93,7 +93,7 @@ pub const STARTS: [f64; 2] = [1.0, 4.0];
 const ROUND_OFF: f64 = 2e-8;
 
 /// The side of a Hopf point the periodic orbits are born on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// `l1 < 0`: stable orbits past the Hopf point, amplitude growing as a square root.

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use indicatif::ProgressBar;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::boundary::{
     Answer, Boundary, BoundaryObserver, BoundaryPoint, Criticality, PointAccuracy, SpecialPoint,
@@ -21,15 +21,15 @@ use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
 use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
-use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, write_json};
+use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, read_rows, write_json};
 use crate::study::plan::{Case, check_refinement_room};
 use crate::study::progress;
 use crate::study::run::slug;
 use crate::study::sweep::variant;
 use crate::{Error, Result};
 
-/// What `helixbif boundary` reports.
-#[derive(Debug, Serialize)]
+/// What `helixbif boundary` reports (read back from `meta.json` by a resumed study).
+#[derive(Debug, Serialize, Deserialize)]
 pub struct BoundaryReport {
     pub key: String,
     pub from: f64,
@@ -235,19 +235,9 @@ pub(crate) fn run_family(
     let (boundary, outcome) = follow_boundary(family, (&settings, accuracy), from, to, &mut writer);
     writer.bar.finish_and_clear();
     // What was found is kept (tables and figures) even when the curve could not be finished.
-    let written = writer.write(&boundary).and_then(|()| {
-        let special: Vec<(String, SpecialPoint)> = boundary
-            .special
-            .iter()
-            .map(|p| (String::new(), p.clone()))
-            .collect();
-        curve_figures(
-            dir,
-            key,
-            &[(String::new(), boundary.points.clone())],
-            &special,
-        )
-    });
+    let written = writer
+        .write(&boundary)
+        .and_then(|()| one_curve_figures(dir, key, &boundary.points, &boundary.special));
     writer.kept.hold(&boundary);
     let report = outcome.and(written).map(|()| {
         let last = boundary.points.last().expect("a finished curve has points");
@@ -317,6 +307,52 @@ pub(crate) fn run_family(
     };
     Meta::new(study, scales, run, provenance).write(&dir.join("meta.json"))?;
     Ok(report)
+}
+
+/// The figures of one curve (unlabelled) in its folder `dir`.
+fn one_curve_figures(
+    dir: &Path,
+    key: &str,
+    rows: &[BoundaryPoint],
+    special: &[SpecialPoint],
+) -> Result<()> {
+    let special: Vec<(String, SpecialPoint)> =
+        special.iter().map(|p| (String::new(), p.clone())).collect();
+    curve_figures(dir, key, &[(String::new(), rows.to_vec())], &special)
+}
+
+/// The curve an earlier run of `study` finished in `dir` (its rows, special points and report),
+/// read back by a resumed study instead of following it again; `None` where no run finished
+/// it there (none ran, or it stopped short). `meta.json` there records the study the curve
+/// was followed for, which must be `study` (a case's own, with its settings and accuracy);
+/// where a study of one case wrote its record over the curve's, the report is inside it.
+fn finished_curve(study: &Study, dir: &Path) -> Result<Option<(Kept, BoundaryReport)>> {
+    let path = dir.join("meta.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let bad =
+        |e: &dyn std::fmt::Display| Error::input("--resume", format!("{}: {e}", path.display()));
+    let text = std::fs::read_to_string(&path).map_err(|e| bad(&e))?;
+    let meta: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
+    let ours = serde_json::to_value(study).map_err(|e| Error::Numerical(e.to_string()))?;
+    if meta["study"] != ours {
+        return Err(bad(
+            &"written for another study or other settings; run without --resume to follow \
+              the curve afresh",
+        ));
+    }
+    let run = &meta["run"];
+    let report = run.get("curves").map_or(run, |curves| &curves[0]["report"]);
+    if report.is_null() || report.get("error").is_some() {
+        return Ok(None);
+    }
+    let report: BoundaryReport = serde_json::from_value(report.clone()).map_err(|e| bad(&e))?;
+    let kept = Kept {
+        rows: read_rows(&dir.join("boundary.csv"), true)?,
+        special: read_rows(&dir.join("points.csv"), true)?,
+    };
+    Ok(Some((kept, report)))
 }
 
 /// What a boundary study reports: each curve, and the power law they share over the fit range.
@@ -421,13 +457,15 @@ pub struct Curves<'a> {
 /// A boundary study: a curve per case ([`Curves`]), each in its own folder (the study's own
 /// when there is one case), the curves drawn together (`boundary.svg`, `m_loc.svg`), and with
 /// `fit`, one power law shared by the curves over that range (`fit.json`: `m`, its interval,
-/// the range; the exponent the phase study reads). Returns the summary and the curves that did
-/// not finish or fell short of the accuracy.
+/// the range; the exponent the phase study reads). With `resume`, a curve an earlier run of the
+/// same study finished is read back from its folder ([`finished_curve`]) and its figures drawn
+/// again, not followed again. Returns the summary and the curves that did not finish or fell
+/// short of the accuracy.
 pub fn run_study(
     study: &Study,
     curves: &Curves,
     cases: &[Case],
-    fit: Option<[f64; 2]>,
+    (fit, resume): (Option<[f64; 2]>, bool),
     dir: &Path,
     provenance: &Provenance,
 ) -> Result<(BoundaryStudy, Vec<String>)> {
@@ -455,14 +493,23 @@ pub fn run_study(
         } else {
             dir.join(slug(&case.label))
         };
-        // A panic (a bug) ends this curve, not the others; its rows so far are on disk and
-        // in `kept`.
+        let finished = if resume {
+            finished_curve(&s, &sub)?
+        } else {
+            None
+        };
         let mut kept = Kept::default();
-        let outcome = match caught(|| {
-            keeping(&s, key, (from, to), (accuracy, &sub, provenance), &mut kept)
-        }) {
-            Err(e @ Error::Internal(_)) => Err(e),
-            other => other?,
+        let outcome = if let Some((read, report)) = finished {
+            one_curve_figures(&sub, key, &read.rows, &read.special)?;
+            kept = read;
+            Ok(report)
+        } else {
+            // A panic (a bug) ends this curve, not the others; its rows so far are on disk and
+            // in `kept`.
+            match caught(|| keeping(&s, key, (from, to), (accuracy, &sub, provenance), &mut kept)) {
+                Err(e @ Error::Internal(_)) => Err(e),
+                other => other?,
+            }
         };
         let Kept { rows, special } = kept;
         let (report, error) = match outcome {
@@ -554,8 +601,9 @@ fn far_out_fences(values: &[f64]) -> Option<(f64, f64)> {
 }
 
 /// Boundary curves drawn together (`boundary.svg`: `omegabar_b` against `q` on logarithmic
-/// axes; `m_loc.svg`: `m_loc` against `q`), a line per curve and segment, labelled by the curve's
-/// label (none for a lone unlabelled curve), the special points marked.
+/// axes; `m_loc.svg`: `m_loc` against `q`), a line per curve in one colour, broken where the
+/// boundary switches or jumps to another segment, labelled by the curve's label (none for a lone
+/// unlabelled curve), the special points marked.
 fn curve_figures(
     dir: &Path,
     key: &str,
@@ -568,26 +616,33 @@ fn curve_figures(
             .map_or(f64::NAN, |e| e / r.omega_b.abs() * r.omegabar_b.abs())
     };
     type Band<'b> = Option<&'b dyn Fn(&BoundaryPoint) -> f64>;
+    // One series per curve: its segments one after the other, a gap (a point that cannot be
+    // drawn) between two, `y` of each segment's `i`-th point given the segment.
     let series = |y: &dyn Fn(&[&BoundaryPoint], usize) -> f64, band: Band| -> Vec<Series> {
         curves
             .iter()
-            .flat_map(|(label, rows)| {
+            .map(|(label, rows)| {
                 let segments = rows.last().map_or(0, |r| r.segment + 1);
-                (0..segments).map(move |k| {
+                let (mut xs, mut ys, mut errs) = (Vec::new(), Vec::new(), Vec::new());
+                for k in 0..segments {
                     let on: Vec<&BoundaryPoint> = rows.iter().filter(|r| r.segment == k).collect();
-                    Series {
-                        label: if segments > 1 {
-                            format!("{} (curve {})", typeset(label), k + 1)
-                        } else {
-                            typeset(label)
-                        },
-                        x: on.iter().map(|r| r.q).collect(),
-                        y: (0..on.len()).map(|i| y(&on, i)).collect(),
-                        style: Style::Line,
-                        stable: None,
-                        err: band.map(|e| on.iter().map(|r| e(r)).collect()),
+                    if k > 0 {
+                        xs.push(f64::NAN);
+                        ys.push(f64::NAN);
+                        errs.push(f64::NAN);
                     }
-                })
+                    xs.extend(on.iter().map(|r| r.q));
+                    ys.extend((0..on.len()).map(|i| y(&on, i)));
+                    errs.extend(on.iter().map(|r| band.map_or(f64::NAN, |e| e(r))));
+                }
+                Series {
+                    label: typeset(label),
+                    x: xs,
+                    y: ys,
+                    style: Style::Line,
+                    stable: None,
+                    err: band.map(|_| errs),
+                }
             })
             .collect()
     };
@@ -630,11 +685,14 @@ fn curve_figures(
     // m_loc diverges at a turning point of a curve in q (the tangent of ln ω̄_b against ln q is
     // vertical there and its sign flips across it), and a difference whose samples straddle one
     // can take any value (−192 at R/λ ≈ 0.377 in exponent_m, where the turning point located
-    // last is stored after a sample already past it). Such values say only "turning point
-    // here". So a sample whose neighbours reverse the direction of q or of ω̄_b is left out
-    // (the line breaks there), and the y axis spans Tukey's far-out fences (quartiles ∓ 3
-    // interquartile ranges) of the values: every sample of a smooth stretch lies inside them,
-    // and a curve that diverges is drawn up to the frame instead of setting the scale.
+    // last is stored after a sample already past it; 1.3e4 on a segment of two points, the
+    // stretch between a turning point and the window the boundary jumps to, a few 1e-5 apart
+    // in ln q). Such values say only "turning point here". So a sample is drawn where the
+    // curve is seen to go one way through it: in a segment of at least three points, and not
+    // where its neighbours reverse the direction of q or of ω̄_b (the line breaks there). The y
+    // axis spans Tukey's far-out fences (quartiles ∓ 3 interquartile ranges) of the values:
+    // every sample of a smooth stretch lies inside them, and a curve that diverges is drawn up
+    // to the frame instead of setting the scale.
     let m_loc = series(
         &|on, i| {
             let turns = |f: fn(&BoundaryPoint) -> f64| {
@@ -643,7 +701,7 @@ fn curve_figures(
                     a * b < 0.0
                 }
             };
-            if turns(|r| r.q) || turns(|r| r.omegabar_b) {
+            if on.len() < 3 || turns(|r| r.q) || turns(|r| r.omegabar_b) {
                 f64::NAN
             } else {
                 on[i].m_loc.unwrap_or(f64::NAN)
@@ -652,14 +710,17 @@ fn curve_figures(
         Some(&|r: &BoundaryPoint| r.m_loc_error.unwrap_or(f64::NAN)),
     );
     let values: Vec<f64> = m_loc.iter().flat_map(|s| s.y.iter().copied()).collect();
-    // The errors of the samples drawn (not of those left out at a turning point).
+    let y_range = far_out_fences(&values);
+    // The errors of the samples drawn inside the frame (not of those left out at a turning
+    // point, nor of those beyond the fences).
+    let inside = |y: f64| y_range.map_or(y.is_finite(), |(lo, hi)| (lo..=hi).contains(&y));
     let m_loc_errors: Vec<f64> = m_loc
         .iter()
         .flat_map(|s| {
             let err = s.err.as_deref().unwrap_or_default();
             s.y.iter()
                 .zip(err)
-                .filter(|(y, _)| y.is_finite())
+                .filter(|(y, _)| inside(**y))
                 .map(|(_, e)| *e)
         })
         .collect();
@@ -671,7 +732,7 @@ fn curve_figures(
         x_label: axis_label(key),
         y_label: format!("m_loc = −d ln ω̄_b / d ln {} (–)", short_name(key)),
         series: m_loc,
-        y_range: far_out_fences(&values),
+        y_range,
         ..Figure::default()
     };
     write_figure(&exponent, &dir.join("m_loc.svg"))

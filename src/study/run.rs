@@ -105,7 +105,8 @@ fn resolution(plan: &Plan) -> Resolution {
 /// Runs the study into `dir`. A branch that stalls or a sweep point that fails makes it a
 /// numerical failure, after every result and figure is written. With `resume`, the long kinds
 /// (`dynamics`, `orbits`) continue from their checkpoints in `dir` (finished simulations are
-/// read back, not run again); the others run afresh. `provenance` goes into `meta.json`.
+/// read back, not run again), a `boundary` study reads back the curves an earlier run finished
+/// (and follows the others); the others run afresh. `provenance` goes into `meta.json`.
 pub fn run(
     study: &Study,
     dir: &Path,
@@ -208,8 +209,14 @@ pub fn run(
                     CARRY_SPACING,
                 )?,
             };
-            let (value, failed) =
-                run_boundaries(study, &curves, &cases(plan_cases), *fit, dir, provenance)?;
+            let (value, failed) = run_boundaries(
+                study,
+                &curves,
+                &cases(plan_cases),
+                (*fit, resume),
+                dir,
+                provenance,
+            )?;
             failures.extend(failed);
             StudyResult::Boundary(value)
         }

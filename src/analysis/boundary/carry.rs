@@ -3,7 +3,7 @@
 //! curve's point, and the row it gives; with a spacing, only some points are refined and the
 //! others take the refinement's correction interpolated in `ln q` ([`interpolate`]).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::Result;
 use crate::analysis::boundary::{
@@ -33,7 +33,7 @@ pub struct PointAccuracy {
 }
 
 /// Where the `omega_b` of a row of a boundary comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Answer {
     /// The curve's own value at its `N` (no accuracy asked for, a fold or branch point, or with
@@ -270,13 +270,16 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     /// to the last refined one), then more (each the one farthest in `ln q` from the refined
     /// ones of its run of one quadrature, [`quadrature_runs`]) until three are refined in every
     /// run that has them (the interpolation's error needs a second difference within a run),
-    /// and interpolates the rest ([`interpolate`]).
+    /// then, one at a time, the point whose interpolated answer states the largest error above
+    /// the accuracy (where the correction bends more than the spacing can follow), until every
+    /// point the interpolation answers reaches it; the rest are interpolated ([`interpolate`]).
     pub(super) fn close_segment(&mut self) -> Result<()> {
         let Some(accuracy) = self.accuracy.filter(|a| a.spacing > 0.0) else {
             return Ok(());
         };
         let start = self.segment_start();
         loop {
+            interpolate(&mut self.boundary.points[start..], accuracy.accuracy);
             let rows = &self.boundary.points[start..];
             let runs = quadrature_runs(rows);
             // The last point past the last refined one (the segment's last point, or, where its
@@ -311,34 +314,25 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .filter_map(|k| distance(k).map(|d| (k, d)))
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
-            let Some(next) = past.or(farthest) else {
+            // Else the interpolated answer furthest from the accuracy (one without an error
+            // first).
+            let short = |k: usize| {
+                let r = &self.boundary.points[self.uncarried[k].0];
+                (r.answer == Answer::Interpolated && r.reached == Some(false)).then(|| {
+                    r.omega_b_error
+                        .map_or(f64::INFINITY, |e| e / r.omega_b.abs())
+                })
+            };
+            let worst = (0..self.uncarried.len())
+                .filter_map(|k| short(k).map(|e| (k, e)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k);
+            let Some(next) = past.or(farthest).or(worst) else {
                 break;
             };
             self.carry_uncarried(next, accuracy)?;
         }
         self.uncarried.clear();
-        interpolate(&mut self.boundary.points[start..], accuracy.accuracy);
-        let missed = self.boundary.points[start..]
-            .iter()
-            .find(|r| r.answer == Answer::Interpolated && r.reached == Some(false))
-            .map(|r| {
-                (
-                    r.q,
-                    r.omega_b_error.map_or(
-                        "no error: a second difference needs three refined points".into(),
-                        |e| format!("an error of {:.2e} relative", e / r.omega_b.abs()),
-                    ),
-                )
-            });
-        if let Some((q, why)) = missed {
-            self.note_shortfall(
-                q,
-                Some(format!(
-                    "the interpolation between the refined points states {why} (a smaller carry \
-                     spacing refines more points)"
-                )),
-            );
-        }
         self.boundary.local_exponents();
         self.observer.grown(&self.boundary)
     }

@@ -38,6 +38,15 @@ pub enum SpecialKind {
 }
 
 impl SpecialKind {
+    /// Every kind.
+    pub const ALL: [SpecialKind; 5] = [
+        SpecialKind::DoubleHopf,
+        SpecialKind::ZeroHopf,
+        SpecialKind::Turning,
+        SpecialKind::BogdanovTakens,
+        SpecialKind::GeneralizedHopf,
+    ];
+
     /// The name used in files.
     pub fn name(self) -> &'static str {
         match self {
