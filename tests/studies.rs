@@ -158,7 +158,9 @@ fn study_paths_resolve_against_the_study_file_and_the_exponent_is_read_beside_th
 /// A boundary study resumed after an interruption reads back the curves the interrupted run
 /// finished (their folders keep that run's record) and follows the rest again: the same
 /// curves, local exponents and shared power law as the run that was not interrupted, to the
-/// last bit. A resume with other settings than the folder's is refused, naming `--resume`.
+/// last bit. A study of one curve resumes the same way. A resume with other settings than the
+/// folder's (the rod, or the range of the curves) is refused before any curve is followed,
+/// naming `--resume`.
 #[test]
 fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -174,30 +176,27 @@ fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest(
     assert_eq!(whole.curves.len(), 2);
     let (first, second) = (dir.join("lambda_l_0_125"), dir.join("lambda_l_0_1875"));
     let table = |folder: &Path| std::fs::read_to_string(folder.join("boundary.csv")).unwrap();
-    let recorded_by = |folder: &Path| {
-        let meta: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(folder.join("meta.json")).unwrap())
+    let followed_by = |folder: &Path| {
+        let record: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(folder.join("curve.json")).unwrap())
                 .unwrap();
-        meta["command_line"][0].as_str().unwrap().to_string()
+        record["command_line"][0].as_str().unwrap().to_string()
     };
     let (first_table, second_table) = (table(&first), table(&second));
-    // The second curve interrupted after three points, as an interruption leaves its folder:
-    // the points so far, and the record of a run that stopped.
+    // The second curve killed after three points, as a kill leaves its folder: the points so
+    // far, and no record of a finished curve.
     let kept: Vec<&str> = second_table.lines().take(4).collect();
     assert!(second_table.lines().count() > 6, "{second_table}");
     std::fs::write(second.join("boundary.csv"), kept.join("\n") + "\n").unwrap();
-    let mut meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(second.join("meta.json")).unwrap()).unwrap();
-    meta["run"] = serde_json::json!({ "error": "interrupted (Ctrl-C)" });
-    std::fs::write(second.join("meta.json"), meta.to_string()).unwrap();
+    std::fs::remove_file(second.join("curve.json")).unwrap();
     std::fs::remove_file(dir.join("m_loc.svg")).unwrap();
 
     let StudyResult::Boundary(resumed) = run(&study, &dir, true, &by("resumed")).unwrap() else {
         panic!("a boundary study reports a boundary result")
     };
     // The finished curve was read back, the interrupted one followed again.
-    assert_eq!(recorded_by(&first), "whole");
-    assert_eq!(recorded_by(&second), "resumed");
+    assert_eq!(followed_by(&first), "whole");
+    assert_eq!(followed_by(&second), "resumed");
     assert_eq!(table(&first), first_table);
     assert_eq!(table(&second), second_table);
     assert!(dir.join("m_loc.svg").exists());
@@ -213,15 +212,31 @@ fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest(
     let (ca, cb) = (whole.common_fit.unwrap(), resumed.common_fit.unwrap());
     assert_eq!((ca.p, ca.p_ci, ca.n), (cb.p, cb.p_ci, cb.n));
 
-    // The folder's curves were followed for other settings: refused, nothing followed.
-    let other = reduced(Study::from_path(Some(&path), &["rod.E=1.3e6".to_string()]).unwrap());
-    let Err(refused) = run(&other, &dir, true, &by("other")) else {
-        panic!("a resume with other settings runs")
-    };
-    assert!(refused.is_input(), "{refused}");
-    assert!(refused.to_string().contains("--resume"), "{refused}");
-    assert_eq!(recorded_by(&first), "whole");
+    // Followed for other settings (the rod, or the range): refused, nothing followed.
+    for set in ["rod.E=1.3e6", "study.from=0.39"] {
+        let other = reduced(Study::from_path(Some(&path), &[set.to_string()]).unwrap());
+        let Err(refused) = run(&other, &dir, true, &by("other")) else {
+            panic!("a resume with {set} runs")
+        };
+        assert!(refused.is_input(), "{refused}");
+        assert!(refused.to_string().contains("--resume"), "{refused}");
+        assert_eq!(followed_by(&first), "whole");
+        assert_eq!(followed_by(&second), "resumed");
+    }
+
+    // A study of one curve, in the study's own folder.
+    let mut one = study.clone();
+    if let Some(Plan::Boundary { cases, .. }) = &mut one.study {
+        cases.truncate(1);
+    }
+    let lone = temp_dir("boundary-resume-one");
+    run(&one, &lone, false, &by("whole")).unwrap();
+    let lone_table = table(&lone);
+    run(&one, &lone, true, &by("resumed")).unwrap();
+    assert_eq!(followed_by(&lone), "whole");
+    assert_eq!(table(&lone), lone_table);
     std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&lone).ok();
 }
 
 /// The rows of a sweep CSV without the timing column, sorted by point.

@@ -274,7 +274,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Kinds `dynamics` and `orbits`: continue from the checkpoints an interrupted run left
-    /// in the output folder (finished simulations are read back, not run again).
+    /// in the output folder (finished simulations are read back, not run again); kind
+    /// `boundary`: read back the curves a run of the same study finished, follow the rest.
     #[arg(long)]
     pub resume: bool,
 }

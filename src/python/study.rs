@@ -246,7 +246,8 @@ impl Study {
     /// the study's N), as
     /// `locate` refines it (`--accuracy`, `--max-nodes`); with `carry_spacing` as well, only
     /// points that far apart in ln q are refined and the others take the correction
-    /// interpolated, more refined where its error is above `accuracy` (`--carry-spacing`). Returns a `Boundary`. Raises NumericalError (the
+    /// interpolated, more refined where its error is above `accuracy`
+    /// (`--carry-spacing`). Returns a `Boundary`. Raises NumericalError (the
     /// curve found so far in `partial`) when the curve cannot be finished or a point falls
     /// short of `accuracy`.
     #[pyo3(signature = (vary, start, stop, *, accuracy=None, max_nodes=None, carry_spacing=None, out=None))]

@@ -21,7 +21,9 @@ use crate::plot::{Figure, Marker, Scale, Series, Style, write_figure};
 use crate::problem::family::RodFamily;
 use crate::study::Study;
 use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
-use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, read_rows, write_json};
+use crate::study::output::{
+    CsvWriter, Meta, Provenance, create_dir, read_rows, write_json, write_json_atomically,
+};
 use crate::study::plan::{Case, check_refinement_room};
 use crate::study::progress;
 use crate::study::run::slug;
@@ -224,6 +226,12 @@ pub(crate) fn run_family(
     crate::analysis::boundary::check_range(family, from, to)?;
     let started = Instant::now();
     create_dir(dir)?;
+    // The record of a curve finished here before goes: the folder is being written afresh.
+    let record = dir.join("curve.json");
+    if record.exists() {
+        std::fs::remove_file(&record)
+            .map_err(|e| Error::Numerical(format!("{}: {e}", record.display())))?;
+    }
     let bar = progress::bar(&format!("boundary in {key}"));
     let mut writer = BoundaryWriter {
         dir,
@@ -306,6 +314,14 @@ pub(crate) fn run_family(
         },
     };
     Meta::new(study, scales, run, provenance).write(&dir.join("meta.json"))?;
+    if let Ok(report) = &report {
+        let record = CurveRecord {
+            settings: curve_settings(study, key, (from, to), accuracy)?,
+            command_line: provenance.command_line.clone(),
+            report,
+        };
+        write_json_atomically(&dir.join("curve.json"), &record)?;
+    }
     Ok(report)
 }
 
@@ -321,38 +337,80 @@ fn one_curve_figures(
     curve_figures(dir, key, &[(String::new(), rows.to_vec())], &special)
 }
 
-/// The curve an earlier run of `study` finished in `dir` (its rows, special points and report),
+/// The folder of `case`'s curve, one of `cases` in the study folder `dir` (the study's own when
+/// there is one case).
+fn case_folder(dir: &Path, case: &Case, cases: usize) -> std::path::PathBuf {
+    if cases == 1 {
+        dir.to_path_buf()
+    } else {
+        dir.join(slug(&case.label))
+    }
+}
+
+/// What a curve was followed for: the study (a case's own), the field, the range and the
+/// accuracy (with its node cap and carry spacing). A resumed study reads a curve back only
+/// where these are its own.
+fn curve_settings(
+    study: &Study,
+    key: &str,
+    (from, to): (f64, f64),
+    accuracy: Option<PointAccuracy>,
+) -> Result<serde_json::Value> {
+    let accuracy = accuracy.map(|a| [a.accuracy, a.max_nodes as f64, a.spacing]);
+    let key = Field::of_key(key).map_or(key, |f| f.key());
+    let settings = (study, key, [from, to], accuracy);
+    serde_json::to_value(settings).map_err(|e| Error::Numerical(e.to_string()))
+}
+
+/// The record of a finished curve, `curve.json` in its folder: written (atomically) once the
+/// curve is done, removed when a run starts following it, so that it exists only beside a
+/// whole curve. What it was followed for ([`curve_settings`]), by which command, and its report.
+#[derive(Serialize, Deserialize)]
+struct CurveRecord<R> {
+    settings: serde_json::Value,
+    command_line: Vec<String>,
+    report: R,
+}
+
+/// The curve a run of the same study finished in `dir` (its rows, special points and report),
 /// read back by a resumed study instead of following it again; `None` where no run finished
-/// it there (none ran, or it stopped short). `meta.json` there records the study the curve
-/// was followed for, which must be `study` (a case's own, with its settings and accuracy);
-/// where a study of one case wrote its record over the curve's, the report is inside it.
-fn finished_curve(study: &Study, dir: &Path) -> Result<Option<(Kept, BoundaryReport)>> {
-    let path = dir.join("meta.json");
+/// it there (none ran, or it stopped short or was killed: no `curve.json`). A curve followed
+/// for other `settings` ([`curve_settings`]), or a record this version cannot read, is refused.
+fn finished_curve(
+    settings: &serde_json::Value,
+    dir: &Path,
+) -> Result<Option<(Kept, BoundaryReport)>> {
+    let path = dir.join("curve.json");
     if !path.exists() {
         return Ok(None);
     }
-    let bad =
-        |e: &dyn std::fmt::Display| Error::input("--resume", format!("{}: {e}", path.display()));
+    let bad = |e: &dyn std::fmt::Display| {
+        Error::input(
+            "--resume",
+            format!(
+                "{}: {e}; run without --resume to follow the curve afresh",
+                path.display()
+            ),
+        )
+    };
     let text = std::fs::read_to_string(&path).map_err(|e| bad(&e))?;
-    let meta: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
-    let ours = serde_json::to_value(study).map_err(|e| Error::Numerical(e.to_string()))?;
-    if meta["study"] != ours {
-        return Err(bad(
-            &"written for another study or other settings; run without --resume to follow \
-              the curve afresh",
-        ));
+    let record: CurveRecord<BoundaryReport> = serde_json::from_str(&text)
+        .map_err(|e| bad(&format!("not a curve record of this version ({e})")))?;
+    if record.settings != *settings {
+        return Err(bad(&"followed for another study or other settings"));
     }
-    let run = &meta["run"];
-    let report = run.get("curves").map_or(run, |curves| &curves[0]["report"]);
-    if report.is_null() || report.get("error").is_some() {
-        return Ok(None);
-    }
-    let report: BoundaryReport = serde_json::from_value(report.clone()).map_err(|e| bad(&e))?;
     let kept = Kept {
         rows: read_rows(&dir.join("boundary.csv"), true)?,
         special: read_rows(&dir.join("points.csv"), true)?,
     };
-    Ok(Some((kept, report)))
+    if kept.rows.len() != record.report.points {
+        return Err(bad(&format!(
+            "its table holds {} points, its record {}",
+            kept.rows.len(),
+            record.report.points
+        )));
+    }
+    Ok(Some((kept, record.report)))
 }
 
 /// What a boundary study reports: each curve, and the power law they share over the fit range.
@@ -482,22 +540,26 @@ pub fn run_study(
             check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
         }
     }
+    // With `resume`, every case's folder is read (or refused) before any curve is followed.
+    let mut finished = Vec::new();
+    for case in cases {
+        let s = variant(study, case, &[], &[])?;
+        let sub = case_folder(dir, case, cases.len());
+        finished.push(if resume {
+            finished_curve(&curve_settings(&s, key, (from, to), accuracy)?, &sub)?
+        } else {
+            None
+        });
+    }
+    let mut finished = finished.into_iter();
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
     let mut all_rows = Vec::new();
     let mut all_special = Vec::new();
     for case in cases {
         let s = variant(study, case, &[], &[])?;
-        let sub = if cases.len() == 1 {
-            dir.to_path_buf()
-        } else {
-            dir.join(slug(&case.label))
-        };
-        let finished = if resume {
-            finished_curve(&s, &sub)?
-        } else {
-            None
-        };
+        let sub = case_folder(dir, case, cases.len());
+        let finished = finished.next().flatten();
         let mut kept = Kept::default();
         let outcome = if let Some((read, report)) = finished {
             one_curve_figures(&sub, key, &read.rows, &read.special)?;

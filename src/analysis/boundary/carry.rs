@@ -271,8 +271,9 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
     /// ones of its run of one quadrature, [`quadrature_runs`]) until three are refined in every
     /// run that has them (the interpolation's error needs a second difference within a run),
     /// then, one at a time, the point whose interpolated answer states the largest error above
-    /// the accuracy (where the correction bends more than the spacing can follow), until every
-    /// point the interpolation answers reaches it; the rest are interpolated ([`interpolate`]).
+    /// the accuracy (where the correction bends more than the spacing can follow) between two
+    /// refined points that reached it, until every such point reaches it; the rest are
+    /// interpolated ([`interpolate`]).
     pub(super) fn close_segment(&mut self) -> Result<()> {
         let Some(accuracy) = self.accuracy.filter(|a| a.spacing > 0.0) else {
             return Ok(());
@@ -315,10 +316,22 @@ impl<O: BoundaryObserver> Recorder<'_, O> {
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|(k, _)| k);
             // Else the interpolated answer furthest from the accuracy (one without an error
-            // first).
+            // first), between two refined points that reached it (next to one that did not,
+            // at the node cap, refining the neighbours would not reach it either).
+            let points = &self.boundary.points;
+            let reached = |r: Option<&BoundaryPoint>| r.is_some_and(|r| r.reached == Some(true));
             let short = |k: usize| {
-                let r = &self.boundary.points[self.uncarried[k].0];
-                (r.answer == Answer::Interpolated && r.reached == Some(false)).then(|| {
+                let index = self.uncarried[k].0;
+                let r = &points[index];
+                let before = points[start..index]
+                    .iter()
+                    .rfind(|p| p.answer == Answer::Refined);
+                let after = points[index..].iter().find(|p| p.answer == Answer::Refined);
+                (r.answer == Answer::Interpolated
+                    && r.reached == Some(false)
+                    && reached(before)
+                    && reached(after))
+                .then(|| {
                     r.omega_b_error
                         .map_or(f64::INFINITY, |e| e / r.omega_b.abs())
                 })
