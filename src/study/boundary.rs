@@ -30,7 +30,7 @@ use crate::study::run::slug;
 use crate::study::sweep::variant;
 use crate::{Error, Result};
 
-/// What `helixbif boundary` reports (read back from `meta.json` by a resumed study).
+/// What `helixbif boundary` reports (kept in `curve.json`, read back by a resumed study).
 #[derive(Debug, Serialize, Deserialize)]
 pub struct BoundaryReport {
     pub key: String,
