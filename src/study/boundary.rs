@@ -533,45 +533,42 @@ pub fn run_study(
         to,
         accuracy,
     } = *curves;
-    // Every case's N leaves the refinement room, checked before any curve is followed.
-    if let Some(a) = accuracy {
-        for case in cases {
-            let s = variant(study, case, &[], &[])?;
-            check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
-        }
-    }
-    // With `resume`, every case's folder is read (or refused) before any curve is followed.
-    let mut finished = Vec::new();
+    // Each case's study and folder, and with `resume` the curve a run finished there: every
+    // case's N checked for the refinement room and every folder read (or refused) before any
+    // curve is followed.
+    let mut members = Vec::new();
     for case in cases {
         let s = variant(study, case, &[], &[])?;
+        if let Some(a) = accuracy {
+            check_refinement_room("study.max_nodes", a.max_nodes, &s.physical())?;
+        }
         let sub = case_folder(dir, case, cases.len());
-        finished.push(if resume {
+        let finished = if resume {
             finished_curve(&curve_settings(&s, key, (from, to), accuracy)?, &sub)?
         } else {
             None
-        });
+        };
+        members.push((case, s, sub, finished));
     }
-    let mut finished = finished.into_iter();
     let mut summaries = Vec::new();
     let mut failures = Vec::new();
     let mut all_rows = Vec::new();
     let mut all_special = Vec::new();
-    for case in cases {
-        let s = variant(study, case, &[], &[])?;
-        let sub = case_folder(dir, case, cases.len());
-        let finished = finished.next().flatten();
-        let mut kept = Kept::default();
-        let outcome = if let Some((read, report)) = finished {
+    for (case, s, sub, finished) in members {
+        let (kept, outcome) = if let Some((read, report)) = finished {
             one_curve_figures(&sub, key, &read.rows, &read.special)?;
-            kept = read;
-            Ok(report)
+            (read, Ok(report))
         } else {
             // A panic (a bug) ends this curve, not the others; its rows so far are on disk and
             // in `kept`.
-            match caught(|| keeping(&s, key, (from, to), (accuracy, &sub, provenance), &mut kept)) {
+            let mut kept = Kept::default();
+            let outcome = match caught(|| {
+                keeping(&s, key, (from, to), (accuracy, &sub, provenance), &mut kept)
+            }) {
                 Err(e @ Error::Internal(_)) => Err(e),
                 other => other?,
-            }
+            };
+            (kept, outcome)
         };
         let Kept { rows, special } = kept;
         let (report, error) = match outcome {
