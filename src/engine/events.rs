@@ -45,8 +45,11 @@ use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
 use crate::Result;
 
-/// The kind of an event.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The kind of an event. The engine's kinds are parsed from their names ([`EventKind::name`])
+/// by `str::parse`, and `EventKind::iter()` lists them (strum's derives; a caller's own kind,
+/// `User`, is neither parsed nor listed by its name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, strum::EnumIter, strum::EnumString)]
+#[strum(serialize_all = "snake_case")]
 pub enum EventKind {
     Fold,
     BranchPoint,
@@ -54,6 +57,7 @@ pub enum EventKind {
     /// Two modes crossed the axis in opposite directions within the event tolerance.
     ModeExchange,
     /// An event of a caller's own [`super::arclength::Detector`], by its name.
+    #[strum(disabled)]
     User(&'static str),
 }
 

@@ -21,8 +21,13 @@ use crate::engine::events::{Zeroin, crossing_eigenvalue};
 use crate::engine::stability::{Spectrum, is_complex};
 use crate::{Error, Result};
 
-/// What a special point of the curve is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What a special point of the curve is. Its name in files is the variant's in snake case
+/// (`double_hopf`, ...; [`SpecialKind::name`], parsed by `str::parse`), and
+/// `SpecialKind::iter()` lists every kind (strum's derives).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, strum::EnumIter, strum::IntoStaticStr, strum::EnumString,
+)]
+#[strum(serialize_all = "snake_case")]
 pub enum SpecialKind {
     /// A second complex pair on the imaginary axis.
     DoubleHopf,
@@ -38,24 +43,9 @@ pub enum SpecialKind {
 }
 
 impl SpecialKind {
-    /// Every kind.
-    pub const ALL: [SpecialKind; 5] = [
-        SpecialKind::DoubleHopf,
-        SpecialKind::ZeroHopf,
-        SpecialKind::Turning,
-        SpecialKind::BogdanovTakens,
-        SpecialKind::GeneralizedHopf,
-    ];
-
     /// The name used in files.
     pub fn name(self) -> &'static str {
-        match self {
-            SpecialKind::DoubleHopf => "double_hopf",
-            SpecialKind::ZeroHopf => "zero_hopf",
-            SpecialKind::Turning => "turning",
-            SpecialKind::BogdanovTakens => "bogdanov_takens",
-            SpecialKind::GeneralizedHopf => "generalized_hopf",
-        }
+        self.into()
     }
 }
 
