@@ -200,6 +200,9 @@ fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest(
     assert_eq!(table(&first), first_table);
     assert_eq!(table(&second), second_table);
     assert!(dir.join("m_loc.svg").exists());
+    let read_back: Vec<bool> = resumed.curves.iter().map(|c| c.resumed).collect();
+    assert_eq!(read_back, [true, false]);
+    assert!(whole.curves.iter().all(|c| !c.resumed));
     for (a, b) in whole.curves.iter().zip(&resumed.curves) {
         assert_eq!(a.label, b.label);
         assert_eq!(a.m_loc_smallest, b.m_loc_smallest);

@@ -450,7 +450,12 @@ fn boundary_study(b: &BoundaryStudy, f: &mut Formatter<'_>) -> fmt::Result {
         if k > 0 {
             writeln!(f)?;
         }
-        writeln!(f, "curve `{}`:", c.label)?;
+        let resumed = if c.resumed {
+            " (read back: an earlier run finished it, --resume)"
+        } else {
+            ""
+        };
+        writeln!(f, "curve `{}`{resumed}:", c.label)?;
         if let Some(r) = &c.report {
             r.text(f)?;
         }

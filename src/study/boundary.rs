@@ -435,6 +435,9 @@ struct ExponentFit {
 #[derive(Debug, Serialize)]
 pub struct CurveSummary {
     pub label: String,
+    /// Whether the curve was read back from the record of an earlier run that finished it
+    /// (`run --resume`, [`finished_curve`]) instead of followed by this run.
+    pub resumed: bool,
     pub report: Option<BoundaryReport>,
     /// Why the curve did not reach the end of the range (its points so far are on disk).
     pub error: Option<String>,
@@ -555,6 +558,7 @@ pub fn run_study(
     let mut all_rows = Vec::new();
     let mut all_special = Vec::new();
     for (case, s, sub, finished) in members {
+        let resumed = finished.is_some();
         let (kept, outcome) = if let Some((read, report)) = finished {
             one_curve_figures(&sub, key, &read.rows, &read.special)?;
             (read, Ok(report))
@@ -587,6 +591,7 @@ pub fn run_study(
         all_rows.push((case.label.clone(), rows));
         summaries.push(CurveSummary {
             label: case.label.clone(),
+            resumed,
             report,
             error,
             m_loc_smallest: m.smallest,
