@@ -15,7 +15,9 @@ use crate::study::output::CsvWriter;
 use crate::study::progress;
 use crate::{Error, Result};
 
-use crate::study::simulate::{SimulateOptions, TimeRow, run_simulate, simulation_provenance};
+use crate::study::simulate::{
+    SimulateOptions, TimeRow, check_resumable, run_simulate, simulation_provenance,
+};
 
 /// One row of `dynamics.csv`: the late-time statistics at one rate.
 #[derive(Clone, Debug, Serialize)]
@@ -63,23 +65,32 @@ pub(crate) fn run_dynamics(
     model.check_resolution()?;
     let settings = study.integrator.settings(&model.scales);
     let bars = progress::multi();
+    let options = |omega: f64| SimulateOptions {
+        omega,
+        t_end: *t_end,
+        from_steady: false,
+        perturb: None,
+        from_orbit: None,
+        ramp_time: *ramp_time,
+        transient: *transient,
+        shape_every: 0,
+        newton: study.newton.clone(),
+        resume,
+        provenance: simulation_provenance(study),
+    };
+    let folder = |omega: f64| dir.join(format!("omega_{omega}"));
+    // Every checkpoint a resumed run would go on from is checked before any simulation runs:
+    // one of another run is bad input, not a failed simulation among finished ones.
+    if resume {
+        for &omega in omegas {
+            check_resumable(&folder(omega), &options(omega), &settings)?;
+        }
+    }
     let rows: Vec<AverageRow> = omegas
         .par_iter()
         .map(|&omega| {
-            let opts = SimulateOptions {
-                omega,
-                t_end: *t_end,
-                from_steady: false,
-                perturb: None,
-                from_orbit: None,
-                ramp_time: *ramp_time,
-                transient: *transient,
-                shape_every: 0,
-                newton: study.newton.clone(),
-                resume,
-                provenance: simulation_provenance(study),
-            };
-            let sub = dir.join(format!("omega_{omega}"));
+            let opts = options(omega);
+            let sub = folder(omega);
             let bar = bars.add(progress::bar(&format!("omega = {omega} rad/s")));
             let outcome = run_simulate(study, &model, &settings, &opts, &sub, &bar, provenance);
             bars.remove(&bar);

@@ -176,6 +176,44 @@ fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_
     key
 }
 
+/// With `opts.resume`, the checkpoint an earlier run of the same simulation left in `dir` (none
+/// where there is none); one written by a run with other options or another study, or that
+/// cannot be read, is bad input naming `--resume`.
+fn saved_checkpoint(
+    dir: &Path,
+    opts: &SimulateOptions,
+    settings: &DynamicsSettings,
+) -> Result<Option<SimulationCheckpoint>> {
+    let path = dir.join("checkpoint.json");
+    if !(opts.resume && path.exists()) {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).map_err(crate::study::output::io_error(&path))?;
+    let saved: SimulationCheckpoint = serde_json::from_str(&text)
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
+    if saved.key != checkpoint_key(opts, settings) {
+        return Err(Error::input(
+            "--resume",
+            format!(
+                "{} was written by a run with other options or another study; resume with the \
+                 same ones, or choose another --out",
+                path.display()
+            ),
+        ));
+    }
+    Ok(Some(saved))
+}
+
+/// Whether the simulation `opts` can resume in `dir` ([`saved_checkpoint`]): checked by a study
+/// of several simulations for every one before any runs.
+pub(crate) fn check_resumable(
+    dir: &Path,
+    opts: &SimulateOptions,
+    settings: &DynamicsSettings,
+) -> Result<()> {
+    saved_checkpoint(dir, opts, settings).map(|_| ())
+}
+
 /// Keeps the first `keep` lines after `header` lines of the text file at `path` (rows an
 /// interrupted run wrote after its last checkpoint are dropped; they are computed again).
 fn truncate_lines(path: &Path, header: usize, keep: usize) -> Result<()> {
@@ -312,26 +350,8 @@ pub fn run_simulate(
     let checkpoint_path = dir.join("checkpoint.json");
     let series_path = dir.join("timeseries.csv");
     let shapes_path = dir.join("shapes.csv");
+    let saved = saved_checkpoint(dir, opts, settings)?;
     let key = checkpoint_key(opts, settings);
-    let saved: Option<SimulationCheckpoint> = if opts.resume && checkpoint_path.exists() {
-        let text = std::fs::read_to_string(&checkpoint_path)
-            .map_err(crate::study::output::io_error(&checkpoint_path))?;
-        let saved: SimulationCheckpoint = serde_json::from_str(&text)
-            .map_err(|e| Error::input("--resume", format!("{}: {e}", checkpoint_path.display())))?;
-        if saved.key != key {
-            return Err(Error::input(
-                "--resume",
-                format!(
-                    "{} was written by a run with other options or another study; resume with \
-                     the same ones, or choose another --out",
-                    checkpoint_path.display()
-                ),
-            ));
-        }
-        Some(saved)
-    } else {
-        None
-    };
     // On a resumed run the rows up to the checkpoint are kept and read back (for the
     // statistics), the ones after it dropped: they are computed again.
     let earlier_seconds = saved.as_ref().map_or(0.0, |c| c.seconds);
