@@ -31,6 +31,7 @@ from ._helixbif import (
     Simulation,
     Solution,
     Study,
+    StudyRun,
     __version__,
     fit_power_law,
 )
@@ -44,6 +45,7 @@ __all__ = [
     "Simulation",
     "Orbits",
     "PowerLaw",
+    "StudyRun",
     "NumericalError",
     "fit_power_law",
     "__version__",

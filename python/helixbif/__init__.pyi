@@ -109,6 +109,10 @@ class Study:
     ) -> Simulation:
         """The rod stepped through time for `t_end` s at `omega` rad/s
         (`helixbif simulate`). Raises NumericalError with `partial` when a step fails."""
+    def run(self, *, out: _Path | None = None, resume: bool = False) -> StudyRun:
+        """The study's plan (`[study]`, any kind; without one, `locate` refined to the default
+        accuracy) run into `out` as `helixbif run` does; `resume=True` is `--resume`. Raises
+        NumericalError with `partial` when the study does not complete."""
     def orbits(
         self,
         *,
@@ -441,6 +445,20 @@ class Orbits(_Result):
     seconds: float
     """Wall time of the run, s."""
     out: str
+
+class StudyRun(_Result):
+    """`helixbif run --json` with the table the study's kind writes at the top of `out`."""
+
+    study: str
+    kind: str
+    """The plan's kind: branch, locate, sweep, phase, boundary, shapes, dynamics, orbits."""
+    seconds: float
+    """Wall time of the run, s."""
+    out: str
+    result: dict[str, Any]
+    """The kind's own result, as `meta.json` records it under `run`. `columns` is the table
+    the kind writes at the top of `out` (branch.csv, sweep.csv, ...; empty for locate and for
+    several cases); its columns are not attributes."""
 
 class PowerLaw(_Result):
     """A power law y = C x^p (the fit's part of `helixbif fit --json`)."""

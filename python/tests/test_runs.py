@@ -324,3 +324,73 @@ def test_boundary_carried_to_an_accuracy_falls_short_as_the_cli_does(cli, small,
         small.boundary("rod.E", 1e6, 2e6, carry_spacing=0.1)
     with pytest.raises(ValueError, match=r"^invalid input: carry_spacing: must be in \[0, 1\]"):
         small.boundary("rod.E", 1e6, 2e6, accuracy=1e-3, carry_spacing=2.0)
+
+
+def test_run_a_study_file_as_the_command_line_does(cli, small, tmp_path):
+    """`Study.run` is `helixbif run` on the same study: the same JSON (but the wall times and
+    folders) and the kind's table at the top of `out` as columns, the call in `meta.json`."""
+    sweep = small.with_(study={"kind": "sweep", "vary": [{"key": "rod.E", "values": [1.2e6, 1.3e6]}]})
+    path = tmp_path / "sweep.toml"
+    path.write_text(sweep.to_toml())
+    expected = cli.json("run", path, "--out", tmp_path / "cli")
+    run = helixbif.Study.from_file(path).run(out=tmp_path / "py")
+    assert isinstance(run, helixbif.StudyRun)
+
+    def in_dir(value, folder):
+        """`value` with `folder` written as DIR (the summary names its table's path)."""
+        return json.loads(json.dumps(scrub(value)).replace(str(tmp_path / folder), "DIR"))
+
+    assert in_dir(run.to_dict(), "py") == in_dir(expected, "cli")
+    assert run.kind == "sweep" and run.study == sweep.name and run.out == str(tmp_path / "py")
+    assert run.result["summary"]["points"] == 2
+    # sweep.csv as the command line wrote it, but each point's wall time.
+    rows = read_csv(tmp_path / "cli" / "sweep.csv")
+    timed = tmp_path / "timed.csv"
+    with open(timed, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=[k for k in rows[0] if k != "seconds"])
+        writer.writeheader()
+        writer.writerows([{k: v for k, v in r.items() if k != "seconds"} for r in rows])
+    assert_columns_equal({k: v for k, v in run.columns.items() if k != "seconds"}, timed)
+    assert "omega_b" in run.columns and not hasattr(run, "omega_b")
+    meta = json.loads((tmp_path / "py" / "meta.json").read_text())
+    assert meta["command_line"] == ["python", "helixbif.Study.run", f"out={tmp_path / 'py'}"]
+    assert meta["run"] == run.result
+
+
+def test_run_resumes_a_dynamics_study(small, tmp_path):
+    """`resume=True` is `--resume`: the simulations go on from the checkpoints the first run
+    left (here at their end: the same series and result), and a checkpoint of a run with other
+    options is refused, naming `resume`."""
+    plan = {"kind": "dynamics", "omegas": [0.3, 0.5], "t_end": 6.0, "transient": 3.0, "ramp_time": 2.0}
+    first = small.with_(study=plan).run(out=tmp_path)
+    series = sorted(tmp_path.glob("omega_*/timeseries.csv"))
+    assert len(series) == 2 and len(first.columns["omega"]) == 2
+    written = [p.read_text() for p in series]
+    again = small.with_(study=plan).run(out=tmp_path, resume=True)
+    assert [p.read_text() for p in series] == written
+    assert scrub(again.to_dict()) == scrub(first.to_dict())
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    assert meta["command_line"][-1] == "resume=True"
+    other = small.with_(study={**plan, "ramp_time": 3.0})
+    with pytest.raises(ValueError, match="^invalid input: resume: .*other options"):
+        other.run(out=tmp_path, resume=True)
+
+
+def test_run_short_of_its_accuracy_raises_with_what_the_study_recorded(cli, tmp_path):
+    """A study whose answer falls short of its accuracy (locate refined from N = 44 on
+    Lighthill's operator, capped at N = 87) fails as `helixbif run` does (exit 1, the same line
+    but the folder), after writing its results; `partial` holds what meta.json recorded."""
+    study = helixbif.Study.default().with_(**{"fluid.model": "lighthill", "discretization.nodes": 44})
+    path = tmp_path / "short.toml"
+    path.write_text(study.to_toml())
+    code, line = cli.error("run", path, "--out", tmp_path / "cli")
+    assert code == 1
+    with pytest.raises(helixbif.NumericalError) as raised:
+        study.run(out=tmp_path / "py")
+    error = raised.value
+    assert str(error).replace(str(tmp_path / "py"), "DIR") == line.replace(str(tmp_path / "cli"), "DIR")
+    partial = error.partial
+    assert isinstance(partial, helixbif.StudyRun) and partial.kind == "locate"
+    recorded = json.loads((tmp_path / "py" / "meta.json").read_text())["run"]
+    assert partial.result == recorded and partial.result["result"]["reached"] is False
+    assert (tmp_path / "py" / "locate.json").exists()

@@ -74,7 +74,7 @@ def test_study_signatures_are_the_modules():
     classes, functions = stub_classes()
     study = classes["Study"]
     for name in ["default", "from_file", "from_toml", "with_", "to_toml", "to_dict",
-                 "locate", "branch", "solve", "boundary", "simulate", "orbits"]:
+                 "locate", "branch", "solve", "boundary", "simulate", "orbits", "run"]:
         assert name in study, name
         assert stub_parameters(study[name]) == module_parameters(getattr(helixbif.Study, name)), name
     assert stub_parameters(functions["fit_power_law"]) == module_parameters(
@@ -109,11 +109,17 @@ def results(tmp_path_factory):
             .boundary("shape.R_over_lambda", 0.318, 0.31, out=out / "boundary")
         ],
         "PowerLaw": [helixbif.fit_power_law([1.0, 2.0, 3.0], [1.0, 4.1, 8.9])],
+        "StudyRun": [
+            small.with_(
+                study={"kind": "sweep", "vary": [{"key": "rod.E", "values": [1.2e6, 1.3e6]}]}
+            ).run(out=out / "run")
+        ],
     }
 
 
 @pytest.mark.parametrize(
-    "name", ["Located", "Branch", "Solution", "Simulation", "Orbits", "Boundary", "PowerLaw"]
+    "name",
+    ["Located", "Branch", "Solution", "Simulation", "Orbits", "Boundary", "PowerLaw", "StudyRun"],
 )
 def test_every_attribute_of_a_result_is_annotated(results, name):
     classes, _ = stub_classes()

@@ -45,6 +45,7 @@ fn helixbif_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<results::Simulation>()?;
     m.add_class::<results::Orbits>()?;
     m.add_class::<results::PowerLaw>()?;
+    m.add_class::<results::StudyRun>()?;
     m.add_function(wrap_pyfunction!(results::fit_power_law, m)?)?;
     Ok(())
 }

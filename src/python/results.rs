@@ -35,6 +35,9 @@ pub(crate) struct Record {
     pub arrays: Vec<(&'static str, Array)>,
     pub extra: Vec<(&'static str, serde_json::Value)>,
     pub frame: Frame,
+    /// Whether each column is also an attribute (`branch.omega`); not where the columns are
+    /// those of a table of the caller's choosing (`StudyRun`, whose names vary with the study).
+    pub column_attributes: bool,
     /// The JSON's keys that `repr` shows, in order.
     pub summary: &'static [&'static str],
 }
@@ -49,6 +52,7 @@ impl Record {
             arrays: Vec::new(),
             extra: Vec::new(),
             frame: Frame::Scalars,
+            column_attributes: true,
             summary,
         }
     }
@@ -61,7 +65,7 @@ impl Record {
     }
 
     fn lookup<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
-        if let Some(column) = self.columns.get(name) {
+        if let Some(column) = self.columns.get(name).filter(|_| self.column_attributes) {
             return column.to_py(py).map(Some);
         }
         if let Some((_, array)) = self.arrays.iter().find(|(n, _)| *n == name) {
@@ -99,7 +103,11 @@ impl Record {
 
     /// Every name an attribute answers to.
     fn names(&self) -> Vec<String> {
-        let mut names = self.columns.names();
+        let mut names = if self.column_attributes {
+            self.columns.names()
+        } else {
+            Vec::new()
+        };
         names.extend(self.arrays.iter().map(|(n, _)| n.to_string()));
         names.extend(self.tables.iter().map(|(n, _)| n.to_string()));
         names.extend(self.extra.iter().map(|(n, _)| n.to_string()));
@@ -292,6 +300,16 @@ result_class! {
     /// report (`omega_hopf`, `frequency`, `l1`, `criticality`, `stop`, `events`, ...).
     /// `to_dict()` is `helixbif orbits --json`.
     Orbits
+}
+
+result_class! {
+    /// A study's plan run into a folder by `Study.run()`: `study`, `kind` (the plan's: `branch`,
+    /// `locate`, `sweep`, `phase`, `boundary`, `shapes`, `dynamics`, `orbits`), `seconds`,
+    /// `out` and the kind's `result` (a dict); `columns` (not attributes: their names vary with
+    /// the study) and `to_pandas()` are the table the kind writes at the top of `out`
+    /// (`sweep.csv`, `boundary.csv`, ...; none for `locate` and for studies of several cases,
+    /// whose tables are in their subfolders). `to_dict()` is `helixbif run --json`.
+    StudyRun
 }
 
 result_class! {

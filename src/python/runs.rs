@@ -8,7 +8,9 @@ use pyo3::prelude::*;
 use serde_json::Value;
 
 use super::convert::{Array, Column, Columns};
-use super::results::{Boundary, Branch, Frame, Located, Orbits, Record, Simulation, Solution};
+use super::results::{
+    Boundary, Branch, Frame, Located, Orbits, Record, Simulation, Solution, StudyRun,
+};
 use super::run::{bad_input, detached, numerical, output_dir, provenance, to_json, to_python};
 use super::study::Study;
 use crate::Error;
@@ -20,6 +22,7 @@ use crate::study::boundary::run_boundary;
 use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
+use crate::study::output::Provenance;
 use crate::study::plan::{
     check_accuracy, check_max_nodes, check_refinement_room, point_accuracy, with_carry_spacing,
 };
@@ -532,6 +535,95 @@ pub(crate) fn orbits(py: Python<'_>, study: &Study, a: OrbitsArguments) -> PyRes
         }
         Err(e) => {
             let partial = Orbits::object(py, record(failed_run(study, &dir)))?;
+            Err(to_python(py, e, Some(partial)))
+        }
+    }
+}
+
+/// The table a study of each kind writes at the top of its folder (`None` for `locate`, whose
+/// result is `locate.json`); a study of several cases writes its tables in their subfolders.
+fn study_table(kind: &str) -> Option<&'static str> {
+    match kind {
+        "branch" => Some("branch.csv"),
+        "sweep" => Some("sweep.csv"),
+        "phase" => Some("phase.csv"),
+        "boundary" => Some("boundary.csv"),
+        "shapes" => Some("shapes.csv"),
+        "dynamics" => Some("dynamics.csv"),
+        "orbits" => Some("orbits.csv"),
+        _ => None,
+    }
+}
+
+/// What a study run that failed had computed: the record of `meta.json` in `dir` where this
+/// run wrote it (the run's provenance, and written since `started`; a study writes it once its
+/// results and figures are on disk, before the failure is reported), else null.
+fn computed_before(dir: &Path, why: &Provenance, started: std::time::SystemTime) -> Value {
+    let path = dir.join("meta.json");
+    let written_now = std::fs::metadata(&path)
+        .and_then(|m| m.modified())
+        .is_ok_and(|t| t >= started);
+    let meta: Option<Value> = written_now
+        .then(|| std::fs::read_to_string(&path).ok())
+        .flatten()
+        .and_then(|text| serde_json::from_str(&text).ok());
+    match meta {
+        Some(meta) if meta["command_line"] == serde_json::json!(why.command_line) => {
+            meta["run"].clone()
+        }
+        _ => Value::Null,
+    }
+}
+
+/// `helixbif run`: the study's plan (`[study]`; without one, `locate` refined to the default
+/// accuracy) into `out`, with `resume` as `--resume`. The result is `helixbif run --json`
+/// (`study`, `kind`, `seconds`, `out`, and the kind's `result`) with the table the kind writes
+/// at the top of `out` as its columns. A study that does not complete (a point short of its
+/// accuracy, a failed simulation, a stalled branch) raises `NumericalError` after writing
+/// everything, its `partial` holding what `meta.json` recorded.
+pub(crate) fn run(
+    py: Python<'_>,
+    study: &Study,
+    out: Option<PathBuf>,
+    resume: bool,
+) -> PyResult<Py<PyAny>> {
+    let file = &study.study;
+    let kind = file.study.as_ref().map_or("locate", |p| p.kind());
+    let dir = output_dir(py, out, "run")?;
+    let mut arguments = vec![("out", dir.display().to_string())];
+    if resume {
+        arguments.push(("resume", "True".to_string()));
+    }
+    let why = provenance("run", &arguments);
+    let (started, clock) = (std::time::Instant::now(), std::time::SystemTime::now());
+    let (outcome, table) = detached(py, || {
+        let outcome = crate::study::run::run(file, &dir, resume, &why);
+        let table = study_table(kind).map_or(Ok(Columns::default()), |name| {
+            Columns::read(&dir.join(name))
+        });
+        (outcome, table)
+    })?;
+    let seconds = started.elapsed().as_secs_f64();
+    let table = table.map_err(|e| to_python(py, e, None))?;
+    let record = |result: Value| Record {
+        columns: table.clone(),
+        frame: Frame::Columns,
+        column_attributes: false,
+        ..Record::of(
+            serde_json::json!({
+                "study": file.name,
+                "kind": kind,
+                "seconds": seconds,
+                "out": dir.display().to_string(),
+                "result": result,
+            }),
+            &["study", "kind", "seconds", "out"],
+        )
+    };
+    match outcome {
+        Ok(result) => StudyRun::object(py, record(to_json(py, &result)?)),
+        Err(e) => {
+            let partial = StudyRun::object(py, record(computed_before(&dir, &why, clock)))?;
             Err(to_python(py, e, Some(partial)))
         }
     }

@@ -306,6 +306,17 @@ impl Study {
         runs::simulate(py, self, options)
     }
 
+    /// The study's plan (`[study]`; without one, `locate` refined to the default accuracy) run
+    /// into `out` (default a new temporary folder), as `helixbif run` does: every table, figure
+    /// and `meta.json` written there. `resume=True` continues an interrupted run in `out`
+    /// (`--resume`: finished simulations and boundary curves read back, orbit branches from
+    /// their checkpoints). Raises NumericalError with `partial` when the study does not
+    /// complete.
+    #[pyo3(signature = (*, out=None, resume=false))]
+    fn run(&self, py: Python<'_>, out: Option<PathBuf>, resume: bool) -> PyResult<Py<PyAny>> {
+        runs::run(py, self, out, resume)
+    }
+
     /// The periodic orbits born at the Hopf point that `locate(single=True)` finds
     /// (`helixbif orbits`): at most `max_orbits` orbits, `steps` time steps per period, the
     /// first of normal-form radius `amplitude` reference lengths, while omega stays in
