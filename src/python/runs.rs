@@ -22,10 +22,10 @@ use crate::study::boundary::run_boundary;
 use crate::study::branch::branch_report;
 use crate::study::locate::{LocateResult, Resolution, locate_study};
 use crate::study::orbits::{OrbitsOptions, branch_settings, run_orbits};
-use crate::study::output::Provenance;
 use crate::study::plan::{
     check_accuracy, check_max_nodes, check_refinement_room, point_accuracy, with_carry_spacing,
 };
+use crate::study::run::{incomplete, run_parts};
 use crate::study::simulate::{
     OrbitOrigin, SimulateOptions, default_transient, run_simulate, simulation_provenance,
 };
@@ -540,47 +540,13 @@ pub(crate) fn orbits(py: Python<'_>, study: &Study, a: OrbitsArguments) -> PyRes
     }
 }
 
-/// The table a study of each kind writes at the top of its folder (`None` for `locate`, whose
-/// result is `locate.json`); a study of several cases writes its tables in their subfolders.
-fn study_table(kind: &str) -> Option<&'static str> {
-    match kind {
-        "branch" => Some("branch.csv"),
-        "sweep" => Some("sweep.csv"),
-        "phase" => Some("phase.csv"),
-        "boundary" => Some("boundary.csv"),
-        "shapes" => Some("shapes.csv"),
-        "dynamics" => Some("dynamics.csv"),
-        "orbits" => Some("orbits.csv"),
-        _ => None,
-    }
-}
-
-/// What a study run that failed had computed: the record of `meta.json` in `dir` where this
-/// run wrote it (the run's provenance, and written since `started`; a study writes it once its
-/// results and figures are on disk, before the failure is reported), else null.
-fn computed_before(dir: &Path, why: &Provenance, started: std::time::SystemTime) -> Value {
-    let path = dir.join("meta.json");
-    let written_now = std::fs::metadata(&path)
-        .and_then(|m| m.modified())
-        .is_ok_and(|t| t >= started);
-    let meta: Option<Value> = written_now
-        .then(|| std::fs::read_to_string(&path).ok())
-        .flatten()
-        .and_then(|text| serde_json::from_str(&text).ok());
-    match meta {
-        Some(meta) if meta["command_line"] == serde_json::json!(why.command_line) => {
-            meta["run"].clone()
-        }
-        _ => Value::Null,
-    }
-}
-
 /// `helixbif run`: the study's plan (`[study]`; without one, `locate` refined to the default
 /// accuracy) into `out`, with `resume` as `--resume`. The result is `helixbif run --json`
-/// (`study`, `kind`, `seconds`, `out`, and the kind's `result`) with the table the kind writes
-/// at the top of `out` as its columns. A study that does not complete (a point short of its
-/// accuracy, a failed simulation, a stalled branch) raises `NumericalError` after writing
-/// everything, its `partial` holding what `meta.json` recorded.
+/// (`study`, `kind`, `seconds`, `out`, and the kind's `result`) with the table the run wrote at
+/// the top of `out` ([`crate::study::run::StudyResult::table`]) as its columns. A study that does not complete (a
+/// point short of its accuracy, a failed simulation, a stalled branch) raises `NumericalError`
+/// after writing everything, with that result as `partial`; one that fails before it has a
+/// result, with a `partial` whose `result` is None.
 pub(crate) fn run(
     py: Python<'_>,
     study: &Study,
@@ -595,18 +561,18 @@ pub(crate) fn run(
         arguments.push(("resume", "True".to_string()));
     }
     let why = provenance("run", &arguments);
-    let (started, clock) = (std::time::Instant::now(), std::time::SystemTime::now());
+    let started = std::time::Instant::now();
     let (outcome, table) = detached(py, || {
-        let outcome = crate::study::run::run(file, &dir, resume, &why);
-        let table = study_table(kind).map_or(Ok(Columns::default()), |name| {
-            Columns::read(&dir.join(name))
-        });
+        let outcome = run_parts(file, &dir, resume, &why);
+        let table = match &outcome {
+            Ok((result, _)) => result.table().map(|name| Columns::read(&dir.join(name))),
+            Err(_) => None,
+        };
         (outcome, table)
     })?;
     let seconds = started.elapsed().as_secs_f64();
-    let table = table.map_err(|e| to_python(py, e, None))?;
-    let record = |result: Value| Record {
-        columns: table.clone(),
+    let record = |result: Value, columns: Columns| Record {
+        columns,
         frame: Frame::Columns,
         column_attributes: false,
         ..Record::of(
@@ -620,11 +586,20 @@ pub(crate) fn run(
             &["study", "kind", "seconds", "out"],
         )
     };
-    match outcome {
-        Ok(result) => StudyRun::object(py, record(to_json(py, &result)?)),
+    let (result, failures) = match outcome {
+        Ok(parts) => parts,
         Err(e) => {
-            let partial = StudyRun::object(py, record(computed_before(&dir, &why, clock)))?;
-            Err(to_python(py, e, Some(partial)))
+            let partial = StudyRun::object(py, record(Value::Null, Columns::default()))?;
+            return Err(to_python(py, e, Some(partial)));
         }
+    };
+    let columns = table
+        .transpose()
+        .map_err(|e| to_python(py, e, None))?
+        .unwrap_or_default();
+    let object = StudyRun::object(py, record(to_json(py, &result)?, columns))?;
+    match incomplete(file, &failures, &dir) {
+        Some(e) => Err(to_python(py, e, Some(object))),
+        None => Ok(object),
     }
 }

@@ -52,6 +52,24 @@ pub enum StudyResult {
     },
 }
 
+impl StudyResult {
+    /// The table the run wrote at the top of its folder: the kind's main CSV file (`sweep.csv`,
+    /// ...); `None` for `locate` (its result is `locate.json`) and for a branch or boundary study
+    /// of several cases, whose tables are in their cases' subfolders.
+    pub fn table(&self) -> Option<&'static str> {
+        match self {
+            StudyResult::Branch { cases } => (cases.len() == 1).then_some("branch.csv"),
+            StudyResult::Locate { .. } => None,
+            StudyResult::Sweep { .. } => Some("sweep.csv"),
+            StudyResult::Phase(_) => Some("phase.csv"),
+            StudyResult::Boundary(b) => (b.curves.len() == 1).then_some("boundary.csv"),
+            StudyResult::Shapes(_) => Some("shapes.csv"),
+            StudyResult::Dynamics { .. } => Some("dynamics.csv"),
+            StudyResult::Orbits { .. } => Some("orbits.csv"),
+        }
+    }
+}
+
 /// One case of a branch study: its label, its report and its events.
 #[derive(Serialize)]
 pub struct BranchCase {
@@ -113,6 +131,35 @@ pub fn run(
     resume: bool,
     provenance: &Provenance,
 ) -> Result<StudyResult> {
+    let (result, failures) = run_parts(study, dir, resume, provenance)?;
+    match incomplete(study, &failures, dir) {
+        Some(error) => Err(error),
+        None => Ok(result),
+    }
+}
+
+/// The numerical failure of a study that did not complete (`failures`: what did not), naming
+/// the folder that holds what was computed; `None` where nothing failed.
+pub fn incomplete(study: &Study, failures: &[String], dir: &Path) -> Option<Error> {
+    (!failures.is_empty()).then(|| {
+        Error::Numerical(format!(
+            "study `{}` incomplete ({}); what was computed is in {}",
+            study.name,
+            failures.join("; "),
+            dir.display()
+        ))
+    })
+}
+
+/// [`run`], returning the study's result with what did not complete (empty where everything
+/// did) instead of failing on it: every result, figure and `meta.json` are written either way.
+/// For a front end that hands back the result of an incomplete study with its failure.
+pub fn run_parts(
+    study: &Study,
+    dir: &Path,
+    resume: bool,
+    provenance: &Provenance,
+) -> Result<(StudyResult, Vec<String>)> {
     let plan = study.study.clone().unwrap_or(Plan::Locate {
         extrapolate: false,
         fixed_nodes: false,
@@ -247,13 +294,5 @@ pub fn run(
     // The run's record in meta.json has its keys in alphabetical order, as every JSON file.
     let record = serde_json::to_value(&result).map_err(|e| Error::Numerical(e.to_string()))?;
     Meta::new(study, model.scales, &record, provenance).write(&dir.join("meta.json"))?;
-    if !failures.is_empty() {
-        return Err(Error::Numerical(format!(
-            "study `{}` incomplete ({}); what was computed is in {}",
-            study.name,
-            failures.join("; "),
-            dir.display()
-        )));
-    }
-    Ok(result)
+    Ok((result, failures))
 }
