@@ -455,10 +455,11 @@ class StudyRun(_Result):
     seconds: float
     """Wall time of the run, s."""
     out: str
-    result: dict[str, Any]
-    """The kind's own result, as `meta.json` records it under `run`. `columns` is the table
-    the kind writes at the top of `out` (branch.csv, sweep.csv, ...; empty for locate and for
-    several cases); its columns are not attributes."""
+    result: dict[str, Any] | None
+    """The kind's own result, as `meta.json` records it under `run` (None in the `partial` of
+    a study that failed before it had one). `columns` is the table the run wrote at the top of
+    `out` (branch.csv, sweep.csv, ...; empty for locate and for several cases); its columns are
+    not attributes."""
 
 class PowerLaw(_Result):
     """A power law y = C x^p (the fit's part of `helixbif fit --json`)."""

@@ -178,7 +178,7 @@ fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_
 
 /// With `opts.resume`, the checkpoint an earlier run of the same simulation left in `dir` (none
 /// where there is none); one written by a run with other options or another study, or that
-/// cannot be read, is bad input naming `--resume`.
+/// does not parse, is bad input naming `--resume` (one that cannot be read, an I/O error).
 fn saved_checkpoint(
     dir: &Path,
     opts: &SimulateOptions,
