@@ -73,31 +73,41 @@ fn the_normal_form_gives_its_coefficient_and_its_verdict() {
 }
 
 /// The normal form `f` seen through the near-identity change of coordinates
-/// `u = phi(v) = v + (0.4 v1 v2 + 0.3 sin(v2)^2, 0.5 v1^2 - 0.2 (exp(v1 v2) - 1))`: the dynamics
-/// `v' = Dphi(v)^{-1} f(phi(v))` has the same linear part at 0 and the same Lyapunov
-/// coefficient, but its differences are not exact (no polynomial of low degree).
+/// `u = phi(v) = v + k (0.4 v1 v2 + 0.3 sin(v2)^2, 0.5 v1^2 - 0.2 (exp(v1 v2) - 1))`: the
+/// dynamics `v' = Dphi(v)^{-1} f(phi(v))` has the same linear part at 0 and the same Lyapunov
+/// coefficient, but its differences are not exact (no polynomial of low degree; `k` sets how
+/// far from it). With `c > 0` each component of the field is rounded to the grid of `c`'s
+/// last bit (`(f + c) - c`): the round-off of terms of size `c` that cancel, as a stiff rod's
+/// do, without changing `l1`.
 struct Curved {
     w: f64,
     a: f64,
     b: f64,
+    k: f64,
+    c: f64,
 }
 
 impl Curved {
     fn field(&self, v: &[f64], p: f64) -> Vec<f64> {
         let (v1, v2) = (v[0], v[1]);
         let e = (v1 * v2).exp();
+        let k = self.k;
         let u = [
-            v1 + 0.4 * v1 * v2 + 0.3 * v2.sin().powi(2),
-            v2 + 0.5 * v1 * v1 - 0.2 * (e - 1.0),
+            v1 + k * (0.4 * v1 * v2 + 0.3 * v2.sin().powi(2)),
+            v2 + k * (0.5 * v1 * v1 - 0.2 * (e - 1.0)),
         ];
         let f = (hopf_cubic(self.w, self.a, self.b).g)(&u, p);
         // Dphi = [[1 + 0.4 v2, 0.4 v1 + 0.6 sin v2 cos v2], [v1 - 0.2 v2 e, 1 - 0.2 v1 e]].
-        let (j11, j12) = (1.0 + 0.4 * v2, 0.4 * v1 + 0.6 * v2.sin() * v2.cos());
-        let (j21, j22) = (v1 - 0.2 * v2 * e, 1.0 - 0.2 * v1 * e);
+        let (j11, j12) = (
+            1.0 + k * 0.4 * v2,
+            k * (0.4 * v1 + 0.6 * v2.sin() * v2.cos()),
+        );
+        let (j21, j22) = (k * (v1 - 0.2 * v2 * e), 1.0 - k * 0.2 * v1 * e);
         let det = j11 * j22 - j12 * j21;
+        let c = self.c;
         vec![
-            (j22 * f[0] - j12 * f[1]) / det,
-            (-j21 * f[0] + j11 * f[1]) / det,
+            ((j22 * f[0] - j12 * f[1]) / det + c) - c,
+            ((-j21 * f[0] + j11 * f[1]) / det + c) - c,
         ]
     }
 }
@@ -152,7 +162,13 @@ fn the_coefficient_is_invariant_under_a_curved_change_of_coordinates() {
         .flat_map(|c| STARTS.map(|start| (c, start)))
     {
         let l = lyapunov_from(
-            &Curved { w, a, b },
+            &Curved {
+                w,
+                a,
+                b,
+                k: 1.0,
+                c: 0.0,
+            },
             &[0.0, 0.0],
             0.0,
             c64::new(0.0, w),
@@ -345,4 +361,47 @@ fn the_stated_precision_of_l1_covers_its_error_along_the_brusselator_hopf_curve(
     }
     assert!(exceeded.is_empty(), "{exceeded:?}");
     assert!(missed.is_empty(), "{missed:?}");
+}
+
+/// Where the first tableau leaves the sign of `l1` undetermined, the one started four times
+/// wider is tried and kept when it settles it ([`STARTS`]); where neither does, the one of least
+/// precision is kept. On the curved normal form (`w = 1`, `a = 3e-4`: `l1 = 6e-4`) with its
+/// field rounded as terms of size `1e4` that cancel would round it, at `k = 10` the first start
+/// gives `9.7e-5 +- 4.1e-3` and the wider `6.039e-4 +- 1.7e-5` (error `3.9e-6`); at `k = 20`,
+/// where the wider start's steps reach the coordinates' own scale, `3.7e-4 +- 5.9e-4` and
+/// `0.23 +- 2e2`. Each answer's precision covers its error against the closed form.
+#[test]
+fn the_wider_tableau_is_kept_where_it_settles_what_the_first_leaves_undetermined() {
+    let (w, a, b) = (1.0, 3e-4, 0.5);
+    let exact = 2.0 * a / w;
+    let s = c64::new(0.0, w);
+    for (k, settled_by_the_wider) in [(10.0, true), (20.0, false)] {
+        let field = Curved { w, a, b, k, c: 1e4 };
+        let [first, wider] = STARTS.map(|start| lyapunov_from(&field, &[0.0, 0.0], 0.0, s, start));
+        let kept = lyapunov_at(&field, &[0.0, 0.0], 0.0, s);
+        eprintln!(
+            "k {k}: first {:e} +- {:.1e}, wider {:e} +- {:.1e}, kept {:e} +- {:.1e}",
+            first.l1, first.precision, wider.l1, wider.precision, kept.l1, kept.precision
+        );
+        assert_eq!(first.verdict, Verdict::Undetermined);
+        for l in [&first, &wider, &kept] {
+            assert!(
+                (l.l1 - exact).abs() <= l.precision,
+                "{} +- {}",
+                l.l1,
+                l.precision
+            );
+        }
+        if settled_by_the_wider {
+            assert_eq!(wider.verdict, Verdict::Subcritical);
+            assert_eq!((kept.l1, kept.precision), (wider.l1, wider.precision));
+            assert_eq!(kept.verdict, Verdict::Subcritical);
+            assert!((kept.l1 - exact).abs() < 0.05 * exact);
+        } else {
+            assert_eq!(wider.verdict, Verdict::Undetermined);
+            assert!(first.precision < wider.precision);
+            assert_eq!((kept.l1, kept.precision), (first.l1, first.precision));
+            assert_eq!(kept.verdict, Verdict::Undetermined);
+        }
+    }
 }
