@@ -357,6 +357,17 @@ def test_run_a_study_file_as_the_command_line_does(cli, small, tmp_path):
     assert meta["run"] == run.result
 
 
+def test_run_of_several_cases_has_no_table_at_the_top_of_its_folder(small, tmp_path):
+    """A branch study of two cases writes its tables in their subfolders: its result has no
+    columns, even where a study of one case left a `branch.csv` at the top of the same folder."""
+    one = small.with_(branch={"omega_max": 0.3}, study={"kind": "branch"})
+    assert len(one.run(out=tmp_path).columns["omega"]) > 1
+    cases = [{"label": "E1", "set": {"rod.E": 1.2e6}}, {"label": "E2", "set": {"rod.E": 1.3e6}}]
+    two = small.with_(branch={"omega_max": 0.3}, study={"kind": "branch", "cases": cases}).run(out=tmp_path)
+    assert (tmp_path / "branch.csv").exists() and (tmp_path / "e1" / "branch.csv").exists()
+    assert two.columns == {} and [c["case"] for c in two.result["cases"]] == ["E1", "E2"]
+
+
 def test_run_resumes_a_dynamics_study(small, tmp_path):
     """`resume=True` is `--resume`: each simulation goes on from the checkpoint the first run
     left, its rows up to it read back, not computed again (a row marked in the file stays, the
