@@ -45,12 +45,11 @@ use super::stability::{Spectrum, is_complex};
 use super::{ContinuationSettings, Problem};
 use crate::Result;
 
-/// The kind of an event. The engine's kinds are named in snake case ([`EventKind::name`]),
-/// parsed from their names by `str::parse`, and listed by `EventKind::iter()` (strum's
-/// derives; a caller's own kind, `User`, is named by its payload and neither parsed nor listed).
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, strum::EnumIter, strum::EnumString, strum::IntoStaticStr,
-)]
+/// The kind of an event. The engine's kinds are named in snake case ([`EventKind::name`]; the
+/// names in files, pinned by the boundary's round-trip test), parsed from their names by
+/// `str::parse`, and listed by `EventKind::iter()` (strum's derives; a caller's own kind,
+/// `User`, is named by its payload and neither parsed nor listed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, strum::EnumIter, strum::EnumString)]
 #[strum(serialize_all = "snake_case")]
 pub enum EventKind {
     Fold,
@@ -67,8 +66,11 @@ impl EventKind {
     /// The name used in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {
+            EventKind::Fold => "fold",
+            EventKind::BranchPoint => "branch_point",
+            EventKind::Hopf => "hopf",
+            EventKind::ModeExchange => "mode_exchange",
             EventKind::User(name) => name,
-            kind => kind.into(),
         }
     }
 }

@@ -543,10 +543,10 @@ pub(crate) fn orbits(py: Python<'_>, study: &Study, a: OrbitsArguments) -> PyRes
 /// `helixbif run`: the study's plan (`[study]`; without one, `locate` refined to the default
 /// accuracy) into `out`, with `resume` as `--resume`. The result is `helixbif run --json`
 /// (`study`, `kind`, `seconds`, `out`, and the kind's `result`) with the table the run wrote at
-/// the top of `out` ([`crate::study::run::StudyResult::table`]) as its columns. A study that does not complete (a
-/// point short of its accuracy, a failed simulation, a stalled branch) raises `NumericalError`
-/// after writing everything, with that result as `partial`; one that fails before it has a
-/// result, with a `partial` whose `result` is None.
+/// the top of `out` ([`crate::study::run::StudyResult::table`]) as its columns. A study that
+/// does not complete (a point short of its accuracy, a failed simulation, a stalled branch)
+/// raises `NumericalError` after writing everything, with that result as `partial`; one that
+/// fails before it has a result, with a `partial` whose `result` is None.
 pub(crate) fn run(
     py: Python<'_>,
     study: &Study,
@@ -593,10 +593,13 @@ pub(crate) fn run(
             return Err(to_python(py, e, Some(partial)));
         }
     };
-    let columns = table
-        .transpose()
-        .map_err(|e| to_python(py, e, None))?
-        .unwrap_or_default();
+    // The table of a study that did not complete may be missing or cut short: its failure is
+    // the error to raise, with what could be read.
+    let columns = match table.transpose() {
+        Ok(columns) => columns.unwrap_or_default(),
+        Err(_) if !failures.is_empty() => Columns::default(),
+        Err(e) => return Err(to_python(py, e, None)),
+    };
     let object = StudyRun::object(py, record(to_json(py, &result)?, columns))?;
     match incomplete(file, &failures, &dir) {
         Some(e) => Err(to_python(py, e, Some(object))),
