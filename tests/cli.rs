@@ -540,8 +540,10 @@ fn orbits_follows_the_unstable_orbits_below_a_subcritical_hopf_point() {
 fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
     let base = std::env::temp_dir().join(format!("helixbif-orbits-resume-{}", std::process::id()));
     let (whole, part) = (base.join("whole"), base.join("part"));
-    let run = |dir: &std::path::Path, orbits: &str, resume: bool| {
-        let mut args = vec![
+    // The branch of the 16-node rod on Lighthill's operator, `orbits` of them, into `dir`.
+    let arguments = |dir: &std::path::Path, orbits: &'static str| -> Vec<String> {
+        let dir = dir.to_str().unwrap().to_string();
+        [
             "orbits",
             "--set",
             "fluid.model=lighthill",
@@ -550,12 +552,19 @@ fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
             "--max-orbits",
             orbits,
             "--out",
-            dir.to_str().unwrap(),
-            "--json",
-        ];
+        ]
+        .iter()
+        .map(|a| a.to_string())
+        .chain([dir])
+        .collect()
+    };
+    let run = |dir: &std::path::Path, orbits: &'static str, resume: bool| {
+        let mut args = arguments(dir, orbits);
+        args.push("--json".into());
         if resume {
-            args.push("--resume");
+            args.push("--resume".into());
         }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
         let (code, stdout, stderr) = helixbif(&args);
         assert_eq!(code, 0, "{stderr}");
         serde_json::from_str::<serde_json::Value>(stdout.trim()).unwrap()
@@ -565,6 +574,24 @@ fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
     let resumed = run(&part, "5", true);
     assert_eq!(resumed["resumed_at"], 3);
     assert_eq!(resumed["orbits"], 5);
+    // A checkpoint of another rod (or of other steps per period) is refused, naming --resume,
+    // and leaves the branch as it was; more orbits may be asked of the same one (above).
+    let table = std::fs::read_to_string(part.join("orbits.csv")).unwrap();
+    for other in [["--set", "rod.E=1.3e6"], ["--steps", "60"]] {
+        let mut args = arguments(&part, "7");
+        args.extend(["--resume", other[0], other[1]].map(String::from));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, _, stderr) = helixbif(&args);
+        assert_eq!(code, 2, "{stderr}");
+        assert!(
+            stderr.contains("--resume") && stderr.contains("other options"),
+            "{stderr}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(part.join("orbits.csv")).unwrap(),
+            table
+        );
+    }
     let omegas = |dir: &std::path::Path| -> Vec<(usize, f64)> {
         let mut reader = csv::Reader::from_path(dir.join("orbits.csv")).unwrap();
         reader

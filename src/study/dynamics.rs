@@ -81,9 +81,17 @@ pub(crate) fn run_dynamics(
     let folder = |omega: f64| dir.join(format!("omega_{omega}"));
     // Every checkpoint a resumed run would go on from is checked before any simulation runs:
     // one of another run is bad input, not a failed simulation among finished ones.
+    let omega_max = omegas.iter().copied().fold(0.0, f64::max) * 1.05;
+    let orbit_options = OrbitsOptions {
+        resume,
+        ..OrbitsOptions::of_plan(orbit_plan, omega_max)
+    };
     if resume {
         for &omega in omegas {
             check_resumable(&folder(omega), &options(omega), &settings)?;
+        }
+        if *orbit_branch {
+            crate::study::orbits::check_resumable(study, &orbit_options, &dir.join("orbits"))?;
         }
     }
     let rows: Vec<AverageRow> = omegas
@@ -128,7 +136,6 @@ pub(crate) fn run_dynamics(
     }
     let failed = rows.iter().filter(|r| r.status != "ok").count();
     // The continuation branch underneath, and the orbits born at its Hopf point.
-    let omega_max = omegas.iter().copied().fold(0.0, f64::max) * 1.05;
     let (_, branch) = crate::study::branch::run_branch(
         study,
         &model,
@@ -138,11 +145,7 @@ pub(crate) fn run_dynamics(
     )?;
     let orbits: Vec<OrbitRow> = if *orbit_branch {
         let orbits_dir = dir.join("orbits");
-        let opts = OrbitsOptions {
-            resume,
-            ..OrbitsOptions::of_plan(orbit_plan, omega_max)
-        };
-        crate::study::orbits::run_orbits(study, &model, &opts, &orbits_dir, provenance)?;
+        crate::study::orbits::run_orbits(study, &model, &orbit_options, &orbits_dir, provenance)?;
         crate::study::output::read_rows(&orbits_dir.join("orbits.csv"), true)?
     } else {
         Vec::new()

@@ -154,6 +154,70 @@ fn start_file_name(index: usize) -> String {
     format!("orbit_{index:04}.json")
 }
 
+/// `checkpoint.json` of an orbit branch: the engine's checkpoint and what the branch is made of,
+/// which a resumed run must share (`key`, [`checkpoint_key`]; absent from the checkpoints of
+/// versions that did not record it, which are not resumed).
+#[derive(Serialize, Deserialize)]
+struct OrbitsCheckpoint {
+    #[serde(default)]
+    key: Option<serde_json::Value>,
+    #[serde(flatten)]
+    checkpoint: Checkpoint,
+}
+
+/// What an orbit branch is made of: the study's rod, fluid, shape and discretization, and the
+/// branch's settings but the number of orbits (which a resumed run may raise, as it may widen
+/// the range of `omega`).
+fn checkpoint_key(study: &Study, opts: &OrbitsOptions) -> Result<serde_json::Value> {
+    let mut settings =
+        serde_json::to_value(&opts.settings).map_err(|e| Error::Numerical(e.to_string()))?;
+    if let Some(map) = settings.as_object_mut() {
+        map.remove("max_orbits");
+    }
+    Ok(serde_json::json!({ "physical": study.physical(), "settings": settings }))
+}
+
+/// With `resume`, the checkpoint an earlier run of the same branch left in `dir` (none where
+/// there is none); one of a run with other options or another study, or of a version that did
+/// not record them, or that does not parse, is bad input naming `--resume`.
+fn saved_checkpoint(
+    dir: &Path,
+    resume: bool,
+    key: &serde_json::Value,
+) -> Result<Option<Checkpoint>> {
+    let path = dir.join("checkpoint.json");
+    if !(resume && path.exists()) {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).map_err(io_error(&path))?;
+    let saved: OrbitsCheckpoint = serde_json::from_str(&text)
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
+    let refuse = |why: &str| {
+        Err(Error::input(
+            "--resume",
+            format!(
+                "{} was written by {why}, or choose another --out",
+                path.display()
+            ),
+        ))
+    };
+    match &saved.key {
+        None => refuse(
+            "a version that did not record the branch's study and options: run without --resume",
+        ),
+        Some(k) if k != key => {
+            refuse("a run with other options or another study: resume with the same ones")
+        }
+        Some(_) => Ok(Some(saved.checkpoint)),
+    }
+}
+
+/// Whether the orbit branch `opts` of `study` can resume in `dir` ([`saved_checkpoint`]): checked
+/// by a dynamics study before any of its simulations runs.
+pub(crate) fn check_resumable(study: &Study, opts: &OrbitsOptions, dir: &Path) -> Result<()> {
+    saved_checkpoint(dir, opts.resume, &checkpoint_key(study, opts)?).map(|_| ())
+}
+
 /// Locates the first loss of stability of `study` on `model`, and when it is a Hopf point with
 /// a Lyapunov coefficient, follows the orbits born there, writing into `dir`.
 ///
@@ -190,16 +254,8 @@ pub fn run_orbits(
     let bar = progress::spinner("orbits");
     bar.set_message("the first orbits from the Hopf point");
     let checkpoint_path = dir.join("checkpoint.json");
-    let resume: Option<Checkpoint> = if opts.resume && checkpoint_path.exists() {
-        let text = std::fs::read_to_string(&checkpoint_path).map_err(io_error(&checkpoint_path))?;
-        Some(
-            serde_json::from_str(&text).map_err(|e| {
-                Error::input("--resume", format!("{}: {e}", checkpoint_path.display()))
-            })?,
-        )
-    } else {
-        None
-    };
+    let key = checkpoint_key(study, opts)?;
+    let resume = saved_checkpoint(dir, opts.resume, &key)?;
     // On a resumed run the orbits and events before the checkpoint are kept as they were.
     let next = resume.as_ref().map_or(0, |c| c.next_index);
     let mut rows: Vec<OrbitRow> =
@@ -238,7 +294,11 @@ pub fn run_orbits(
             match checkpoint {
                 Some(c) => {
                     write_events(&c.events, &s, &dir.join("events.csv"))?;
-                    crate::study::output::write_json_atomically(&checkpoint_path, c)
+                    let saved = OrbitsCheckpoint {
+                        key: Some(key.clone()),
+                        checkpoint: c.clone(),
+                    };
+                    crate::study::output::write_json_atomically(&checkpoint_path, &saved)
                 }
                 None => Ok(()),
             }
