@@ -352,7 +352,9 @@ pub struct OrbitsArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Take an interrupted branch up again from `checkpoint.json` in the output folder
-    /// (written after every orbit): the orbits before it are kept, the next ones appended.
+    /// (written after every orbit): the orbits before it are kept, the next ones appended. One
+    /// written for another rod, fluid, shape or discretization or with other options (but
+    /// --max-orbits and the range) is refused.
     #[arg(long)]
     pub resume: bool,
 }

@@ -236,6 +236,10 @@ pub fn run_orbits(
     let (lo, hi) = opts.omega_range;
     let started = Instant::now();
     create_dir(dir)?;
+    // A checkpoint of another branch is refused before anything is computed.
+    let checkpoint_path = dir.join("checkpoint.json");
+    let key = checkpoint_key(study, opts)?;
+    let resume = saved_checkpoint(dir, opts.resume, &key)?;
     let (located, critical) = run_locate_critical(study, model)?;
     let critical = match (located.kind, critical) {
         (Loss::Event(EventKind::Hopf), Some(c)) => c,
@@ -253,9 +257,6 @@ pub fn run_orbits(
     let s = model.scales;
     let bar = progress::spinner("orbits");
     bar.set_message("the first orbits from the Hopf point");
-    let checkpoint_path = dir.join("checkpoint.json");
-    let key = checkpoint_key(study, opts)?;
-    let resume = saved_checkpoint(dir, opts.resume, &key)?;
     // On a resumed run the orbits and events before the checkpoint are kept as they were.
     let next = resume.as_ref().map_or(0, |c| c.next_index);
     let mut rows: Vec<OrbitRow> =
