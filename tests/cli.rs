@@ -574,10 +574,20 @@ fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
     let resumed = run(&part, "5", true);
     assert_eq!(resumed["resumed_at"], 3);
     assert_eq!(resumed["orbits"], 5);
-    // A checkpoint of another rod (or of other steps per period) is refused, naming --resume,
-    // and leaves the branch as it was; more orbits may be asked of the same one (above).
+    // A checkpoint of another rod (or of other steps per period) is refused, naming --resume
+    // and the field that differs, and leaves the branch as it was; more orbits may be asked of
+    // the same one (above).
     let table = std::fs::read_to_string(part.join("orbits.csv")).unwrap();
-    for other in [["--set", "rod.E=1.3e6"], ["--steps", "60"]] {
+    for (other, field) in [
+        (
+            ["--set", "rod.E=1.3e6"],
+            "`physical.rod.E` is 1300000.0 here and 1255000.0",
+        ),
+        (
+            ["--steps", "60"],
+            "`settings.shooting.flow.steps` is 60 here and 100",
+        ),
+    ] {
         let mut args = arguments(&part, "7");
         args.extend(["--resume", other[0], other[1]].map(String::from));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -587,6 +597,7 @@ fn orbits_resumed_from_its_checkpoint_gives_the_uninterrupted_branch() {
             stderr.contains("--resume") && stderr.contains("other options"),
             "{stderr}"
         );
+        assert!(stderr.contains(field), "{stderr}");
         assert_eq!(
             std::fs::read_to_string(part.join("orbits.csv")).unwrap(),
             table

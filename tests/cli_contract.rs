@@ -708,7 +708,8 @@ fn rung_field(v: &serde_json::Value, key: &str) -> Vec<f64> {
 
 /// `simulate` killed mid-run (SIGKILL, no chance to tidy up) and started again with `--resume`
 /// writes the same `timeseries.csv` and `shapes.csv`, byte for byte, as a run never
-/// interrupted; a checkpoint of other options is refused with exit code 2, naming `--resume`.
+/// interrupted; a checkpoint of other options is refused with exit code 2, naming `--resume`
+/// and the field that differs.
 #[test]
 fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     let base = std::env::temp_dir().join(format!("helixbif-resume-{}", std::process::id()));
@@ -801,6 +802,7 @@ fn simulate_killed_and_resumed_writes_the_uninterrupted_files() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("--resume"), "{stderr}");
+    assert!(stderr.contains("`omega` is 1.1 here"), "{stderr}");
     std::fs::remove_dir_all(&base).ok();
 }
 

@@ -216,13 +216,20 @@ fn a_resumed_boundary_study_reads_back_its_finished_curves_and_follows_the_rest(
     assert_eq!((ca.p, ca.p_ci, ca.n), (cb.p, cb.p_ci, cb.n));
 
     // Followed for other settings (the rod, or the range): refused, nothing followed.
-    for set in ["rod.E=1.3e6", "study.from=0.39"] {
+    for (set, field) in [
+        (
+            "rod.E=1.3e6",
+            "`study.rod.E` is 1300000.0 here and 1255000.0",
+        ),
+        ("study.from=0.39", "`range.0` is 0.39 here and 0.4"),
+    ] {
         let other = reduced(Study::from_path(Some(&path), &[set.to_string()]).unwrap());
         let Err(refused) = run(&other, &dir, true, &by("other")) else {
             panic!("a resume with {set} runs")
         };
         assert!(refused.is_input(), "{refused}");
         assert!(refused.to_string().contains("--resume"), "{refused}");
+        assert!(refused.to_string().contains(field), "{refused}");
         assert_eq!(followed_by(&first), "whole");
         assert_eq!(followed_by(&second), "resumed");
     }

@@ -22,7 +22,8 @@ use crate::problem::family::RodFamily;
 use crate::study::Study;
 use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
 use crate::study::output::{
-    CsvWriter, Meta, Provenance, create_dir, read_rows, write_json, write_json_atomically,
+    CsvWriter, Meta, Provenance, create_dir, first_difference, read_rows, write_json,
+    write_json_atomically,
 };
 use crate::study::plan::{Case, check_refinement_room};
 use crate::study::progress;
@@ -356,10 +357,21 @@ fn curve_settings(
     (from, to): (f64, f64),
     accuracy: Option<PointAccuracy>,
 ) -> Result<serde_json::Value> {
-    let accuracy = accuracy.map(|a| [a.accuracy, a.max_nodes as f64, a.spacing]);
     let key = Field::of_key(key).map_or(key, |f| f.key());
-    let settings = (study, key, [from, to], accuracy);
-    serde_json::to_value(settings).map_err(|e| Error::Numerical(e.to_string()))
+    let accuracy = accuracy.map(|a| {
+        serde_json::json!({
+            "accuracy": a.accuracy,
+            "max_nodes": a.max_nodes,
+            "carry_spacing": a.spacing,
+        })
+    });
+    let study = serde_json::to_value(study).map_err(|e| Error::Numerical(e.to_string()))?;
+    Ok(serde_json::json!({
+        "study": study,
+        "vary": key,
+        "range": [from, to],
+        "accuracy": accuracy,
+    }))
 }
 
 /// The record of a finished curve, `curve.json` in its folder: written (atomically) once the
@@ -396,8 +408,10 @@ fn finished_curve(
     let text = std::fs::read_to_string(&path).map_err(|e| bad(&e))?;
     let record: CurveRecord<BoundaryReport> = serde_json::from_str(&text)
         .map_err(|e| bad(&format!("not a curve record of this version ({e})")))?;
-    if record.settings != *settings {
-        return Err(bad(&"followed for another study or other settings"));
+    if let Some(difference) = first_difference(settings, &record.settings) {
+        return Err(bad(&format!(
+            "followed for another study or other settings ({difference})"
+        )));
     }
     let kept = Kept {
         rows: read_rows(&dir.join("boundary.csv"), true)?,

@@ -26,7 +26,7 @@ use crate::study::Study;
 use crate::study::branch::run_branch;
 use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, OMEGA_LABEL};
 use crate::study::locate::run_locate_critical;
-use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, io_error};
+use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, first_difference, io_error};
 use crate::study::plan::OrbitPlan;
 use crate::study::progress;
 use crate::{Error, Result};
@@ -205,10 +205,13 @@ fn saved_checkpoint(
         None => refuse(
             "a version that did not record the branch's study and options: run without --resume",
         ),
-        Some(k) if k != key => {
-            refuse("a run with other options or another study: resume with the same ones")
-        }
-        Some(_) => Ok(Some(saved.checkpoint)),
+        Some(k) => match first_difference(key, k) {
+            Some(difference) => refuse(&format!(
+                "a run with other options or another study ({difference}): resume with the same \
+                 ones"
+            )),
+            None => Ok(Some(saved.checkpoint)),
+        },
     }
 }
 

@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
+use serde_json::Value;
 
 use crate::study::Study;
 use crate::{Error, Result};
@@ -300,4 +301,82 @@ pub(crate) fn write_json_atomically(path: &Path, value: &impl Serialize) -> Resu
 pub(crate) fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
     let value = serde_json::to_value(value).map_err(|e| Error::Numerical(e.to_string()))?;
     std::fs::write(path, format!("{value:#}\n")).map_err(io_error(path))
+}
+
+/// Where the record a run would resume from (`theirs`, read from a file) first differs from the
+/// one this run makes (`ours`): the dotted path of the first differing field (keys in order,
+/// array entries by index) with both values, e.g. ``physical.rod.E` is 1300000.0 here and
+/// 1255000.0 in the file`; `None` where they are equal. Named in a refused `--resume`, so that
+/// the user sees which option or study field to set back.
+pub(crate) fn first_difference(ours: &Value, theirs: &Value) -> Option<String> {
+    fn walk(path: &str, ours: &Value, theirs: &Value) -> Option<String> {
+        let at = |key: &str| {
+            if path.is_empty() {
+                key.to_string()
+            } else {
+                format!("{path}.{key}")
+            }
+        };
+        match (ours, theirs) {
+            (Value::Object(a), Value::Object(b)) => {
+                let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+                keys.sort();
+                keys.dedup();
+                keys.into_iter().find_map(|k| match (a.get(k), b.get(k)) {
+                    (Some(x), Some(y)) => walk(&at(k), x, y),
+                    (Some(x), None) => {
+                        Some(format!("`{}` is {x} here and absent in the file", at(k)))
+                    }
+                    (None, Some(y)) => {
+                        Some(format!("`{}` is absent here and {y} in the file", at(k)))
+                    }
+                    (None, None) => None,
+                })
+            }
+            (Value::Array(a), Value::Array(b)) if a.len() == b.len() => a
+                .iter()
+                .zip(b)
+                .enumerate()
+                .find_map(|(i, (x, y))| walk(&at(&i.to_string()), x, y)),
+            _ if ours == theirs => None,
+            _ => Some(format!(
+                "`{}` is {ours} here and {theirs} in the file",
+                if path.is_empty() { "the record" } else { path }
+            )),
+        }
+    }
+    walk("", ours, theirs)
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::first_difference;
+
+    #[test]
+    fn the_first_difference_of_two_records_is_named_by_its_path() {
+        let ours = json!({"physical": {"rod": {"E": 1.3e6, "r0": 1e-3}}, "steps": [40, 2]});
+        assert_eq!(first_difference(&ours, &ours.clone()), None);
+        let theirs = json!({"physical": {"rod": {"E": 1.255e6, "r0": 1e-3}}, "steps": [40, 3]});
+        assert_eq!(
+            first_difference(&ours, &theirs).unwrap(),
+            "`physical.rod.E` is 1300000.0 here and 1255000.0 in the file"
+        );
+        let theirs = json!({"physical": {"rod": {"E": 1.3e6, "r0": 1e-3}}, "steps": [40, 3]});
+        assert_eq!(
+            first_difference(&ours, &theirs).unwrap(),
+            "`steps.1` is 2 here and 3 in the file"
+        );
+        let theirs = json!({"physical": {"rod": {"E": 1.3e6}}, "steps": [40, 2]});
+        assert_eq!(
+            first_difference(&ours, &theirs).unwrap(),
+            "`physical.rod.r0` is 0.001 here and absent in the file"
+        );
+        let theirs = json!({"physical": {"rod": {"E": 1.3e6, "r0": 1e-3}}, "steps": [40]});
+        assert_eq!(
+            first_difference(&ours, &theirs).unwrap(),
+            "`steps` is [40,2] here and [40] in the file"
+        );
+    }
 }

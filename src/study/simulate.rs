@@ -31,7 +31,7 @@ use crate::problem::twist::natural_chart_unknowns;
 use crate::study::Study;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, typeset};
-use crate::study::output::{CsvWriter, Meta, Provenance};
+use crate::study::output::{CsvWriter, Meta, Provenance, first_difference};
 use crate::{Error, Result};
 
 use crate::numerics::statistics::late_statistics;
@@ -191,12 +191,12 @@ fn saved_checkpoint(
     let text = std::fs::read_to_string(&path).map_err(crate::study::output::io_error(&path))?;
     let saved: SimulationCheckpoint = serde_json::from_str(&text)
         .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
-    if saved.key != checkpoint_key(opts, settings) {
+    if let Some(difference) = first_difference(&checkpoint_key(opts, settings), &saved.key) {
         return Err(Error::input(
             "--resume",
             format!(
-                "{} was written by a run with other options or another study; resume with the \
-                 same ones, or choose another --out",
+                "{} was written by a run with other options or another study ({difference}); \
+                 resume with the same ones, or choose another --out",
                 path.display()
             ),
         ));
