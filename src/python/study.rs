@@ -322,8 +322,8 @@ impl Study {
     /// first of normal-form radius `amplitude` reference lengths, while omega stays in
     /// [`omega_min`, `omega_max`] rad/s (default [0, branch.omega_max]). `resume=True` goes on
     /// from the checkpoint in `out` (one of another rod, fluid, shape or discretization, or of
-    /// other options but `max_orbits` and the range, is refused). Returns an `Orbits`. Raises NumericalError (the orbits so
-    /// far in `partial`) when the branch stalls.
+    /// other options but `max_orbits` and the range, is refused). Returns an `Orbits`. Raises
+    /// NumericalError (the orbits so far in `partial`) when the branch stalls.
     #[pyo3(signature = (*, max_orbits=40, steps=100, amplitude=1e-3, omega_min=None, omega_max=None, out=None, resume=false))]
     #[allow(clippy::too_many_arguments)]
     fn orbits(

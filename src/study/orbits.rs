@@ -26,7 +26,7 @@ use crate::study::Study;
 use crate::study::branch::run_branch;
 use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, OMEGA_LABEL};
 use crate::study::locate::run_locate_critical;
-use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, first_difference, io_error};
+use crate::study::output::{CsvWriter, Meta, Provenance, create_dir, resumed_checkpoint};
 use crate::study::plan::OrbitPlan;
 use crate::study::progress;
 use crate::{Error, Result};
@@ -177,42 +177,21 @@ fn checkpoint_key(study: &Study, opts: &OrbitsOptions) -> Result<serde_json::Val
     Ok(serde_json::json!({ "physical": study.physical(), "settings": settings }))
 }
 
-/// With `resume`, the checkpoint an earlier run of the same branch left in `dir` (none where
-/// there is none); one of a run with other options or another study, or of a version that did
-/// not record them, or that does not parse, is bad input naming `--resume`.
+/// With `resume`, the checkpoint an earlier run of the same branch left in `dir`
+/// ([`resumed_checkpoint`]: refused where it records other options or another study, or
+/// nothing, as the checkpoints of earlier versions).
 fn saved_checkpoint(
     dir: &Path,
     resume: bool,
     key: &serde_json::Value,
 ) -> Result<Option<Checkpoint>> {
-    let path = dir.join("checkpoint.json");
-    if !(resume && path.exists()) {
-        return Ok(None);
-    }
-    let text = std::fs::read_to_string(&path).map_err(io_error(&path))?;
-    let saved: OrbitsCheckpoint = serde_json::from_str(&text)
-        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
-    let refuse = |why: &str| {
-        Err(Error::input(
-            "--resume",
-            format!(
-                "{} was written by {why}, or choose another --out",
-                path.display()
-            ),
-        ))
-    };
-    match &saved.key {
-        None => refuse(
-            "a version that did not record the branch's study and options: run without --resume",
-        ),
-        Some(k) => match first_difference(key, k) {
-            Some(difference) => refuse(&format!(
-                "a run with other options or another study ({difference}): resume with the same \
-                 ones"
-            )),
-            None => Ok(Some(saved.checkpoint)),
-        },
-    }
+    let saved = resumed_checkpoint(
+        &dir.join("checkpoint.json"),
+        resume,
+        key,
+        |c: &OrbitsCheckpoint| c.key.as_ref(),
+    )?;
+    Ok(saved.map(|c| c.checkpoint))
 }
 
 /// Whether the orbit branch `opts` of `study` can resume in `dir` ([`saved_checkpoint`]): checked

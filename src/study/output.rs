@@ -303,6 +303,43 @@ pub(crate) fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
     std::fs::write(path, format!("{value:#}\n")).map_err(io_error(path))
 }
 
+/// With `resume`, the checkpoint an earlier run left at `path`, parsed (`None` without `resume`
+/// or where there is none), provided its record of what that run was made of (`recorded`:
+/// absent from the files of versions that kept none) equals `key`. A checkpoint that does not
+/// parse, has no record, or records another run (the first field that differs named,
+/// [`first_difference`]) is bad input naming `--resume`; one that cannot be read, an I/O error.
+pub(crate) fn resumed_checkpoint<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    resume: bool,
+    key: &Value,
+    recorded: impl Fn(&T) -> Option<&Value>,
+) -> Result<Option<T>> {
+    if !(resume && path.exists()) {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(path).map_err(io_error(path))?;
+    let saved: T = serde_json::from_str(&text)
+        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
+    let refuse = |why: String| {
+        Err(Error::input(
+            "--resume",
+            format!(
+                "{} was written by {why}, or choose another --out",
+                path.display()
+            ),
+        ))
+    };
+    match recorded(&saved).map(|r| first_difference(key, r)) {
+        None => {
+            refuse("a version that did not record the run's options: run without --resume".into())
+        }
+        Some(Some(difference)) => refuse(format!(
+            "a run with other options or another study ({difference}): resume with the same ones"
+        )),
+        Some(None) => Ok(Some(saved)),
+    }
+}
+
 /// Where the record a run would resume from (`theirs`, read from a file) first differs from the
 /// one this run makes (`ours`): the dotted path of the first differing field (keys in order,
 /// array entries by index) with both values, e.g. ``physical.rod.E` is 1300000.0 here and

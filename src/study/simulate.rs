@@ -31,7 +31,7 @@ use crate::problem::twist::natural_chart_unknowns;
 use crate::study::Study;
 use crate::study::cycles::{CycleRow, cycles};
 use crate::study::figures::{FPBAR_LABEL, HBAR_LABEL, typeset};
-use crate::study::output::{CsvWriter, Meta, Provenance, first_difference};
+use crate::study::output::{CsvWriter, Meta, Provenance, resumed_checkpoint};
 use crate::{Error, Result};
 
 use crate::numerics::statistics::late_statistics;
@@ -176,32 +176,20 @@ fn checkpoint_key(opts: &SimulateOptions, settings: &DynamicsSettings) -> serde_
     key
 }
 
-/// With `opts.resume`, the checkpoint an earlier run of the same simulation left in `dir` (none
-/// where there is none); one written by a run with other options or another study, or that
-/// does not parse, is bad input naming `--resume` (one that cannot be read, an I/O error).
+/// With `opts.resume`, the checkpoint an earlier run of the same simulation left in `dir`
+/// ([`resumed_checkpoint`]: refused where it records other options or another study).
 fn saved_checkpoint(
     dir: &Path,
     opts: &SimulateOptions,
     settings: &DynamicsSettings,
 ) -> Result<Option<SimulationCheckpoint>> {
-    let path = dir.join("checkpoint.json");
-    if !(opts.resume && path.exists()) {
-        return Ok(None);
-    }
-    let text = std::fs::read_to_string(&path).map_err(crate::study::output::io_error(&path))?;
-    let saved: SimulationCheckpoint = serde_json::from_str(&text)
-        .map_err(|e| Error::input("--resume", format!("{}: {e}", path.display())))?;
-    if let Some(difference) = first_difference(&checkpoint_key(opts, settings), &saved.key) {
-        return Err(Error::input(
-            "--resume",
-            format!(
-                "{} was written by a run with other options or another study ({difference}); \
-                 resume with the same ones, or choose another --out",
-                path.display()
-            ),
-        ));
-    }
-    Ok(Some(saved))
+    let key = checkpoint_key(opts, settings);
+    resumed_checkpoint(
+        &dir.join("checkpoint.json"),
+        opts.resume,
+        &key,
+        |c: &SimulationCheckpoint| Some(&c.key),
+    )
 }
 
 /// Whether the simulation `opts` can resume in `dir` ([`saved_checkpoint`]): checked by a study
