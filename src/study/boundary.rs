@@ -22,7 +22,7 @@ use crate::problem::family::RodFamily;
 use crate::study::Study;
 use crate::study::figures::{absolute_error_range, axis_label, error_range, short_name, typeset};
 use crate::study::output::{
-    CsvWriter, Meta, Provenance, create_dir, first_difference, read_rows, write_json,
+    CsvWriter, Meta, Provenance, create_dir, read_rows, resumed_checkpoint, write_json,
     write_json_atomically,
 };
 use crate::study::plan::{Case, check_refinement_room};
@@ -387,42 +387,35 @@ struct CurveRecord<R> {
 /// The curve a run of the same study finished in `dir` (its rows, special points and report),
 /// read back by a resumed study instead of following it again; `None` where no run finished
 /// it there (none ran, or it stopped short or was killed: no `curve.json`). A curve followed
-/// for other `settings` ([`curve_settings`]), or a record this version cannot read, is refused.
+/// for other `settings` ([`curve_settings`]), a record this version cannot read
+/// ([`resumed_checkpoint`]), or one whose table holds another count of points, is refused.
 fn finished_curve(
     settings: &serde_json::Value,
     dir: &Path,
 ) -> Result<Option<(Kept, BoundaryReport)>> {
     let path = dir.join("curve.json");
-    if !path.exists() {
+    let Some(record) =
+        resumed_checkpoint(&path, true, settings, |r: &CurveRecord<BoundaryReport>| {
+            Some(&r.settings)
+        })?
+    else {
         return Ok(None);
-    }
-    let bad = |e: &dyn std::fmt::Display| {
-        Error::input(
-            "--resume",
-            format!(
-                "{}: {e}; run without --resume to follow the curve afresh",
-                path.display()
-            ),
-        )
     };
-    let text = std::fs::read_to_string(&path).map_err(|e| bad(&e))?;
-    let record: CurveRecord<BoundaryReport> = serde_json::from_str(&text)
-        .map_err(|e| bad(&format!("not a curve record of this version ({e})")))?;
-    if let Some(difference) = first_difference(settings, &record.settings) {
-        return Err(bad(&format!(
-            "followed for another study or other settings ({difference})"
-        )));
-    }
     let kept = Kept {
         rows: read_rows(&dir.join("boundary.csv"), true)?,
         special: read_rows(&dir.join("points.csv"), true)?,
     };
     if kept.rows.len() != record.report.points {
-        return Err(bad(&format!(
-            "its table holds {} points, its record {}",
-            kept.rows.len(),
-            record.report.points
-        )));
+        return Err(Error::input(
+            "--resume",
+            format!(
+                "{}: its table holds {} points, its record {}; run without --resume to follow \
+                 the curve afresh",
+                path.display(),
+                kept.rows.len(),
+                record.report.points
+            ),
+        ));
     }
     Ok(Some((kept, record.report)))
 }

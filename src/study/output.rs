@@ -345,7 +345,7 @@ pub(crate) fn resumed_checkpoint<T: serde::de::DeserializeOwned>(
 /// array entries by index) with both values, e.g. ``physical.rod.E` is 1300000.0 here and
 /// 1255000.0 in the file`; `None` where they are equal. Named in a refused `--resume`, so that
 /// the user sees which option or study field to set back.
-pub(crate) fn first_difference(ours: &Value, theirs: &Value) -> Option<String> {
+fn first_difference(ours: &Value, theirs: &Value) -> Option<String> {
     fn walk(path: &str, ours: &Value, theirs: &Value) -> Option<String> {
         let at = |key: &str| {
             if path.is_empty() {
